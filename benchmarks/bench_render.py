@@ -1,0 +1,161 @@
+"""Time zbuffer.render on real meshes; write JSON and a markdown table.
+
+    python benchmarks/bench_render.py            # full run -> benchmarks/results/
+    python benchmarks/bench_render.py --quick    # CI smoke mode: few runs, small sizes
+
+Each case renders an already loaded mesh in-process, single-threaded, with a
+fixed camera; the time is the median of --runs renders (after one warm-up),
+taken from the core's own render_ms (the C++ call with its output buffers)
+and from the whole Python call (total_ms). Nothing here asserts a speed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import zbuffer
+
+HERE = Path(__file__).resolve().parent
+MODELS = Path(os.environ.get("ZBUFFER_MODELS", HERE.parents[1] / "shared" / "models"))
+
+# (model file, width, height, shading, what the issue asks of it)
+CASES = [
+    ("bunny_10k.obj", 666, 500, "none", "target <= 0.30 ms per frame"),
+    ("bunny_10k.obj", 666, 500, "flat", "shaded frame, for reference"),
+    ("bunny_69k.obj", 1024, 1024, "none", "target >= 30 M triangles/s"),
+    ("armadillo_86k.obj", 1024, 1024, "none", "target >= 30 M triangles/s"),
+    ("bunny_69k.obj", 1024, 1024, "smooth", "shaded frame, for reference"),
+]
+
+
+def machine() -> dict:
+    cpu = platform.processor() or ""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE,
+                                capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        commit = "unknown"
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
+            "numpy": np.__version__, "platform": platform.platform(), "commit": commit}
+
+
+def load_case(name: str, quick: bool):
+    path = MODELS / name
+    if path.is_file():
+        return zbuffer.load(path), name
+    if not quick:
+        return None, name
+    # Smoke mode without the shared models: a procedural stand-in.
+    return zbuffer.scenes.default_scene(), f"{name} (missing: default scene instead)"
+
+
+def bench(mesh, width, height, shading, runs):
+    camera = zbuffer.Camera.fit(mesh, aspect=width / height).resolve(mesh)
+    zbuffer.render(mesh, camera=camera, width=width, height=height, shading=shading)  # warm up
+    core, total, wall = [], [], []
+    stats = None
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        res = zbuffer.render(mesh, algo="zbuffer", camera=camera, width=width, height=height,
+                             shading=shading)
+        wall.append((time.perf_counter() - t0) * 1e3)
+        core.append(res.stats["render_ms"] + res.stats["shade_ms"])
+        total.append(res.stats["total_ms"])
+        stats = res.stats
+    return {
+        "core_ms_median": statistics.median(core),
+        "total_ms_median": statistics.median(total),
+        "wall_ms_median": statistics.median(wall),
+        "core_ms_min": min(core),
+        "runs": runs,
+        "triangles": len(mesh.faces),
+        "mtris_per_s": len(mesh.faces) / statistics.median(core) / 1e3,
+        "pixels_covered": stats["pixels_covered"],
+        "raster_ms_median": statistics.median([stats["raster_ms"]]),
+    }
+
+
+def markdown(report: dict) -> str:
+    m = report["machine"]
+    lines = [
+        "# zbuffer.render benchmark",
+        "",
+        f"- date: {report['date']}",
+        f"- machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}",
+        f"- commit: {m['commit']}",
+        f"- command: `{report['command']}`",
+        "- times: median of the runs; *core* is the compiled render (and shading) call,",
+        "  *total* the whole `zbuffer.render` call from Python. Single thread.",
+        "",
+        "| mesh | size | shading | triangles | core ms | total ms | M tri/s (core) | target |",
+        "|---|---|---|---:|---:|---:|---:|---|",
+    ]
+    for c in report["cases"]:
+        if "skipped" in c:
+            lines.append(f"| {c['mesh']} | {c['size']} | {c['shading']} | | | | | skipped: "
+                         f"{c['skipped']} |")
+            continue
+        lines.append(
+            f"| {c['mesh']} | {c['size']} | {c['shading']} | {c['triangles']:,} | "
+            f"{c['core_ms_median']:.3f} | {c['total_ms_median']:.3f} | "
+            f"{c['mtris_per_s']:.1f} | {c['target']} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smoke mode: 3 runs, small images")
+    parser.add_argument("--runs", type=int, default=None, help="renders per case (default 21)")
+    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    args = parser.parse_args(argv)
+    runs = args.runs or (3 if args.quick else 21)
+
+    report = {
+        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": machine(),
+        "command": "python benchmarks/bench_render.py " + " ".join(argv or sys.argv[1:]),
+        "cases": [],
+    }
+    for name, width, height, shading, target in CASES:
+        if args.quick:
+            width, height = width // 4, height // 4
+        mesh, label = load_case(name, args.quick)
+        case = {"mesh": label, "size": f"{width}x{height}", "shading": shading, "target": target}
+        if mesh is None:
+            case["skipped"] = f"{MODELS / name} not found"
+        else:
+            case.update(bench(mesh, width, height, shading, runs))
+            print(f"{label:<40} {width}x{height} {shading:<6} core {case['core_ms_median']:8.3f} ms"
+                  f"  total {case['total_ms_median']:8.3f} ms  {case['mtris_per_s']:6.1f} Mtri/s",
+                  flush=True)
+        report["cases"].append(case)
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "render.json").write_text(json.dumps(report, indent=2) + "\n")
+    (out / "render.md").write_text(markdown(report))
+    print(f"wrote {out / 'render.json'} and {out / 'render.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

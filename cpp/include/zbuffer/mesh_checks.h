@@ -1,0 +1,18 @@
+// Input validation the bindings run before any rendering (with the GIL held),
+// so that bad input becomes a Python exception instead of a crash.
+#pragma once
+
+#include <cstdint>
+
+#include "zbuffer/types.h"
+
+namespace zbuffer {
+
+// Position in the flattened (M * 3) face array of the first index outside
+// [0, n_vertices), or -1 if all are valid.
+int64_t find_bad_face_index(const MeshView& mesh);
+
+// Index of the first vertex with a NaN or infinite coordinate, or -1.
+int64_t find_nonfinite_vertex(const MeshView& mesh);
+
+}  // namespace zbuffer

@@ -1,0 +1,130 @@
+// THE shared triangle raster core. Every algorithm decides only which
+// triangles and pixels to visit and in what order; coverage, depth and the
+// depth write happen here and nowhere else. docs/rasterization.md is the
+// written form of this file, and python/zbuffer/reference.py repeats it.
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+
+#include "zbuffer/conventions.h"
+#include "zbuffer/types.h"
+#include "zbuffer/vertex_stage.h"
+
+namespace zbuffer {
+
+// Fixed point <-> pixel indices.
+// Pixel i has its centre at 256 i + 128. The first pixel whose centre is at or
+// right of x_fx is ceil((x_fx - 128) / 256); the last at or left of it is
+// floor((x_fx - 128) / 256). >> on a negative int64 is an arithmetic shift
+// (floor) with every compiler zbuffer supports.
+inline int64_t first_pixel_at_or_after(int64_t x_fx) {
+  return (x_fx - kHalfPixel + (kSubpixelScale - 1)) >> kSubpixelBits;
+}
+inline int64_t last_pixel_at_or_before(int64_t x_fx) {
+  return (x_fx - kHalfPixel) >> kSubpixelBits;
+}
+inline int64_t pixel_centre_fx(int64_t i) {
+  return i * kSubpixelScale + kHalfPixel;
+}
+
+// Top-left rule. Edge k of a triangle with area > 0 (y down) runs from vertex
+// k+1 to vertex k+2. The triangle lies to its right when walking it on screen;
+// a top edge is horizontal and runs to +x, a left edge runs up (dy < 0).
+inline bool is_top_left(int64_t dx, int64_t dy) {
+  return dy < 0 || (dy == 0 && dx > 0);
+}
+
+// One triangle prepared for rasterization.
+// Design decision: edge functions as integer start values at the pixel centre
+// (x_min, y_min) of the clamped box plus integer steps per pixel. Good: exact
+// incremental evaluation, identical to evaluating the written formula at every
+// pixel. Bad: int64 arithmetic in the inner loop (values reach 2^51).
+struct TriangleSetup {
+  // Pixel box, clamped to the image; empty if x_min > x_max or y_min > y_max.
+  int x_min, y_min, x_max, y_max;
+  // Edge values at the centre of pixel (x_min, y_min), biased by the fill
+  // rule: pixel covered <=> all three biased values are >= 0.
+  int64_t w_origin[3];
+  int64_t step_x[3];  // change of w_k from pixel i to i + 1
+  int64_t step_y[3];  // change of w_k from row j to j + 1
+  int64_t bias[3];    // w_k = biased w_k + bias[k]  (0 or 1)
+  // Depth: z = z0 + (double(w1) * a1 + double(w2) * a2), clamped.
+  double z0, a1, a2, z_lo, z_hi;
+  float z_min_f;  // float(z_lo): no pixel of the triangle stores less
+  int32_t id;
+};
+
+inline TriangleSetup setup_triangle(const ScreenTriangle& t, int width, int height) {
+  TriangleSetup s;
+  const int64_t x[3] = {t.v[0].x_fx, t.v[1].x_fx, t.v[2].x_fx};
+  const int64_t y[3] = {t.v[0].y_fx, t.v[1].y_fx, t.v[2].y_fx};
+
+  // Pixel box
+  const int64_t bx0 = first_pixel_at_or_after(std::min({x[0], x[1], x[2]}));
+  const int64_t bx1 = last_pixel_at_or_before(std::max({x[0], x[1], x[2]}));
+  const int64_t by0 = first_pixel_at_or_after(std::min({y[0], y[1], y[2]}));
+  const int64_t by1 = last_pixel_at_or_before(std::max({y[0], y[1], y[2]}));
+  s.x_min = int(std::max<int64_t>(bx0, 0));
+  s.y_min = int(std::max<int64_t>(by0, 0));
+  s.x_max = int(std::min<int64_t>(bx1, width - 1));
+  s.y_max = int(std::min<int64_t>(by1, height - 1));
+
+  // Edge functions: w_k(p) = (x_b - x_a)(p_y - y_a) - (y_b - y_a)(p_x - x_a)
+  // for edge k from a = vertex k+1 to b = vertex k+2.
+  const int64_t px = pixel_centre_fx(s.x_min);
+  const int64_t py = pixel_centre_fx(s.y_min);
+  for (int k = 0; k < 3; ++k) {
+    const int a = (k + 1) % 3, b = (k + 2) % 3;
+    const int64_t dx = x[b] - x[a], dy = y[b] - y[a];
+    s.bias[k] = is_top_left(dx, dy) ? 0 : 1;
+    s.w_origin[k] = dx * (py - y[a]) - dy * (px - x[a]) - s.bias[k];
+    s.step_x[k] = -dy * kSubpixelScale;
+    s.step_y[k] = dx * kSubpixelScale;
+  }
+
+  // Depth plane in barycentric form.
+  const double z0 = t.v[0].z, z1 = t.v[1].z, z2 = t.v[2].z;
+  const double inv_area = 1.0 / double(t.area);
+  s.z0 = z0;
+  s.a1 = (z1 - z0) * inv_area;
+  s.a2 = (z2 - z0) * inv_area;
+  s.z_lo = std::min({z0, z1, z2});
+  s.z_hi = std::max({z0, z1, z2});
+  s.z_min_f = float(s.z_lo);
+  s.id = t.id;
+  return s;
+}
+
+// The one depth formula. w1, w2 are the exact (unbiased) edge values.
+inline float depth_at(const TriangleSetup& s, int64_t w1, int64_t w2) {
+  double z = s.z0 + (double(w1) * s.a1 + double(w2) * s.a2);
+  z = (z < s.z_lo) ? s.z_lo : z;
+  z = (z > s.z_hi) ? s.z_hi : z;
+  return float(z);
+}
+
+// The one depth write: smaller depth wins, an exact tie goes to the smaller id.
+inline bool depth_write(float* depth, int32_t* ids, size_t p, float z, int32_t id) {
+  const float d = depth[p];
+  if (z < d || (z == d && id < ids[p])) {
+    depth[p] = z;
+    ids[p] = id;
+    return true;
+  }
+  return false;
+}
+
+// Rasterize the part of a triangle inside the pixel rectangle
+// [x0, x1] x [y0, y1] (inclusive, already inside the triangle's box).
+void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
+                    DepthTarget& target, RenderStats& stats);
+
+// Rasterize the whole triangle (its box).
+inline void rasterize(const TriangleSetup& s, DepthTarget& target, RenderStats& stats) {
+  if (s.x_min > s.x_max || s.y_min > s.y_max) return;
+  rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target, stats);
+}
+
+}  // namespace zbuffer

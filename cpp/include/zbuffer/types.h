@@ -1,0 +1,65 @@
+// Plain data shared by the vertex stage, the raster core and the algorithms.
+// Nothing here owns memory: the caller (the Python binding, or a C++ test)
+// owns the mesh arrays and the output buffers.
+#pragma once
+
+#include <cstdint>
+
+namespace zbuffer {
+
+// A triangle mesh as two row-major arrays.
+// Design decision: a non-owning view of (N, 3) float64 positions and (M, 3)
+// int32 faces. Good: numpy arrays pass through without copies and every
+// algorithm sees the same input. Bad: int32 caps meshes at 2^31 - 1 vertices,
+// and the caller must keep the arrays alive and valid (check_mesh does that).
+struct MeshView {
+  const double* positions = nullptr;  // (n_vertices, 3) world space
+  int64_t n_vertices = 0;
+  const int32_t* faces = nullptr;     // (n_faces, 3) vertex indices
+  int64_t n_faces = 0;
+};
+
+// The output of visibility: depth and triangle id per pixel, row-major (H, W).
+// Design decision: two separate planes rather than one packed 64-bit key.
+// Good: they are the user's numpy arrays, written in place, no final copy.
+// Bad: the depth write touches two cache lines instead of one.
+struct DepthTarget {
+  float* depth = nullptr;        // +inf where nothing was drawn
+  int32_t* triangle_id = nullptr;  // -1 where nothing was drawn
+  int width = 0;
+  int height = 0;
+};
+
+// Everything an algorithm needs to render one frame.
+struct RenderInput {
+  MeshView mesh;
+  double mvp[16] = {};        // row-major model-view-projection matrix
+  bool cull_backfaces = false;  // drop triangles wound clockwise in NDC
+};
+
+// Counters and timings of one render. Triangle counters follow a triangle
+// through the pipeline: every input face is culled_invalid, culled_frustum,
+// clipped_away, or handed on (split into clip_pieces if it was clipped).
+// Each triangle handed on is culled_backface, culled_degenerate or
+// rasterized:
+//   triangles_in - culled_invalid - culled_frustum - clipped + clip_pieces
+//     == culled_backface + culled_degenerate + rasterized
+struct RenderStats {
+  int64_t triangles_in = 0;        // input faces
+  int64_t culled_invalid = 0;      // a vertex overflowed in the transform
+  int64_t culled_frustum = 0;      // wholly outside one plane of the view volume
+  int64_t clipped = 0;             // crossed the near, far or guard-band planes
+  int64_t clipped_away = 0;        // ...and nothing of them was left
+  int64_t clip_pieces = 0;         // triangles produced by clipping
+  int64_t culled_backface = 0;     // pieces wound clockwise in NDC (cull on)
+  int64_t culled_degenerate = 0;   // pieces with zero snapped area
+  int64_t rasterized = 0;          // pieces handed to the raster core
+  int64_t pixels_tested = 0;       // pixel centres whose coverage was tested
+  int64_t pixels_covered = 0;      // ...that the triangle covered
+  int64_t pixels_written = 0;      // ...that won the depth test
+  double vertex_ms = 0.0;          // per-vertex transform and snapping
+  double raster_ms = 0.0;          // assembly, clipping, setup, rasterization
+  double total_ms = 0.0;           // the whole C++ render call
+};
+
+}  // namespace zbuffer

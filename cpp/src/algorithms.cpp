@@ -1,0 +1,46 @@
+// The registry and the common render entry point.
+#include "zbuffer/algorithms.h"
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+
+namespace zbuffer {
+
+const std::vector<Algorithm>& algorithms() {
+  static const std::vector<Algorithm> registry = {
+      {"zbuffer", "plain Z-buffer: every triangle, its whole pixel box", &render_zbuffer},
+  };
+  return registry;
+}
+
+const Algorithm* find_algorithm(const std::string& name) {
+  for (const Algorithm& a : algorithms())
+    if (name == a.name) return &a;
+  return nullptr;
+}
+
+std::string algorithm_names() {
+  std::string names;
+  for (const Algorithm& a : algorithms()) {
+    if (!names.empty()) names += ", ";
+    names += '"';
+    names += a.name;
+    names += '"';
+  }
+  return names;
+}
+
+void render(const Algorithm& algorithm, const RenderInput& input,
+            DepthTarget& target, RenderStats& stats) {
+  const auto start = std::chrono::steady_clock::now();
+  const size_t n = size_t(target.width) * size_t(target.height);
+  std::fill_n(target.depth, n, std::numeric_limits<float>::infinity());
+  std::fill_n(target.triangle_id, n, int32_t(-1));
+  stats.triangles_in += input.mesh.n_faces;
+  algorithm.render(input, target, stats);
+  const auto stop = std::chrono::steady_clock::now();
+  stats.total_ms += std::chrono::duration<double, std::milli>(stop - start).count();
+}
+
+}  // namespace zbuffer

@@ -1,0 +1,114 @@
+"""The public entry points: :func:`render`, :class:`RenderResult`, :func:`algorithms`."""
+
+from __future__ import annotations
+
+import time
+from typing import List, Optional
+
+import numpy as np
+
+from . import _core
+from .camera import Camera
+from .mesh import Mesh
+from .options import DEFAULT_SIZE, prepare
+from .result import RenderResult
+from .shading import DEFAULT_BACKGROUND, ShadingParams, color_source
+
+__all__ = ["render", "algorithms"]
+
+
+def algorithms() -> List[str]:
+    """Names of the registered depth algorithms, in presentation order.
+
+    Every name is a valid ``algo=`` for :func:`render`; all of them produce
+    bit-identical ``depth`` and ``triangle_id``.
+    """
+    return [name for name, _ in _core.algorithms()]
+
+
+def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
+          params: ShadingParams) -> np.ndarray:
+    """Run the compiled shading pass; (H, W, 3) uint8."""
+    source, colors, uniform = color_source(mesh, params)
+    return _core.shade(
+        triangle_id, mesh.vertices, mesh.faces,
+        inv_mvp=np.ascontiguousarray(np.linalg.inv(mvp)),
+        viewer=camera.viewer(), light_dir=params.light_dir,
+        ambient=params.ambient, diffuse=params.diffuse,
+        background=params.background, uniform_color=uniform,
+        color_source=source, colors=colors,
+        vertex_normals=mesh.vertex_normals if params.mode == "smooth" else None,
+    )
+
+
+def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
+           width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], *,
+           cull_backfaces: bool = False, shading: str = "flat", light_dir=None,
+           ambient: float = 0.2, diffuse: float = 0.8, color=None,
+           background=DEFAULT_BACKGROUND) -> RenderResult:
+    """Render a mesh with one of the depth algorithms.
+
+    Parameters
+    ----------
+    mesh : Mesh, trimesh.Trimesh, trimesh.Scene, pyvista.PolyData, (vertices, faces) or path
+        What to draw. Scenes are concatenated, PolyData is triangulated, a path
+        is read with :func:`zbuffer.load`.
+    algo : str
+        A name from :func:`zbuffer.algorithms`. Every algorithm gives the same
+        depth and triangle ids; they differ in speed, memory and statistics.
+    camera : Camera, optional
+        None frames the whole mesh (perspective, 45 degrees, from +z). Unset
+        near/far are fitted to the mesh.
+    width, height : int
+        Image size in pixels.
+    cull_backfaces : bool
+        Skip triangles wound clockwise in NDC (seen from behind). Off by
+        default so that open meshes show both sides.
+    shading : {"flat", "smooth", "none"}
+        Face normals, interpolated vertex normals, or no image at all
+        (visibility only: depth and triangle ids).
+    light_dir : (3,) array_like of float, optional
+        Direction the light travels in (world space); default: along the
+        camera's viewing direction (a headlight).
+    ambient, diffuse : float
+        Lambert weights: colour = albedo * (ambient + diffuse * max(0, n . l)).
+    color : (3,) array_like, optional
+        Uniform albedo (uint8 0-255 or float 0-1) overriding the mesh's own
+        vertex or face colours. Default: the mesh's colours, else light grey.
+    background : (3,) array_like
+        Colour of pixels where nothing was drawn (uint8 0-255 or float 0-1).
+
+    Returns
+    -------
+    RenderResult
+        ``image`` (H, W, 3) uint8 or None, ``depth`` (H, W) float32,
+        ``triangle_id`` (H, W) int32, ``stats`` dict, ``camera``, ``mvp``.
+
+    Raises
+    ------
+    ValueError
+        Unknown ``algo`` or ``shading``, bad image size, degenerate camera,
+        invalid mesh data (see :class:`Mesh`).
+    TypeError
+        Arguments of the wrong type.
+    """
+    start = time.perf_counter()
+    names = algorithms()
+    if algo not in names:
+        raise ValueError(
+            f"unknown algorithm {algo!r}; valid names are {', '.join(map(repr, names))}"
+        )
+    mesh, camera, mvp, width, height, params = prepare(
+        mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
+    depth, triangle_id, stats = _core.render(
+        mesh.vertices, mesh.faces, mvp, width, height, algo, bool(cull_backfaces))
+    image = None
+    shade_ms = 0.0
+    if params.mode != "none":
+        t0 = time.perf_counter()
+        image = shade(mesh, triangle_id, camera, mvp, params)
+        shade_ms = (time.perf_counter() - t0) * 1e3
+    stats["shade_ms"] = shade_ms
+    stats["total_ms"] = (time.perf_counter() - start) * 1e3
+    return RenderResult(image=image, depth=depth, triangle_id=triangle_id, stats=stats,
+                        camera=camera, mvp=mvp, algo=algo)

@@ -1,0 +1,326 @@
+"""Cameras and their matrices (OpenGL conventions).
+
+Eye space is right-handed with the camera looking down -z and y up; the
+projection maps the view volume to clip space with z in [-w, w]. The
+model-view-projection matrix is built here, in float64, and handed to the C++
+core and to the numpy reference alike, so both start from the same bits.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+
+__all__ = ["Camera"]
+
+Vec3 = Tuple[float, float, float]
+
+PROJECTIONS = ("perspective", "orthographic")
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be 3 numbers, got {value!r}") from None
+    if v.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers, got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def _positive(value, name: str, allow_none: bool = False) -> Optional[float]:
+    if value is None and allow_none:
+        return None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(x) or x <= 0.0:
+        raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    return x
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole (perspective) or orthographic camera.
+
+    Build one with :meth:`Camera.look_at` (explicit pose) or
+    :meth:`Camera.fit` (frame a mesh). ``near``, ``far`` and, for orthographic
+    cameras, ``ortho_height`` may be left ``None``: :meth:`resolve` then fits
+    them to the bounding sphere of the mesh being rendered.
+
+    Attributes
+    ----------
+    eye, target, up : (3,) tuple of float
+        Camera position, the point it looks at, and the approximate up vector.
+    projection : {"perspective", "orthographic"}
+    fov_y : float
+        Vertical field of view in degrees (perspective only).
+    ortho_height : float or None
+        Height of the view volume in world units (orthographic only).
+    near, far : float or None
+        Distances of the clip planes along the viewing direction. For a
+        perspective camera ``0 < near < far``; for an orthographic one only
+        ``near < far`` is required (planes may lie behind the eye).
+    """
+
+    eye: Vec3
+    target: Vec3
+    up: Vec3 = (0.0, 1.0, 0.0)
+    projection: str = "perspective"
+    fov_y: float = 45.0
+    ortho_height: Optional[float] = None
+    near: Optional[float] = None
+    far: Optional[float] = None
+
+    def __post_init__(self):
+        eye = _vec3(self.eye, "eye")
+        target = _vec3(self.target, "target")
+        up = _vec3(self.up, "up")
+        object.__setattr__(self, "eye", tuple(float(x) for x in eye))
+        object.__setattr__(self, "target", tuple(float(x) for x in target))
+        object.__setattr__(self, "up", tuple(float(x) for x in up))
+        if self.projection not in PROJECTIONS:
+            raise ValueError(
+                f"projection must be one of {', '.join(map(repr, PROJECTIONS))}, "
+                f"got {self.projection!r}"
+            )
+        forward = target - eye
+        dist = float(np.linalg.norm(forward))
+        if dist == 0.0:
+            raise ValueError("degenerate camera: eye and target are the same point")
+        if np.linalg.norm(up) == 0.0:
+            raise ValueError("degenerate camera: up is the zero vector")
+        side = np.cross(forward / dist, up / np.linalg.norm(up))
+        if np.linalg.norm(side) < 1e-9:
+            raise ValueError("degenerate camera: up is parallel to the viewing direction")
+        fov = float(self.fov_y)
+        if not (0.0 < fov < 180.0):
+            raise ValueError(f"fov_y must be in (0, 180) degrees, got {self.fov_y!r}")
+        object.__setattr__(self, "fov_y", fov)
+        object.__setattr__(
+            self, "ortho_height", _positive(self.ortho_height, "ortho_height", allow_none=True)
+        )
+        near, far = self.near, self.far
+        for name, value in (("near", near), ("far", far)):
+            if value is not None and not (
+                isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value)
+            ):
+                raise ValueError(f"{name} must be a finite number, got {value!r}")
+        if self.projection == "perspective" and near is not None and near <= 0.0:
+            raise ValueError(f"near must be > 0 for a perspective camera, got {near!r}")
+        if self.projection == "perspective" and far is not None and far <= 0.0:
+            raise ValueError(f"far must be > 0 for a perspective camera, got {far!r}")
+        if near is not None and far is not None and not near < far:
+            raise ValueError(f"near must be smaller than far, got near={near!r}, far={far!r}")
+        object.__setattr__(self, "near", None if near is None else float(near))
+        object.__setattr__(self, "far", None if far is None else float(far))
+
+    # Construction
+
+    @classmethod
+    def look_at(
+        cls,
+        eye: Sequence[float],
+        target: Sequence[float] = (0.0, 0.0, 0.0),
+        up: Sequence[float] = (0.0, 1.0, 0.0),
+        fov_y: float = 45.0,
+        near: Optional[float] = None,
+        far: Optional[float] = None,
+        projection: str = "perspective",
+        ortho_height: Optional[float] = None,
+    ) -> "Camera":
+        """A camera at ``eye`` looking at ``target``.
+
+        Parameters
+        ----------
+        eye, target : (3,) array_like of float
+        up : (3,) array_like of float
+            Any vector not parallel to ``target - eye``.
+        fov_y : float
+            Vertical field of view in degrees (perspective).
+        near, far : float, optional
+            Clip plane distances; fitted to the rendered mesh when omitted.
+        projection : {"perspective", "orthographic"}
+        ortho_height : float, optional
+            View volume height for orthographic cameras; fitted when omitted.
+
+        Raises
+        ------
+        ValueError
+            For a degenerate pose (eye == target, up parallel to the view),
+            ``near <= 0`` with perspective, ``near >= far``, or a bad ``fov_y``.
+        """
+        return cls(
+            eye=tuple(eye), target=tuple(target), up=tuple(up), projection=projection,
+            fov_y=fov_y, ortho_height=ortho_height, near=near, far=far,
+        )
+
+    @classmethod
+    def fit(
+        cls,
+        vertices,
+        direction: Sequence[float] = (0.0, 0.0, 1.0),
+        up: Sequence[float] = (0.0, 1.0, 0.0),
+        fov_y: float = 45.0,
+        projection: str = "perspective",
+        aspect: float = 1.0,
+        margin: float = 1.1,
+    ) -> "Camera":
+        """A camera that frames a set of points, seen from ``direction``.
+
+        Parameters
+        ----------
+        vertices : (N, 3) array_like of float, or Mesh
+            Points to frame (their whole bounding sphere stays in view).
+        direction : (3,) array_like of float
+            Direction from the points' centre towards the camera.
+        up : (3,) array_like of float
+        fov_y : float
+            Vertical field of view in degrees (perspective).
+        projection : {"perspective", "orthographic"}
+        aspect : float
+            Image width / height; the narrower side decides the distance.
+        margin : float
+            Extra room around the bounding sphere (1.0 = touching).
+        """
+        center, radius = bounding_sphere(vertices)
+        d = _vec3(direction, "direction")
+        norm = np.linalg.norm(d)
+        if norm == 0.0:
+            raise ValueError("direction must not be the zero vector")
+        d = d / norm
+        aspect = _positive(aspect, "aspect")
+        r = radius * float(margin)
+        if projection == "orthographic":
+            height = 2.0 * r / min(1.0, aspect)
+            eye = center + d * (2.0 * r)
+            return cls(eye=tuple(eye), target=tuple(center), up=tuple(up),
+                       projection=projection, fov_y=fov_y, ortho_height=height)
+        half = math.radians(float(fov_y)) / 2.0
+        half_narrow = math.atan(math.tan(half) * min(1.0, aspect))
+        dist = r / math.sin(half_narrow)
+        eye = center + d * dist
+        return cls(eye=tuple(eye), target=tuple(center), up=tuple(up),
+                   projection=projection, fov_y=fov_y)
+
+    # Matrices
+
+    def resolve(self, vertices=None) -> "Camera":
+        """This camera with ``near``, ``far`` and ``ortho_height`` filled in.
+
+        Unset values are fitted to the bounding sphere of ``vertices`` (an
+        (N, 3) array or a :class:`zbuffer.Mesh`; a unit sphere at the origin
+        when there are none): the clip planes enclose the
+        sphere, and a perspective camera inside it gets ``near = far / 1000``.
+        """
+        if self.near is not None and self.far is not None and (
+            self.projection == "perspective" or self.ortho_height is not None
+        ):
+            return self
+        center, radius = bounding_sphere(vertices)
+        eye = np.asarray(self.eye)
+        forward = np.asarray(self.target) - eye
+        forward /= np.linalg.norm(forward)
+        dist = float(np.dot(center - eye, forward))  # along the view axis
+        changes = {}
+        far = self.far
+        if far is None:
+            far = max(dist + radius, 0.0) * 1.01
+            if self.projection == "perspective" and far <= 0.0:
+                far = radius  # everything is behind the camera: any valid range
+            if self.near is not None and far <= self.near:
+                far = self.near * 2.0 if self.near > 0 else self.near + 2.0 * radius
+            changes["far"] = far
+        if self.near is None:
+            if self.projection == "perspective":
+                near = max((dist - radius) * 0.99, far * 1e-3)
+                near = min(near, far * 0.5)
+            else:
+                near = min(dist - radius * 1.01, far - radius * 1e-3)
+            changes["near"] = near
+        if self.projection == "orthographic" and self.ortho_height is None:
+            changes["ortho_height"] = 2.0 * radius * 1.05
+        return replace(self, **changes)
+
+    def view_matrix(self) -> np.ndarray:
+        """(4, 4) float64 world-to-eye matrix (gluLookAt)."""
+        eye = np.asarray(self.eye)
+        f = np.asarray(self.target) - eye
+        f /= np.linalg.norm(f)
+        s = np.cross(f, np.asarray(self.up))
+        s /= np.linalg.norm(s)
+        u = np.cross(s, f)
+        m = np.eye(4)
+        m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+        m[:3, 3] = -m[:3, :3] @ eye
+        return m
+
+    def projection_matrix(self, aspect: float) -> np.ndarray:
+        """(4, 4) float64 eye-to-clip matrix for images of ``aspect`` = W / H.
+
+        Raises ``ValueError`` if ``near``/``far`` are unresolved (see :meth:`resolve`).
+        """
+        if self.near is None or self.far is None:
+            raise ValueError("near/far are not set: call camera.resolve(vertices) first")
+        n, f = self.near, self.far
+        m = np.zeros((4, 4))
+        if self.projection == "perspective":
+            t = 1.0 / math.tan(math.radians(self.fov_y) / 2.0)
+            m[0, 0] = t / aspect
+            m[1, 1] = t
+            m[2, 2] = -(f + n) / (f - n)
+            m[2, 3] = -2.0 * f * n / (f - n)
+            m[3, 2] = -1.0
+        else:
+            if self.ortho_height is None:
+                raise ValueError("ortho_height is not set: call camera.resolve(vertices) first")
+            h = self.ortho_height
+            m[0, 0] = 2.0 / (h * aspect)
+            m[1, 1] = 2.0 / h
+            m[2, 2] = -2.0 / (f - n)
+            m[2, 3] = -(f + n) / (f - n)
+            m[3, 3] = 1.0
+        return m
+
+    def mvp(self, width: int, height: int) -> np.ndarray:
+        """(4, 4) float64 C-contiguous model-view-projection matrix."""
+        return np.ascontiguousarray(self.projection_matrix(width / height) @ self.view_matrix())
+
+    def viewer(self) -> np.ndarray:
+        """(4,) float64 homogeneous viewer: (eye, 1), or (towards camera, 0) if orthographic."""
+        if self.projection == "perspective":
+            return np.array([*self.eye, 1.0])
+        back = np.asarray(self.eye) - np.asarray(self.target)
+        return np.array([*(back / np.linalg.norm(back)), 0.0])
+
+    def forward(self) -> np.ndarray:
+        """(3,) float64 unit viewing direction."""
+        f = np.asarray(self.target) - np.asarray(self.eye)
+        return f / np.linalg.norm(f)
+
+
+def bounding_sphere(vertices) -> Tuple[np.ndarray, float]:
+    """Centre of the bounding box and the radius of the sphere around it that
+    holds every point; a unit sphere at the origin for no points.
+
+    ``vertices`` may be an (N, 3) array or anything with a ``bounding_sphere``
+    attribute (a :class:`zbuffer.Mesh` caches its own)."""
+    if hasattr(vertices, "bounding_sphere"):
+        return vertices.bounding_sphere
+    if vertices is None or len(vertices) == 0:
+        return np.zeros(3), 1.0
+    v = np.asarray(vertices, dtype=np.float64)
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    center = (lo + hi) * 0.5
+    radius = float(np.sqrt(((v - center) ** 2).sum(axis=1).max()))
+    if not math.isfinite(radius):
+        raise ValueError("vertices must be finite")
+    if radius == 0.0:
+        radius = max(1e-6, float(np.abs(center).max()) * 1e-6)
+    return center, radius

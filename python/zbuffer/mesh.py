@@ -1,0 +1,276 @@
+"""Meshes: what zbuffer renders, and how other mesh types become one."""
+
+from __future__ import annotations
+
+import os
+from functools import cached_property
+from typing import Optional, Tuple
+
+import numpy as np
+
+__all__ = ["Mesh", "load", "as_mesh"]
+
+_INT32_MAX = np.iinfo(np.int32).max
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
+def _as_colors(colors, n: int, what: str) -> Optional[np.ndarray]:
+    """(n, 3) float32 RGB in [0, 1] from uint8 or float RGB/RGBA, or None."""
+    if colors is None:
+        return None
+    c = np.asarray(colors)
+    if c.ndim != 2 or c.shape[0] != n or c.shape[1] not in (3, 4):
+        raise ValueError(f"{what} must have shape ({n}, 3) or ({n}, 4), got {c.shape}")
+    if np.issubdtype(c.dtype, np.integer) and c.dtype != np.bool_:
+        if c.size and (c.min() < 0 or c.max() > 255):
+            raise ValueError(f"integer {what} must lie in 0-255")
+        return np.ascontiguousarray(c[:, :3], dtype=np.float32) / np.float32(255.0)
+    if not np.issubdtype(c.dtype, np.floating):
+        raise TypeError(f"{what} must be integers (0-255) or floats (0-1), got dtype {c.dtype}")
+    c = np.ascontiguousarray(c[:, :3], dtype=np.float32)
+    if not np.all(np.isfinite(c)) or c.min(initial=0.0) < 0.0 or c.max(initial=0.0) > 1.0:
+        raise ValueError(f"float {what} must lie in [0, 1]")
+    return c
+
+
+class Mesh:
+    """A triangle mesh, checked once and ready to render.
+
+    Parameters
+    ----------
+    vertices : (N, 3) array_like of float
+        Positions in world space. Every coordinate must be finite.
+    faces : (M, 3) array_like of int
+        Vertex indices of each triangle, each in ``[0, N)``.
+    vertex_colors, face_colors : (N, 3|4) or (M, 3|4) array_like, optional
+        RGB(A) as integers 0-255 or floats 0-1; alpha is ignored. At most one.
+    name : str, optional
+
+    Attributes
+    ----------
+    vertices : (N, 3) float64, read-only
+    faces : (M, 3) int32, read-only
+    vertex_colors : (N, 3) float32 or None
+    face_colors : (M, 3) float32 or None
+
+    Raises
+    ------
+    TypeError
+        Non-numeric arrays, or faces that are not integers.
+    ValueError
+        Wrong shapes, a NaN or infinite coordinate, or a face index outside
+        ``[0, N)`` (the message names the first offending vertex or face).
+
+    Notes
+    -----
+    The arrays are not copied when they already have the right dtype and
+    layout; modifying them afterwards invalidates the cached bounding sphere
+    and normals, so build a new Mesh instead.
+    """
+
+    def __init__(self, vertices, faces, vertex_colors=None, face_colors=None,
+                 name: Optional[str] = None):
+        v = np.asarray(vertices)
+        f = np.asarray(faces)
+        if v.dtype == object or not (np.issubdtype(v.dtype, np.floating)
+                                     or np.issubdtype(v.dtype, np.integer)):
+            raise TypeError(f"vertices must be numbers, got dtype {v.dtype}")
+        if v.size == 0 and v.ndim < 2:
+            v = v.reshape(0, 3)
+        if v.ndim != 2 or v.shape[1] != 3:
+            raise ValueError(f"vertices must have shape (N, 3), got {v.shape}")
+        if f.size == 0 and f.ndim < 2:
+            f = f.reshape(0, 3).astype(np.int32)
+        if not np.issubdtype(f.dtype, np.integer) or f.dtype == np.bool_:
+            raise TypeError(f"faces must be integer vertex indices, got dtype {f.dtype}")
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise ValueError(
+                f"faces must have shape (M, 3) (triangles), got {f.shape}"
+            )
+        v = np.ascontiguousarray(v, dtype=np.float64)
+        n = v.shape[0]
+        if n > _INT32_MAX or f.shape[0] > _INT32_MAX:
+            raise ValueError("meshes are limited to 2**31 - 1 vertices and faces")
+
+        # Value checks, with the same messages as the compiled core's.
+        finite = np.isfinite(v).all(axis=1)
+        if not finite.all():
+            raise ValueError(f"vertex {int(np.argmin(finite))} has a NaN or infinite coordinate")
+        if f.size:
+            flat = f.reshape(-1)
+            bad = (flat < 0) | (flat >= n)
+            if bad.any():
+                k = int(np.argmax(bad))
+                raise ValueError(
+                    f"face {k // 3} has vertex index {int(flat[k])}, outside [0, {n})"
+                )
+        f = np.ascontiguousarray(f, dtype=np.int32)
+
+        if vertex_colors is not None and face_colors is not None:
+            raise ValueError("give vertex_colors or face_colors, not both")
+        self.vertices = _readonly(v)
+        self.faces = _readonly(f)
+        self.vertex_colors = _as_colors(vertex_colors, n, "vertex_colors")
+        self.face_colors = _as_colors(face_colors, f.shape[0], "face_colors")
+        self.name = name
+
+    def __repr__(self) -> str:
+        name = f" {self.name!r}" if self.name else ""
+        return f"<zbuffer.Mesh{name}: {len(self.vertices)} vertices, {len(self.faces)} faces>"
+
+    def __len__(self) -> int:
+        return len(self.faces)
+
+    @cached_property
+    def bounding_sphere(self) -> Tuple[np.ndarray, float]:
+        """Centre of the bounding box and radius of the sphere around it
+        holding every vertex that a face uses: ((3,) float64, float)."""
+        from .camera import bounding_sphere
+
+        used = np.zeros(len(self.vertices), bool)
+        used[self.faces.reshape(-1)] = True
+        return bounding_sphere(self.vertices if used.all() else self.vertices[used])
+
+    @cached_property
+    def face_normals(self) -> np.ndarray:
+        """(M, 3) float64 unit normals, right-hand rule on the face's vertex
+        order; zero for degenerate faces."""
+        p = self.vertices[self.faces]
+        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+
+    @cached_property
+    def vertex_normals(self) -> np.ndarray:
+        """(N, 3) float64 unit normals: the area-weighted sum of the normals
+        of the faces around each vertex (zero for unused vertices)."""
+        p = self.vertices[self.faces]
+        area_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        acc = np.zeros_like(self.vertices)
+        for k in range(3):
+            np.add.at(acc, self.faces[:, k], area_normals)
+        length = np.linalg.norm(acc, axis=1, keepdims=True)
+        return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+
+    @classmethod
+    def from_trimesh(cls, tm, name: Optional[str] = None) -> "Mesh":
+        """A Mesh from a ``trimesh.Trimesh``, keeping its vertex or face colours."""
+        vertex_colors = face_colors = None
+        kind = getattr(tm.visual, "kind", None)
+        if kind == "vertex":
+            vertex_colors = tm.visual.vertex_colors
+        elif kind == "face":
+            face_colors = tm.visual.face_colors
+        return cls(tm.vertices, tm.faces, vertex_colors=vertex_colors,
+                   face_colors=face_colors, name=name)
+
+    def merged(self) -> "Mesh":
+        """The same mesh with vertices of identical position (and colour)
+        shared. Faces keep their order, so triangle ids are unchanged."""
+        if len(self.vertices) == 0:
+            return self
+        key = self.vertices
+        if self.vertex_colors is not None:
+            key = np.hstack([key, self.vertex_colors.astype(np.float64)])
+        unique, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        if len(unique) == len(key):
+            return self
+        inverse = inverse.reshape(-1)
+        return Mesh(
+            self.vertices[first], inverse[self.faces].astype(np.int32),
+            vertex_colors=None if self.vertex_colors is None else self.vertex_colors[first],
+            face_colors=self.face_colors, name=self.name,
+        )
+
+
+def load(path, merge_vertices: bool = True) -> Mesh:
+    """Read a mesh file in any format trimesh reads (OBJ, PLY, STL, OFF, glTF, ...).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    merge_vertices : bool
+        Share vertices that have identical positions (files with texture
+        coordinates or normals repeat positions, which costs render time).
+        Face order, and therefore triangle ids, is kept either way.
+
+    Returns
+    -------
+    Mesh
+        Polygons are triangulated by trimesh; scenes are concatenated.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If the file cannot be parsed as a mesh.
+    """
+    import trimesh
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"no such mesh file: {path!r}")
+    try:
+        tm = trimesh.load(path, force="mesh", process=False)
+    except Exception as err:  # trimesh raises many types for bad files
+        raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
+    if not isinstance(tm, trimesh.Trimesh):
+        raise ValueError(f"{path!r} holds no triangle mesh (got {type(tm).__name__})")
+    if len(tm.vertices) == 0 and _has_content(path):
+        # trimesh reads some malformed files (a garbage binary STL, say) as
+        # empty; an empty mesh is only believable from an empty file.
+        raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
+                         "non-empty file (malformed or unsupported content)")
+    mesh = Mesh.from_trimesh(tm, name=os.path.basename(path))
+    return mesh.merged() if merge_vertices else mesh
+
+
+def _has_content(path: str) -> bool:
+    """True if the file holds anything but blank lines and # comments."""
+    with open(path, "rb") as fh:
+        for line in fh:
+            line = line.strip()
+            if line and not line.startswith(b"#"):
+                return True
+    return False
+
+
+def as_mesh(obj) -> Mesh:
+    """Turn anything :func:`zbuffer.render` accepts into a :class:`Mesh`.
+
+    Accepted: a :class:`Mesh`; a ``trimesh.Trimesh``; a ``trimesh.Scene``
+    (concatenated); a ``pyvista.PolyData`` (triangulated); a
+    ``(vertices, faces)`` pair of arrays; a file path.
+    """
+    if isinstance(obj, Mesh):
+        return obj
+    if isinstance(obj, (str, os.PathLike)):
+        return load(obj)
+    module = type(obj).__module__ or ""
+    if module.startswith("trimesh"):
+        import trimesh
+
+        if isinstance(obj, trimesh.Scene):
+            obj = obj.to_mesh()
+        if isinstance(obj, trimesh.Trimesh):
+            return Mesh.from_trimesh(obj)
+    if module.startswith("pyvista") and hasattr(obj, "triangulate"):
+        poly = obj.triangulate()  # quads, polygons and strips to triangles
+        if poly.faces.size:
+            faces = np.asarray(poly.regular_faces)
+        else:  # only points or lines: nothing to render
+            faces = np.zeros((0, 3), np.int32)
+        return Mesh(np.asarray(poly.points, dtype=np.float64), faces)
+    if isinstance(obj, (tuple, list)) and len(obj) == 2:
+        return Mesh(obj[0], obj[1])
+    raise TypeError(
+        "cannot render a "
+        f"{type(obj).__name__}: pass a zbuffer.Mesh, trimesh.Trimesh, trimesh.Scene, "
+        "pyvista.PolyData, a (vertices, faces) pair or a file path"
+    )

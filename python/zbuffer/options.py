@@ -1,0 +1,51 @@
+"""Argument checking and resolution shared by :func:`zbuffer.render` and
+:func:`zbuffer.reference.render` (no compiled code here)."""
+
+from __future__ import annotations
+
+from typing import Optional, Tuple
+
+import numpy as np
+
+from .camera import Camera
+from .conventions import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE
+from .mesh import Mesh, as_mesh
+from .shading import ShadingParams, resolve_shading
+
+__all__ = ["prepare", "check_size", "DEFAULT_SIZE"]
+
+DEFAULT_SIZE = (800, 600)
+
+
+def check_size(width, height) -> Tuple[int, int]:
+    for name, value in (("width", width), ("height", height)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"{name} must be an int, got {value!r}")
+    width, height = int(width), int(height)
+    if width <= 0 or height <= 0:
+        raise ValueError(f"width and height must be positive, got {width}x{height}")
+    if (width > MAX_IMAGE_SIDE or height > MAX_IMAGE_SIDE
+            or width * height > MAX_IMAGE_PIXELS):
+        raise ValueError(
+            f"image {width}x{height} is too large: at most {MAX_IMAGE_SIDE} pixels "
+            f"a side and {MAX_IMAGE_PIXELS} pixels in all"
+        )
+    return width, height
+
+
+def prepare(mesh, camera: Optional[Camera], width, height, shading, light_dir,
+            ambient, diffuse, color, background
+            ) -> Tuple[Mesh, Camera, np.ndarray, int, int, ShadingParams]:
+    """Check and resolve everything render() and reference.render() share."""
+    width, height = check_size(width, height)
+    mesh = as_mesh(mesh)
+    if camera is None:
+        camera = Camera.fit(mesh, aspect=width / height)
+    elif not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a zbuffer.Camera or None, got {type(camera).__name__}")
+    camera = camera.resolve(mesh)
+    mvp = camera.mvp(width, height)
+    if not np.all(np.isfinite(mvp)):
+        raise ValueError("the camera matrix has a NaN or infinite entry")
+    params = resolve_shading(shading, camera, light_dir, ambient, diffuse, color, background)
+    return mesh, camera, mvp, width, height, params

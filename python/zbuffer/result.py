@@ -1,0 +1,64 @@
+"""The result of a render."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, Optional
+
+import numpy as np
+
+from .camera import Camera
+
+__all__ = ["RenderResult"]
+
+
+@dataclass
+class RenderResult:
+    """What :func:`render` returns.
+
+    Attributes
+    ----------
+    image : (H, W, 3) uint8 or None
+        The shaded image; None with ``shading="none"``.
+    depth : (H, W) float32
+        Window depth in [0, 1] (smaller is nearer), +inf where nothing was drawn.
+    triangle_id : (H, W) int32
+        Index into the input faces of the visible triangle, -1 where nothing was drawn.
+    stats : dict
+        Triangle and pixel counters and times in milliseconds (see docs/api.md).
+    camera : Camera
+        The camera used, with near/far (and ortho_height) resolved.
+    mvp : (4, 4) float64
+        The model-view-projection matrix used.
+    algo : str
+    """
+
+    image: Optional[np.ndarray]
+    depth: np.ndarray
+    triangle_id: np.ndarray
+    stats: Dict[str, Any]
+    camera: Camera
+    mvp: np.ndarray
+    algo: str = "zbuffer"
+    width: int = field(init=False)
+    height: int = field(init=False)
+
+    def __post_init__(self):
+        self.height, self.width = self.depth.shape
+
+    @property
+    def mask(self) -> np.ndarray:
+        """(H, W) bool: pixels where a triangle was drawn."""
+        return self.triangle_id >= 0
+
+    def eye_depth(self) -> np.ndarray:
+        """(H, W) float64 distance along the viewing direction (eye-space -z),
+        +inf where nothing was drawn."""
+        n, f = self.camera.near, self.camera.far
+        z_ndc = self.depth.astype(np.float64) * 2.0 - 1.0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if self.camera.projection == "perspective":
+                d = 2.0 * f * n / ((f + n) - z_ndc * (f - n))
+            else:
+                d = (z_ndc * (f - n) + (f + n)) * 0.5
+        return np.where(self.mask, d, np.inf)

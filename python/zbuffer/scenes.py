@@ -1,0 +1,198 @@
+"""Procedural scenes: the built-in default scene and the test scenes.
+
+Everything here is generated with numpy alone, deterministically (random
+scenes take a seed), so tests and benchmarks run without any model files.
+"""
+
+from __future__ import annotations
+
+from typing import List, Sequence, Tuple
+
+import numpy as np
+
+from .mesh import Mesh
+
+__all__ = [
+    "box", "uv_sphere", "torus", "grid", "combine", "default_scene", "default_camera",
+    "overlapping_boxes", "interpenetrating_triangles", "coplanar_faces", "fan",
+    "random_soup", "tessellated_square",
+]
+
+Part = Tuple[np.ndarray, np.ndarray]
+
+
+def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
+    """An axis-aligned box, 12 triangles wound counter-clockwise seen from outside."""
+    c, s = np.asarray(center, float), np.asarray(size, float) * 0.5
+    corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float)
+    faces = np.array([
+        [0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6],  # -z, +z
+        [0, 1, 5], [0, 5, 4], [2, 6, 7], [2, 7, 3],  # -y, +y
+        [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5],  # -x, +x
+    ])
+    return c + corners * s, faces
+
+
+def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:
+    """A latitude-longitude sphere with poles on the y axis."""
+    theta = np.linspace(0.0, np.pi, n_lat + 1)[1:-1]
+    phi = np.linspace(0.0, 2.0 * np.pi, n_lon, endpoint=False)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    ring = np.stack([np.sin(t) * np.cos(p), np.cos(t), -np.sin(t) * np.sin(p)], -1).reshape(-1, 3)
+    v = np.vstack([[0, 1, 0], ring, [0, -1, 0]]) * radius + np.asarray(center, float)
+    faces = []
+    south = len(v) - 1
+    for k in range(n_lon):
+        k1 = (k + 1) % n_lon
+        faces.append([0, 1 + k, 1 + k1])
+        base = 1 + (n_lat - 2) * n_lon
+        faces.append([south, base + k1, base + k])
+    for r in range(n_lat - 2):
+        for k in range(n_lon):
+            k1 = (k + 1) % n_lon
+            a, b = 1 + r * n_lon + k, 1 + r * n_lon + k1
+            c, d = a + n_lon, b + n_lon
+            faces += [[a, c, d], [a, d, b]]
+    return v, np.array(faces)
+
+
+def torus(center=(0.0, 0.0, 0.0), major=1.0, minor=0.3, n_major=32, n_minor=16) -> Part:
+    """A torus around the y axis."""
+    u = np.linspace(0.0, 2.0 * np.pi, n_major, endpoint=False)
+    w = np.linspace(0.0, 2.0 * np.pi, n_minor, endpoint=False)
+    uu, ww = np.meshgrid(u, w, indexing="ij")
+    r = major + minor * np.cos(ww)
+    v = np.stack([r * np.cos(uu), minor * np.sin(ww), -r * np.sin(uu)], -1).reshape(-1, 3)
+    faces = []
+    for i in range(n_major):
+        for j in range(n_minor):
+            a = i * n_minor + j
+            b = ((i + 1) % n_major) * n_minor + j
+            c = ((i + 1) % n_major) * n_minor + (j + 1) % n_minor
+            d = i * n_minor + (j + 1) % n_minor
+            faces += [[a, b, c], [a, c, d]]
+    return v + np.asarray(center, float), np.array(faces)
+
+
+def grid(center=(0.0, 0.0, 0.0), size=(4.0, 4.0), n=(8, 8)) -> Part:
+    """A flat rectangle in the xz plane (normal +y), n[0] x n[1] quads."""
+    xs = np.linspace(-0.5, 0.5, n[0] + 1) * size[0]
+    zs = np.linspace(-0.5, 0.5, n[1] + 1) * size[1]
+    x, z = np.meshgrid(xs, zs, indexing="ij")
+    v = np.stack([x, np.zeros_like(x), z], -1).reshape(-1, 3) + np.asarray(center, float)
+    faces = []
+    m = n[1] + 1
+    for i in range(n[0]):
+        for j in range(n[1]):
+            a, b, c, d = i * m + j, (i + 1) * m + j, (i + 1) * m + j + 1, i * m + j + 1
+            faces += [[a, d, c], [a, c, b]]
+    return v, np.array(faces)
+
+
+def combine(parts: Sequence[Part], colors: Sequence[Sequence[float]] = (),
+            name: str = "scene") -> Mesh:
+    """One Mesh from several (vertices, faces) parts, optionally one colour each."""
+    verts: List[np.ndarray] = []
+    faces: List[np.ndarray] = []
+    offset = 0
+    for v, f in parts:
+        verts.append(np.asarray(v, float))
+        faces.append(np.asarray(f, np.int64) + offset)
+        offset += len(v)
+    face_colors = None
+    if colors:
+        face_colors = np.vstack([np.tile(np.asarray(c, np.float32), (len(f), 1))
+                                 for c, (_, f) in zip(colors, parts)])
+    v = np.vstack(verts) if verts else np.zeros((0, 3))
+    f = np.vstack(faces) if faces else np.zeros((0, 3), np.int64)
+    return Mesh(v, f, face_colors=face_colors, name=name)
+
+
+def default_scene() -> Mesh:
+    """The scene ``zbuffer render`` draws without a file: a box pierced by a
+    sphere, a torus sunk into the floor, and the floor (2,028 triangles, with
+    occlusion and interpenetration). See :func:`default_camera`."""
+    parts = [
+        grid((0.0, -1.0, 0.0), (4.5, 3.5), (12, 12)),
+        box((-0.8, -0.3, 0.0), (1.4, 1.4, 1.4)),
+        uv_sphere((-0.2, 0.1, 0.4), 0.75, 16, 32),
+        torus((1.4, -0.4, -0.3), 0.8, 0.25, 32, 12),
+    ]
+    colors = [(0.75, 0.75, 0.72), (0.85, 0.45, 0.25), (0.30, 0.55, 0.85), (0.45, 0.75, 0.35)]
+    return combine(parts, colors, name="default scene")
+
+
+def default_camera(aspect: float = 4.0 / 3.0):
+    """A camera looking at :func:`default_scene` from the front, above and right."""
+    from .camera import Camera
+
+    return Camera.fit(default_scene(), direction=(0.45, 0.55, 1.0), aspect=aspect, margin=0.8)
+
+
+# Test Scenes
+
+def overlapping_boxes(n: int = 6, seed: int = 0) -> Mesh:
+    """n boxes of random size and position, overlapping each other."""
+    rng = np.random.default_rng(seed)
+    parts = [box(rng.uniform(-1, 1, 3), rng.uniform(0.3, 1.2, 3)) for _ in range(n)]
+    return combine(parts, name=f"overlapping_boxes({n}, seed={seed})")
+
+
+def interpenetrating_triangles() -> Mesh:
+    """Three large triangles that pierce each other pairwise (no depth order)."""
+    v = np.array([
+        [-1.0, -0.6, -0.5], [1.0, -0.6, 0.5], [0.0, 0.9, 0.0],
+        [-1.0, -0.5, 0.5], [1.0, -0.5, -0.5], [0.2, 1.0, 0.3],
+        [-0.8, 0.6, 0.0], [0.9, 0.5, 0.1], [0.0, -1.0, -0.2],
+    ])
+    return Mesh(v, np.arange(9).reshape(3, 3), name="interpenetrating_triangles")
+
+
+def coplanar_faces() -> Mesh:
+    """Overlapping triangles in one plane (exact depth ties everywhere they
+    overlap; the smaller id must win), plus a fan sharing their vertices."""
+    v = np.array([
+        [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0], [0.0, 1.0, 0.0],
+    ])
+    f = np.array([[0, 1, 2], [0, 2, 3], [4, 2, 5], [0, 1, 3], [4, 1, 2], [0, 4, 5]])
+    return Mesh(v, f, name="coplanar_faces")
+
+
+def fan(n: int = 24, tilt: float = 0.3) -> Mesh:
+    """A triangle fan around a centre vertex: n thin triangles meeting at one
+    point, every inner edge shared by two of them."""
+    a = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    rim = np.stack([np.cos(a), np.sin(a), tilt * np.cos(3 * a)], -1)
+    v = np.vstack([[0.0, 0.0, 0.0], rim])
+    f = np.array([[0, 1 + k, 1 + (k + 1) % n] for k in range(n)])
+    return Mesh(v, f, name=f"fan({n})")
+
+
+def random_soup(n: int = 200, seed: int = 0, scale: float = 0.5) -> Mesh:
+    """n independent random triangles in the unit cube (any sizes, orientations)."""
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-1, 1, (n, 1, 3))
+    v = (centres + rng.normal(0, scale, (n, 3, 3))).reshape(-1, 3)
+    return Mesh(v, np.arange(3 * n).reshape(n, 3), name=f"random_soup({n}, seed={seed})")
+
+
+def tessellated_square(n: int = 8, jitter: float = 0.0, seed: int = 0) -> Mesh:
+    """The square [-1, 1]^2 at z = 0 cut into 2 n^2 triangles; inner grid
+    vertices may be jittered (the square stays covered exactly once)."""
+    rng = np.random.default_rng(seed)
+    g = np.linspace(-1.0, 1.0, n + 1)
+    x, y = np.meshgrid(g, g, indexing="ij")
+    inner = np.zeros_like(x, bool)
+    inner[1:-1, 1:-1] = True
+    step = 2.0 / n
+    x = x + np.where(inner, rng.uniform(-jitter, jitter, x.shape) * step, 0.0)
+    y = y + np.where(inner, rng.uniform(-jitter, jitter, y.shape) * step, 0.0)
+    v = np.stack([x, y, np.zeros_like(x)], -1).reshape(-1, 3)
+    faces = []
+    m = n + 1
+    for i in range(n):
+        for j in range(n):
+            a, b, c, d = i * m + j, (i + 1) * m + j, (i + 1) * m + j + 1, i * m + j + 1
+            faces += [[a, b, c], [a, c, d]] if (i + j) % 2 else [[a, b, d], [b, c, d]]
+    return Mesh(v, np.array(faces), name=f"tessellated_square({n})")

@@ -1,0 +1,170 @@
+"""Shading options, and the numpy form of the shading pass.
+
+The compiled pass (``cpp/src/shading.cpp``) and :func:`shade_numpy` implement
+the same model: Lambert diffuse plus ambient under one directional light, lit
+from both sides, with uniform, per-vertex or per-face colours and
+perspective-correct interpolation through the pixel's view ray.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+__all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy"]
+
+SHADINGS = ("flat", "smooth", "none")
+DEFAULT_COLOR = (0.8, 0.8, 0.8)
+DEFAULT_BACKGROUND = (255, 255, 255)
+
+
+@dataclass(frozen=True)
+class ShadingParams:
+    """Resolved shading options (see :func:`zbuffer.render` for their meaning)."""
+
+    mode: str                 # "flat", "smooth" or "none"
+    light_dir: np.ndarray     # (3,) float64 unit direction the light travels in
+    ambient: float
+    diffuse: float
+    color: Optional[np.ndarray]  # (3,) float32 override, or None: mesh colours
+    background: np.ndarray    # (3,) uint8
+
+
+def _rgb_float(value, name: str) -> np.ndarray:
+    c = np.asarray(value)
+    if c.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers (RGB), got {value!r}")
+    if np.issubdtype(c.dtype, np.integer):
+        if c.min() < 0 or c.max() > 255:
+            raise ValueError(f"integer {name} must lie in 0-255, got {value!r}")
+        return c.astype(np.float32) / np.float32(255.0)
+    if not np.issubdtype(c.dtype, np.floating):
+        raise TypeError(f"{name} must be numbers, got {value!r}")
+    if not np.all(np.isfinite(c)) or c.min() < 0.0 or c.max() > 1.0:
+        raise ValueError(f"float {name} must lie in [0, 1], got {value!r}")
+    return c.astype(np.float32)
+
+
+def resolve_shading(shading: str, camera, light_dir=None, ambient: float = 0.2,
+                    diffuse: float = 0.8, color=None, background=DEFAULT_BACKGROUND
+                    ) -> ShadingParams:
+    """Check and normalise shading options. ``light_dir=None`` is a headlight:
+    the light travels along the camera's viewing direction."""
+    if shading not in SHADINGS:
+        raise ValueError(
+            f"unknown shading {shading!r}; valid values are {', '.join(map(repr, SHADINGS))}"
+        )
+    if light_dir is None:
+        light = camera.forward()
+    else:
+        light = np.asarray(light_dir, dtype=np.float64)
+        if light.shape != (3,) or not np.all(np.isfinite(light)):
+            raise ValueError(f"light_dir must be 3 finite numbers, got {light_dir!r}")
+        norm = np.linalg.norm(light)
+        if norm == 0.0:
+            raise ValueError("light_dir must not be the zero vector")
+        light = light / norm
+    for name, value in (("ambient", ambient), ("diffuse", diffuse)):
+        if not isinstance(value, (int, float, np.floating, np.integer)) or not (
+            np.isfinite(value) and value >= 0.0
+        ):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    bg = _rgb_float(background, "background")
+    return ShadingParams(
+        mode=shading,
+        light_dir=np.ascontiguousarray(light, dtype=np.float64),
+        ambient=float(ambient),
+        diffuse=float(diffuse),
+        color=None if color is None else _rgb_float(color, "color"),
+        background=np.round(bg.astype(np.float64) * 255.0).astype(np.uint8),
+    )
+
+
+def color_source(mesh, params: ShadingParams):
+    """("uniform" | "vertex" | "face", colours or None, uniform colour (3,) float32)."""
+    uniform = params.color if params.color is not None else np.asarray(DEFAULT_COLOR, np.float32)
+    if params.color is None and mesh.face_colors is not None:
+        return "face", mesh.face_colors, uniform
+    if params.color is None and mesh.vertex_colors is not None:
+        return "vertex", mesh.vertex_colors, uniform
+    return "uniform", None, uniform
+
+
+def _unproject(m: np.ndarray, x: np.ndarray, y: np.ndarray, z: float) -> np.ndarray:
+    r = [m[k, 0] * x + m[k, 1] * y + m[k, 2] * z + m[k, 3] for k in range(4)]
+    return np.stack([r[0] / r[3], r[1] / r[3], r[2] / r[3]], axis=-1)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
+                params: ShadingParams) -> np.ndarray:
+    """The shading pass in numpy: (H, W, 3) uint8 image of a visibility result."""
+    height, width = triangle_id.shape
+    image = np.empty((height, width, 3), np.uint8)
+    image[...] = params.background
+    js, is_ = np.nonzero(triangle_id >= 0)
+    if len(js) == 0:
+        return image
+    f = triangle_id[js, is_].astype(np.int64)
+    source, colors, uniform = color_source(mesh, params)
+    smooth = params.mode == "smooth"
+    need_bary = smooth or source == "vertex"
+
+    v = mesh.vertices
+    idx = mesh.faces[f]
+    p0 = v[idx[:, 0]]
+    e1 = v[idx[:, 1]] - p0
+    e2 = v[idx[:, 2]] - p0
+    ng = np.cross(e1, e2)
+    viewer = camera.viewer()
+    to_viewer = viewer[:3] - viewer[3] * p0
+    side = np.where(_dot(ng, to_viewer) < 0.0, -1.0, 1.0)
+
+    b1 = np.full(len(f), 1.0 / 3.0)
+    b2 = np.full(len(f), 1.0 / 3.0)
+    if need_bary:
+        inv = np.linalg.inv(mvp)
+        xn = (is_ + 0.5) / (0.5 * width) - 1.0
+        yn = 1.0 - (js + 0.5) / (0.5 * height)
+        origin = _unproject(inv, xn, yn, -1.0)
+        direction = _unproject(inv, xn, yn, 1.0) - origin
+        pvec = np.cross(direction, e2)
+        det = _dot(e1, pvec)
+        ok = (det != 0.0) & np.isfinite(det)
+        inv_det = 1.0 / np.where(ok, det, 1.0)
+        tvec = origin - p0
+        u = np.clip(_dot(tvec, pvec) * inv_det, 0.0, 1.0)
+        w = np.clip(_dot(direction, np.cross(tvec, e1)) * inv_det, 0.0, 1.0)
+        total = u + w
+        scale = np.where(total > 1.0, 1.0 / np.where(total > 0, total, 1.0), 1.0)
+        b1 = np.where(ok, u * scale, b1)
+        b2 = np.where(ok, w * scale, b2)
+    b0 = 1.0 - b1 - b2
+
+    n = ng
+    if smooth:
+        vn = mesh.vertex_normals
+        ns = (b0[:, None] * vn[idx[:, 0]] + b1[:, None] * vn[idx[:, 1]]
+              + b2[:, None] * vn[idx[:, 2]])
+        n = np.where((_dot(ns, ns) > 0.0)[:, None], ns, ng)
+    length = np.sqrt(_dot(n, n))
+    n = np.divide(n, length[:, None], out=np.zeros_like(n), where=length[:, None] > 0)
+    n = side[:, None] * n
+
+    intensity = params.ambient + params.diffuse * np.maximum(0.0, _dot(n, -params.light_dir[None, :]))
+    if source == "uniform":
+        albedo = np.broadcast_to(uniform.astype(np.float64), (len(f), 3))
+    elif source == "face":
+        albedo = colors[f].astype(np.float64)
+    else:
+        c = colors.astype(np.float64)
+        albedo = (b0[:, None] * c[idx[:, 0]] + b1[:, None] * c[idx[:, 1]]
+                  + b2[:, None] * c[idx[:, 2]])
+    rgb = np.floor(np.clip(albedo * intensity[:, None], 0.0, 1.0) * 255.0 + 0.5)
+    image[js, is_] = rgb.astype(np.uint8)
+    return image

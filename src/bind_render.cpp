@@ -1,0 +1,125 @@
+// Bindings for the registry and the render entry point (algorithms.h).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "array_checks.h"
+#include "zbuffer/algorithms.h"
+#include "zbuffer/conventions.h"
+#include "zbuffer/mesh_checks.h"
+
+namespace zbuffer_py {
+
+namespace {
+
+void check_image_size(int width, int height) {
+  if (width <= 0 || height <= 0)
+    throw py::value_error("width and height must be positive, got " +
+                          std::to_string(width) + "x" + std::to_string(height));
+  if (width > zbuffer::kMaxImageSide || height > zbuffer::kMaxImageSide ||
+      int64_t(width) * height > zbuffer::kMaxImagePixels)
+    throw py::value_error("image " + std::to_string(width) + "x" + std::to_string(height) +
+                          " is too large: at most " + std::to_string(zbuffer::kMaxImageSide) +
+                          " pixels a side and " + std::to_string(zbuffer::kMaxImagePixels) +
+                          " pixels in all");
+}
+
+// Checks the mesh arrays and returns a view of them (GIL held).
+zbuffer::MeshView mesh_view(const py::array_t<double>& positions,
+                            const py::array_t<int32_t>& faces) {
+  zbuffer::MeshView mesh;
+  mesh.positions = positions.data();
+  mesh.n_vertices = positions.shape(0);
+  mesh.faces = faces.data();
+  mesh.n_faces = faces.shape(0);
+  if (mesh.n_vertices > std::numeric_limits<int32_t>::max())
+    throw py::value_error("too many vertices: at most 2**31 - 1");
+  if (mesh.n_faces > std::numeric_limits<int32_t>::max())
+    throw py::value_error("too many faces: at most 2**31 - 1");
+  const int64_t bad = zbuffer::find_bad_face_index(mesh);
+  if (bad >= 0)
+    throw py::value_error("face " + std::to_string(bad / 3) + " has vertex index " +
+                          std::to_string(mesh.faces[bad]) + ", outside [0, " +
+                          std::to_string(mesh.n_vertices) + ")");
+  const int64_t nonfinite = zbuffer::find_nonfinite_vertex(mesh);
+  if (nonfinite >= 0)
+    throw py::value_error("vertex " + std::to_string(nonfinite) +
+                          " has a NaN or infinite coordinate");
+  return mesh;
+}
+
+py::dict stats_dict(const zbuffer::RenderStats& s) {
+  py::dict d;
+  d["triangles_in"] = s.triangles_in;
+  d["culled_invalid"] = s.culled_invalid;
+  d["culled_frustum"] = s.culled_frustum;
+  d["clipped"] = s.clipped;
+  d["clipped_away"] = s.clipped_away;
+  d["clip_pieces"] = s.clip_pieces;
+  d["culled_backface"] = s.culled_backface;
+  d["culled_degenerate"] = s.culled_degenerate;
+  d["rasterized"] = s.rasterized;
+  d["pixels_tested"] = s.pixels_tested;
+  d["pixels_covered"] = s.pixels_covered;
+  d["pixels_written"] = s.pixels_written;
+  d["vertex_ms"] = s.vertex_ms;
+  d["raster_ms"] = s.raster_ms;
+  d["render_ms"] = s.total_ms;  // the C++ call; Python adds total_ms
+  return d;
+}
+
+py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_obj,
+                 int width, int height, const std::string& algo, bool cull_backfaces) {
+  const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
+  if (!algorithm)
+    throw py::value_error("unknown algorithm \"" + algo + "\"; valid names are " +
+                          zbuffer::algorithm_names());
+  check_image_size(width, height);
+  auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
+  auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
+  auto mvp = require_array<double>(mvp_obj, "mvp", {4, 4});
+
+  zbuffer::RenderInput input;
+  input.mesh = mesh_view(positions, faces);
+  for (int k = 0; k < 16; ++k) {
+    input.mvp[k] = mvp.data()[k];
+    if (!std::isfinite(input.mvp[k]))
+      throw py::value_error("the camera matrix has a NaN or infinite entry");
+  }
+  input.cull_backfaces = cull_backfaces;
+
+  // Outputs are the user's arrays: written in place, handed over uncopied.
+  py::array_t<float> depth({py::ssize_t(height), py::ssize_t(width)});
+  py::array_t<int32_t> ids({py::ssize_t(height), py::ssize_t(width)});
+  zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
+  zbuffer::RenderStats stats;
+  {
+    py::gil_scoped_release release;
+    zbuffer::render(*algorithm, input, target, stats);
+  }
+  return py::make_tuple(depth, ids, stats_dict(stats));
+}
+
+}  // namespace
+
+void bind_render(py::module_& m) {
+  m.def(
+      "algorithms",
+      [] {
+        py::list out;
+        for (const zbuffer::Algorithm& a : zbuffer::algorithms())
+          out.append(py::make_tuple(a.name, a.summary));
+        return out;
+      },
+      "List of (name, summary) of the registered depth algorithms.");
+  m.def("render", &render, py::arg("positions"), py::arg("faces"), py::arg("mvp"),
+        py::arg("width"), py::arg("height"), py::arg("algo") = "zbuffer",
+        py::arg("cull_backfaces") = false,
+        "Render depth and triangle ids; returns (depth, triangle_id, stats).");
+}
+
+}  // namespace zbuffer_py

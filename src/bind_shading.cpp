@@ -1,0 +1,99 @@
+// Bindings for the shading pass (shading.h).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <string>
+
+#include "array_checks.h"
+#include "zbuffer/shading.h"
+
+namespace zbuffer_py {
+
+namespace {
+
+py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::handle faces_obj,
+                           py::handle inv_mvp_obj, py::handle viewer_obj,
+                           py::handle light_dir_obj, double ambient, double diffuse,
+                           py::handle background_obj, py::handle uniform_color_obj,
+                           const std::string& color_source, py::handle colors_obj,
+                           py::handle normals_obj) {
+  auto ids = require_array<int32_t>(ids_obj, "triangle_id", {-1, -1});
+  auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
+  auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
+  auto inv_mvp = require_array<double>(inv_mvp_obj, "inv_mvp", {4, 4});
+  auto viewer = require_array<double>(viewer_obj, "viewer", {4});
+  auto light = require_array<double>(light_dir_obj, "light_dir", {3});
+  auto background = require_array<uint8_t>(background_obj, "background", {3});
+  auto uniform = require_array<float>(uniform_color_obj, "uniform_color", {3});
+
+  zbuffer::ShadingInput in;
+  in.height = int(ids.shape(0));
+  in.width = int(ids.shape(1));
+  in.mesh = {positions.data(), positions.shape(0), faces.data(), faces.shape(0)};
+
+  // Every id must name a face and every face index a vertex: the pass reads
+  // them without further checks.
+  const int32_t* id = ids.data();
+  const py::ssize_t n_pixels = ids.size();
+  int32_t lo = -1, hi = -1;
+  for (py::ssize_t p = 0; p < n_pixels; ++p) {
+    lo = id[p] < lo ? id[p] : lo;
+    hi = id[p] > hi ? id[p] : hi;
+  }
+  if (lo < -1 || hi >= in.mesh.n_faces)
+    throw py::value_error("triangle_id holds ids outside [-1, " +
+                          std::to_string(in.mesh.n_faces) + ")");
+  for (py::ssize_t k = 0; k < faces.size(); ++k)
+    if (faces.data()[k] < 0 || faces.data()[k] >= in.mesh.n_vertices)
+      throw py::value_error("face index out of range in shade()");
+
+  py::array_t<float> colors;
+  if (color_source == "uniform") {
+    in.color_source = zbuffer::ColorSource::kUniform;
+  } else if (color_source == "vertex" || color_source == "face") {
+    const bool per_vertex = color_source == "vertex";
+    colors = require_array<float>(colors_obj, "colors",
+                                  {per_vertex ? in.mesh.n_vertices : in.mesh.n_faces, 3});
+    in.color_source = per_vertex ? zbuffer::ColorSource::kPerVertex
+                                 : zbuffer::ColorSource::kPerFace;
+    in.colors = colors.data();
+  } else {
+    throw py::value_error("color_source must be \"uniform\", \"vertex\" or \"face\", got \"" +
+                          color_source + "\"");
+  }
+  py::array_t<double> normals;
+  if (!normals_obj.is_none()) {
+    normals = require_array<double>(normals_obj, "vertex_normals", {in.mesh.n_vertices, 3});
+    in.vertex_normals = normals.data();
+  }
+  for (int k = 0; k < 16; ++k) in.inv_mvp[k] = inv_mvp.data()[k];
+  for (int k = 0; k < 4; ++k) in.viewer[k] = viewer.data()[k];
+  for (int k = 0; k < 3; ++k) {
+    in.light_dir[k] = light.data()[k];
+    in.background[k] = background.data()[k];
+    in.uniform_color[k] = uniform.data()[k];
+  }
+  in.ambient = ambient;
+  in.diffuse = diffuse;
+
+  py::array_t<uint8_t> image({py::ssize_t(in.height), py::ssize_t(in.width), py::ssize_t(3)});
+  uint8_t* out = image.mutable_data();
+  {
+    py::gil_scoped_release release;
+    zbuffer::shade(in, id, out);
+  }
+  return image;
+}
+
+}  // namespace
+
+void bind_shading(py::module_& m) {
+  m.def("shade", &shade, py::arg("triangle_id"), py::arg("positions"), py::arg("faces"),
+        py::arg("inv_mvp"), py::arg("viewer"), py::arg("light_dir"), py::arg("ambient"),
+        py::arg("diffuse"), py::arg("background"), py::arg("uniform_color"),
+        py::arg("color_source") = "uniform", py::arg("colors") = py::none(),
+        py::arg("vertex_normals") = py::none(),
+        "Lambert-shade a visibility result; returns an (H, W, 3) uint8 image.");
+}
+
+}  // namespace zbuffer_py

@@ -1,0 +1,22 @@
+// zbuffer._core: the compiled core. The public API is the Python package
+// (python/zbuffer); this module is private and may change.
+#include <pybind11/pybind11.h>
+
+#include "zbuffer/conventions.h"
+
+namespace py = pybind11;
+
+namespace zbuffer_py {
+void bind_render(py::module_& m);
+void bind_shading(py::module_& m);
+}  // namespace zbuffer_py
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "zbuffer's compiled core (private; use the zbuffer package)";
+  m.attr("SUBPIXEL_BITS") = zbuffer::kSubpixelBits;
+  m.attr("MAX_IMAGE_SIDE") = zbuffer::kMaxImageSide;
+  m.attr("MAX_IMAGE_PIXELS") = zbuffer::kMaxImagePixels;
+  m.attr("GUARD_BAND_PX") = zbuffer::kGuardBandPx;
+  zbuffer_py::bind_render(m);
+  zbuffer_py::bind_shading(m);
+}

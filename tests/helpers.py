@@ -1,0 +1,41 @@
+"""Helpers shared by the tests (imported by name, not through conftest)."""
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import zbuffer
+
+# ../shared/models next to the repository, or wherever ZBUFFER_MODELS points.
+MODELS = Path(os.environ.get("ZBUFFER_MODELS",
+                             Path(__file__).resolve().parents[2] / "shared" / "models"))
+
+
+def model_path(name: str) -> Path:
+    """Path of a model in the shared folder; skips the test if it is absent."""
+    path = MODELS / name
+    if not path.is_file():
+        pytest.skip(f"model {name} not available (no {MODELS})")
+    return path
+
+
+def assert_same_visibility(result, reference):
+    """Exact equality of depth and triangle ids (the project's contract)."""
+    np.testing.assert_array_equal(result.triangle_id, reference.triangle_id)
+    np.testing.assert_array_equal(result.depth, reference.depth)
+
+
+TRIANGLE_COUNTERS = ("triangles_in", "culled_invalid", "culled_frustum", "clipped",
+                     "clipped_away", "clip_pieces", "culled_backface", "culled_degenerate",
+                     "rasterized")
+
+
+def counters_add_up(stats) -> bool:
+    s = stats
+    return (s["triangles_in"] - s["culled_invalid"] - s["culled_frustum"] - s["clipped"]
+            + s["clip_pieces"]) == s["culled_backface"] + s["culled_degenerate"] + s["rasterized"]
+
+
+ALGORITHMS = zbuffer.algorithms()

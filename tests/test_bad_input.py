@@ -1,0 +1,159 @@
+"""Bad input gets a clear Python exception naming the problem, never a crash."""
+
+import numpy as np
+import pytest
+
+import zbuffer
+from zbuffer import _core, scenes
+
+V, F = scenes.box()
+CAM = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0))
+
+
+@pytest.fixture(params=["compiled", "reference"])
+def render(request):
+    """zbuffer.render and zbuffer.reference.render refuse the same input."""
+    if request.param == "compiled":
+        return zbuffer.render
+    return zbuffer.reference.render
+
+
+@pytest.mark.parametrize("vertices, faces, error, match", [
+    (np.zeros((4, 2)), [[0, 1, 2]], ValueError, r"vertices must have shape \(N, 3\)"),
+    (np.zeros(12), [[0, 1, 2]], ValueError, r"vertices must have shape"),
+    (np.array([["a", "b", "c"]]), [[0, 0, 0]], TypeError, "vertices must be numbers"),
+    (V, F.astype(float), TypeError, "faces must be integer"),
+    (V, F.astype(bool), TypeError, "faces must be integer"),
+    (V, F[:, :2], ValueError, r"faces must have shape \(M, 3\)"),
+    (V, np.vstack([F, [[0, 1, 8]]]), ValueError, r"face 12 has vertex index 8, outside \[0, 8\)"),
+    (V, np.vstack([F, [[0, -1, 2]]]), ValueError, r"face 12 has vertex index -1"),
+    (np.vstack([V, [[np.nan, 0, 0]]]), F, ValueError, "vertex 8 has a NaN or infinite"),
+    (np.vstack([V, [[0, np.inf, 0]]]), F, ValueError, "vertex 8 has a NaN or infinite"),
+])
+def test_bad_mesh_arrays(render, vertices, faces, error, match):
+    with pytest.raises(error, match=match):
+        render((vertices, faces), camera=CAM, width=16, height=16)
+
+
+def test_compiled_core_checks_on_its_own():
+    # The private binding is safe to call directly: the same checks in C++.
+    mvp = CAM.resolve(V).mvp(16, 16)
+    bad = np.ascontiguousarray(np.vstack([F, [[0, 1, 99]]]), dtype=np.int32)
+    with pytest.raises(ValueError, match="face 12 has vertex index 99"):
+        _core.render(V, bad, mvp, 16, 16)
+    nan = np.vstack([V, [[np.nan, 0, 0]]])
+    with pytest.raises(ValueError, match="vertex 8 has a NaN"):
+        _core.render(nan, F.astype(np.int32), mvp, 16, 16)
+    with pytest.raises(TypeError, match="faces must have dtype int32, got int64"):
+        _core.render(V, F.astype(np.int64), mvp, 16, 16)
+    with pytest.raises(ValueError, match="C-contiguous"):
+        _core.render(np.asfortranarray(V), F.astype(np.int32), mvp, 16, 16)
+    with pytest.raises(ValueError, match="mvp must have shape"):
+        _core.render(V, F.astype(np.int32), mvp[:3], 16, 16)
+    with pytest.raises(ValueError, match="NaN or infinite entry"):
+        _core.render(V, F.astype(np.int32), mvp * np.nan, 16, 16)
+    with pytest.raises(ValueError, match="too large"):
+        _core.render(V, F.astype(np.int32), mvp, 40000, 16)
+    ids = np.full((4, 4), len(F), np.int32)  # one past the last face
+    with pytest.raises(ValueError, match="ids outside"):
+        _core.shade(ids, V, F.astype(np.int32), np.eye(4), np.zeros(4), np.zeros(3),
+                    0.2, 0.8, np.zeros(3, np.uint8), np.zeros(3, np.float32))
+
+
+@pytest.mark.parametrize("width, height, error, match", [
+    (0, 10, ValueError, "must be positive"),
+    (10, -3, ValueError, "must be positive"),
+    (40000, 10, ValueError, "too large"),
+    (30000, 30000, ValueError, "too large"),
+    (10.5, 10, TypeError, "width must be an int"),
+    (10, "10", TypeError, "height must be an int"),
+])
+def test_bad_image_size(render, width, height, error, match):
+    with pytest.raises(error, match=match):
+        render((V, F), camera=CAM, width=width, height=height)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(eye=(0, 0, 0), target=(0, 0, 0)), "eye and target are the same"),
+    (dict(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 0, 1)), "up is parallel"),
+    (dict(eye=(0, 0, 3), up=(0, 0, 0)), "up is the zero vector"),
+    (dict(eye=(0, 0, 3), near=0.0), "near must be > 0"),
+    (dict(eye=(0, 0, 3), near=-1.0), "near must be > 0"),
+    (dict(eye=(0, 0, 3), near=5.0, far=2.0), "near must be smaller than far"),
+    (dict(eye=(0, 0, 3), near=2.0, far=2.0), "near must be smaller than far"),
+    (dict(eye=(0, 0, 3), projection="orthographic", near=3.0, far=-1.0), "near must be smaller"),
+    (dict(eye=(0, 0, 3), fov_y=0), r"fov_y must be in \(0, 180\)"),
+    (dict(eye=(0, 0, 3), fov_y=180), r"fov_y must be in \(0, 180\)"),
+    (dict(eye=(0, 0, np.nan)), "eye must be finite"),
+    (dict(eye=(0, 0)), "eye must be 3 numbers"),
+    (dict(eye=(0, 0, 3), projection="fisheye"), "projection must be one of"),
+    (dict(eye=(0, 0, 3), projection="orthographic", ortho_height=0.0), "ortho_height must be positive"),
+])
+def test_degenerate_camera(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        zbuffer.Camera.look_at(**kwargs)
+
+
+def test_unknown_algorithm_lists_the_valid_names():
+    with pytest.raises(ValueError, match=r"unknown algorithm 'painter'; valid names are 'zbuffer'"):
+        zbuffer.render((V, F), algo="painter")
+    with pytest.raises(ValueError, match="unknown algorithm"):
+        _core.render(V, F.astype(np.int32), np.eye(4), 8, 8, "painter")
+
+
+def test_bad_options(render):
+    with pytest.raises(ValueError, match="unknown shading 'phong'"):
+        render((V, F), shading="phong")
+    with pytest.raises(ValueError, match="light_dir must not be the zero vector"):
+        render((V, F), light_dir=(0, 0, 0))
+    with pytest.raises(ValueError, match="ambient must be a finite number"):
+        render((V, F), ambient=-1)
+    with pytest.raises(ValueError, match="background must be 3 numbers"):
+        render((V, F), background=(1, 2))
+    with pytest.raises(ValueError, match="integer color must lie in 0-255"):
+        render((V, F), color=(300, 0, 0))
+    with pytest.raises(TypeError, match="camera must be a zbuffer.Camera"):
+        render((V, F), camera="front")
+    with pytest.raises(TypeError, match="cannot render a dict"):
+        render({"vertices": V})
+
+
+def test_empty_meshes_render_an_empty_image(render):
+    for mesh in [(np.zeros((0, 3)), np.zeros((0, 3), int)), (V, np.zeros((0, 3), int)),
+                 zbuffer.Mesh([], [])]:
+        res = render(mesh, width=12, height=10)
+        assert res.depth.shape == (10, 12)
+        assert np.isinf(res.depth).all() and (res.triangle_id == -1).all()
+        assert (res.image == 255).all()
+
+
+def test_unreadable_and_malformed_files(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no such mesh file"):
+        zbuffer.load(tmp_path / "missing.obj")
+    with pytest.raises(FileNotFoundError, match="no such mesh file"):
+        zbuffer.render(str(tmp_path / "missing.obj"))
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 1 2\nf 1 2 3\n")
+    with pytest.raises(ValueError, match="could not read a mesh from"):
+        zbuffer.load(bad)
+    unknown = tmp_path / "mesh.xyzzy"
+    unknown.write_text("hello")
+    with pytest.raises(ValueError, match="could not read a mesh from"):
+        zbuffer.load(unknown)
+    binary = tmp_path / "garbage.stl"
+    binary.write_bytes(bytes(range(256)) * 3)
+    with pytest.raises(ValueError):
+        zbuffer.load(binary)
+
+
+def test_coordinates_that_overflow_the_transform_are_skipped():
+    # Finite positions whose transform overflows to inf: the triangle is
+    # dropped (counted), the others are drawn, C++ and reference agree.
+    v = np.vstack([V, [[1e308, 1e308, 1e308]]])
+    f = np.vstack([F, [[0, 1, 8]]])
+    cam = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0), near=0.1, far=10)
+    res = zbuffer.render((v, f), camera=cam, width=16, height=16, shading="none")
+    ref = zbuffer.reference.render((v, f), camera=cam, width=16, height=16, shading="none")
+    assert res.stats["culled_invalid"] == 1 == ref.stats["culled_invalid"]
+    np.testing.assert_array_equal(res.triangle_id, ref.triangle_id)
+    assert res.mask.any()

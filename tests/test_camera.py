@@ -1,0 +1,81 @@
+"""Camera matrices follow the OpenGL conventions."""
+
+import numpy as np
+import pytest
+
+import zbuffer
+from zbuffer import scenes
+
+
+def apply(m, p):
+    h = m @ np.append(p, 1.0)
+    return h[:3] / h[3]
+
+
+def test_view_matrix_puts_the_eye_at_the_origin_looking_down_minus_z():
+    cam = zbuffer.Camera.look_at((1, 2, 3), (4, 0, -1), up=(0, 1, 0))
+    v = cam.view_matrix()
+    np.testing.assert_allclose(apply(v, (1, 2, 3)), 0, atol=1e-12)
+    target = apply(v, (4, 0, -1))
+    assert target[2] < 0
+    np.testing.assert_allclose(target[:2], 0, atol=1e-12)
+    np.testing.assert_allclose(v[:3, :3] @ v[:3, :3].T, np.eye(3), atol=1e-12)  # rigid
+    assert np.linalg.det(v[:3, :3]) > 0  # right-handed
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_projection_maps_near_and_far_to_minus_one_and_one(projection):
+    cam = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), near=0.5, far=20.0,
+                                 projection=projection, ortho_height=2.0)
+    p = cam.projection_matrix(1.5)
+    assert apply(p, (0, 0, -0.5))[2] == pytest.approx(-1.0)
+    assert apply(p, (0, 0, -20.0))[2] == pytest.approx(1.0)
+    if projection == "orthographic":
+        assert apply(p, (1.5, 1.0, -3.0))[:2] == pytest.approx([1.0, 1.0])
+    else:  # 45 degrees: the top of the frustum at distance d is at d tan(22.5)
+        top = 4.0 * np.tan(np.radians(22.5))
+        assert apply(p, (0, top, -4.0))[1] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+@pytest.mark.parametrize("size", [(64, 48), (48, 64)])
+def test_fit_frames_the_whole_mesh(projection, size):
+    mesh = scenes.default_scene()
+    w, h = size
+    res = zbuffer.render(mesh, width=w, height=h, shading="none", camera=zbuffer.Camera.fit(
+        mesh, direction=(1, 1, 1), projection=projection, aspect=w / h))
+    assert res.mask.any()
+    # Nothing touches the border: the bounding sphere fits inside the image.
+    border = np.concatenate([res.mask[0], res.mask[-1], res.mask[:, 0], res.mask[:, -1]])
+    assert not border.any()
+    assert res.stats["clipped"] == 0 and res.stats["culled_frustum"] == 0
+
+
+def test_resolve_fits_near_and_far_around_the_mesh():
+    mesh = scenes.default_scene()
+    cam = zbuffer.Camera.look_at((0, 0, 10), (0, 0, 0)).resolve(mesh)
+    c, r = mesh.bounding_sphere
+    assert 0 < cam.near <= 10 - c[2] - r
+    assert cam.far >= 10 - c[2] + r
+    inside = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1)).resolve(mesh)
+    assert 0 < inside.near < inside.far
+    fixed = zbuffer.Camera.look_at((0, 0, 10), near=1.0, far=2.0).resolve(mesh)
+    assert (fixed.near, fixed.far) == (1.0, 2.0)
+
+
+def test_default_camera_frames_the_mesh_from_plus_z():
+    v, f = scenes.box((5, 5, 5), (1, 1, 1))
+    res = zbuffer.render((v, f), width=32, height=32, shading="none")
+    assert np.array_equal(res.camera.target, (5.0, 5.0, 5.0))
+    assert res.camera.eye[2] > 5 and res.mask.any()
+
+
+def test_eye_depth_is_the_distance_along_the_view_axis():
+    v = np.array([[-1, -1, -4], [1, -1, -4], [0, 1, -4]], float)  # plane z = -4
+    for projection in ["perspective", "orthographic"]:
+        cam = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), near=0.5, far=10.0,
+                                     projection=projection, ortho_height=4.0)
+        res = zbuffer.render((v, [[0, 1, 2]]), camera=cam, width=32, height=32, shading="none")
+        d = res.eye_depth()
+        np.testing.assert_allclose(d[res.mask], 4.0, rtol=1e-5)
+        assert np.isinf(d[~res.mask]).all()

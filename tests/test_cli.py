@@ -1,0 +1,56 @@
+"""The zbuffer command line."""
+
+import numpy as np
+import pytest
+import skimage.io
+
+from zbuffer.cli import main
+
+
+def test_render_default_scene(tmp_path, capsys):
+    out = tmp_path / "render.png"
+    depth = tmp_path / "depth.png"
+    assert main(["render", "--size", "64x48", "--out", str(out), "--depth", str(depth)]) == 0
+    image = skimage.io.imread(out)
+    assert image.shape == (48, 64, 3) and image.dtype == np.uint8
+    assert len(np.unique(image.reshape(-1, 3), axis=0)) > 10
+    d = skimage.io.imread(depth)
+    assert d.shape == (48, 64) and d.dtype == np.uint16 and d.max() == 65535
+    text = capsys.readouterr().out
+    assert "default scene: 2,028 triangles, 64x48, algo=zbuffer" in text
+    assert "pixels_written" in text
+
+
+def test_render_a_file_with_options(tmp_path):
+    from zbuffer import scenes
+    import trimesh
+
+    v, f = scenes.torus()
+    path = tmp_path / "torus.obj"
+    trimesh.Trimesh(v, f, process=False).export(path)
+    out = tmp_path / "t.png"
+    assert main(["render", str(path), "--algo", "zbuffer", "--size", "40x30", "--out", str(out),
+                 "--projection", "orthographic", "--view-dir", "0,1,1", "--shading", "smooth",
+                 "--cull-backfaces"]) == 0
+    assert skimage.io.imread(out).shape == (30, 40, 3)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["render", "missing.obj"], "no such mesh file"),
+    (["render", "--algo", "painter", "--out", "none"], "unknown algorithm 'painter'"),
+    (["render", "--size", "0x10", "--out", "none"], "must be positive"),
+])
+def test_errors_are_reported_not_raised(args, message, capsys):
+    assert main(args) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_bad_size_syntax_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit):
+        main(["render", "--size", "big"])
+    assert "size must look like 800x600" in capsys.readouterr().err
+
+
+def test_algorithms_lists_the_registry(capsys):
+    assert main(["algorithms"]) == 0
+    assert capsys.readouterr().out.startswith("zbuffer ")

@@ -1,0 +1,61 @@
+"""Every registered algorithm equals the numpy reference, bit for bit."""
+
+import numpy as np
+import pytest
+
+import zbuffer
+from helpers import (ALGORITHMS, TRIANGLE_COUNTERS, assert_same_visibility,
+                      counters_add_up)
+
+SCENES = ["default", "boxes", "interpenetrating", "coplanar", "fan", "soup", "square"]
+
+
+def cameras(mesh, aspect):
+    yield "persp", zbuffer.Camera.fit(mesh, direction=(0.3, 0.4, 1.0), aspect=aspect)
+    yield "ortho", zbuffer.Camera.fit(mesh, direction=(-0.5, 0.2, 1.0), aspect=aspect,
+                                      projection="orthographic")
+    # Close up: big triangles, some leaving the image.
+    c, r = mesh.bounding_sphere
+    yield "close", zbuffer.Camera.look_at(c + np.array([0.2, 0.3, 1.1]) * r, c, fov_y=70)
+
+
+@pytest.mark.parametrize("algo", ALGORITHMS)
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("cull", [False, True], ids=["cull_off", "cull_on"])
+def test_algorithm_equals_reference(procedural_scenes, algo, scene, cull):
+    mesh = procedural_scenes[scene]
+    width, height = 96, 72
+    for name, cam in cameras(mesh, width / height):
+        res = zbuffer.render(mesh, algo=algo, camera=cam, width=width, height=height,
+                             cull_backfaces=cull, shading="none")
+        ref = zbuffer.reference.render(mesh, camera=cam, width=width, height=height,
+                                       cull_backfaces=cull, shading="none")
+        assert_same_visibility(res, ref)
+        assert res.mask.any(), f"{scene}/{name} drew nothing: the test would prove nothing"
+        for key in TRIANGLE_COUNTERS:
+            assert res.stats[key] == ref.stats[key], (name, key)
+        assert counters_add_up(res.stats)
+        assert counters_add_up(ref.stats)
+
+
+@pytest.mark.parametrize("algo", ALGORITHMS)
+def test_pixel_counters_match_reference_for_plain_zbuffer(procedural_scenes, algo):
+    # The plain Z-buffer visits each triangle's whole box, as the reference does.
+    if algo != "zbuffer":
+        pytest.skip("only the plain Z-buffer visits the reference's pixels")
+    mesh = procedural_scenes["default"]
+    res = zbuffer.render(mesh, algo=algo, width=120, height=90, shading="none")
+    ref = zbuffer.reference.render(mesh, width=120, height=90, shading="none")
+    assert res.stats["pixels_tested"] == ref.stats["pixels_tested"]
+    assert res.stats["pixels_covered"] == ref.stats["pixels_covered"]
+    assert 0 < res.stats["pixels_written"] <= res.stats["pixels_covered"]
+
+
+def test_depth_range_and_empty_pixels(procedural_scenes):
+    res = zbuffer.render(procedural_scenes["default"], width=64, height=48, shading="none")
+    drawn = res.triangle_id >= 0
+    assert drawn.any() and (~drawn).any()
+    assert np.all(np.isinf(res.depth[~drawn]))
+    assert np.all((res.depth[drawn] >= 0.0) & (res.depth[drawn] <= 1.0))
+    assert res.depth.dtype == np.float32 and res.triangle_id.dtype == np.int32
+    assert res.triangle_id.max() < len(procedural_scenes["default"].faces)

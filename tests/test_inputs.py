@@ -1,0 +1,89 @@
+"""Every accepted mesh type renders the same; files load in every format."""
+
+import numpy as np
+import pytest
+import trimesh
+
+import zbuffer
+from zbuffer import scenes
+
+
+def test_all_input_types_give_the_same_result(tmp_path):
+    v, f = scenes.torus()
+    v = np.round(v * 64) / 64  # exact in float32 PLY and in OBJ's decimal text
+    cam = zbuffer.Camera.look_at((0.5, 2, 3), (0, 0, 0))
+    expected = zbuffer.render((v, f), camera=cam, width=48, height=40, shading="none")
+    path = tmp_path / "torus.ply"
+    trimesh.Trimesh(v, f, process=False).export(path)
+    inputs = {
+        "Mesh": zbuffer.Mesh(v, f),
+        "tuple": (v, f),
+        "lists": (v.tolist(), f.tolist()),
+        "float32": (v.astype(np.float32).astype(np.float64), f.astype(np.uint16)),
+        "Trimesh": trimesh.Trimesh(v, f, process=False),
+        "Scene": trimesh.Scene([trimesh.Trimesh(v, f, process=False)]),
+        "path": str(path),
+        "Path": path,
+    }
+    for name, mesh in inputs.items():
+        res = zbuffer.render(mesh, camera=cam, width=48, height=40, shading="none")
+        np.testing.assert_array_equal(res.triangle_id, expected.triangle_id, err_msg=name)
+        np.testing.assert_array_equal(res.depth, expected.depth, err_msg=name)
+
+
+def test_pyvista_polydata_is_triangulated():
+    pv = pytest.importorskip("pyvista")
+    cube = pv.Cube()  # six quads
+    res = zbuffer.render(cube, width=32, height=32, shading="none")
+    assert res.stats["triangles_in"] == 12
+    assert res.mask.any()
+    pts = pv.PolyData(np.random.default_rng(0).uniform(size=(5, 3)))  # no faces
+    assert not zbuffer.render(pts, width=8, height=8, shading="none").mask.any()
+
+
+def test_scene_is_concatenated_with_colours():
+    a = trimesh.creation.box()
+    a.visual.face_colors = [255, 0, 0, 255]
+    b = trimesh.creation.icosphere()
+    b.apply_translation([3, 0, 0])
+    scene = trimesh.Scene([a, b])
+    mesh = zbuffer.as_mesh(scene)
+    assert len(mesh.faces) == len(a.faces) + len(b.faces)
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply", "stl", "off", "glb"])
+def test_load_round_trips_through_formats(tmp_path, ext):
+    v, f = scenes.box((0.5, 0, 0), (1, 2, 3))
+    path = tmp_path / f"box.{ext}"
+    trimesh.Trimesh(v, f, process=False).export(path)
+    mesh = zbuffer.load(path)
+    cam = zbuffer.Camera.look_at((2, 3, 4), (0.5, 0, 0))
+    a = zbuffer.render(mesh, camera=cam, width=40, height=30, shading="none")
+    b = zbuffer.render((v, f), camera=cam, width=40, height=30, shading="none")
+    np.testing.assert_array_equal(a.depth, b.depth)
+    assert len(mesh.faces) == 12
+
+
+def test_merging_vertices_keeps_face_order_and_ids():
+    v, f = scenes.box()
+    split = v[f].reshape(-1, 3)  # every corner its own vertex
+    unmerged = zbuffer.Mesh(split, np.arange(len(split)).reshape(-1, 3))
+    merged = unmerged.merged()
+    assert len(merged.vertices) == 8
+    np.testing.assert_array_equal(merged.vertices[merged.faces], unmerged.vertices[unmerged.faces])
+
+
+def test_mesh_arrays_are_read_only_and_not_copied_needlessly():
+    v, f = scenes.box()
+    f = f.astype(np.int32)
+    mesh = zbuffer.Mesh(v, f)
+    assert np.shares_memory(mesh.vertices, v) and np.shares_memory(mesh.faces, f)
+    with pytest.raises(ValueError):
+        mesh.vertices[0, 0] = 1.0
+
+
+def test_vertex_normals_point_outwards():
+    v, f = scenes.uv_sphere(radius=2.0)
+    mesh = zbuffer.Mesh(v, f)
+    np.testing.assert_allclose(np.linalg.norm(mesh.vertex_normals, axis=1), 1.0)
+    assert (np.einsum("ij,ij->i", mesh.vertex_normals, v) > 0).all()
