@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 
 #include "zbuffer/conventions.h"
+#include "zbuffer/raster.h"
 
 namespace py = pybind11;
 
@@ -17,6 +18,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("MAX_IMAGE_SIDE") = zbuffer::kMaxImageSide;
   m.attr("MAX_IMAGE_PIXELS") = zbuffer::kMaxImagePixels;
   m.attr("GUARD_BAND_PX") = zbuffer::kGuardBandPx;
+  m.attr("RASTER_BACKEND") = zbuffer::raster_backend();
   zbuffer_py::bind_render(m);
   zbuffer_py::bind_shading(m);
 }

@@ -31,8 +31,7 @@ void render_zbuffer(const RenderInput& input, DepthTarget& target, RenderStats& 
     assemble_triangle(input.mesh, input.mvp, vp, screen.data(), f,
                       input.cull_backfaces, stats, [&](const ScreenTriangle& tri) {
                         ++stats.rasterized;
-                        rasterize(setup_triangle(tri, target.width, target.height),
-                                  target, stats);
+                        rasterize_triangle(tri, target, stats);
                       });
   }
   stats.raster_ms += ms_since(t0);

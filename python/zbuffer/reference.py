@@ -286,13 +286,14 @@ def rasterize(tris: ScreenTriangles, width: int, height: int
     dy = [y[:, (k + 2) % 3] - ay[k] for k in range(3)]
     top_left = [(dy[k] < 0) | ((dy[k] == 0) & (dx[k] > 0)) for k in range(3)]
 
-    # Depth plane: z = z0 + (w1 * a1 + w2 * a2), clamped to [min z, max z].
+    # Depth plane: coefficients in float64 rounded once to float32; per pixel
+    # z = z0 + (float32(w1) * a1 + float32(w2) * a2) in float32, clamped.
     inv_area = 1.0 / tris.area.astype(np.float64)
-    z0 = z[:, 0]
-    a1 = (z[:, 1] - z0) * inv_area
-    a2 = (z[:, 2] - z0) * inv_area
-    z_lo = z.min(axis=1)
-    z_hi = z.max(axis=1)
+    z0 = z[:, 0].astype(np.float32)
+    a1 = ((z[:, 1] - z[:, 0]) * inv_area).astype(np.float32)
+    a2 = ((z[:, 2] - z[:, 0]) * inv_area).astype(np.float32)
+    z_lo = z.min(axis=1).astype(np.float32)
+    z_hi = z.max(axis=1).astype(np.float32)
 
     # Keys: float32 depth bits (non-negative floats order like their bits)
     # above the id, so that one minimum is "nearer, then smaller id".
@@ -328,10 +329,11 @@ def rasterize(tris: ScreenTriangles, width: int, height: int
         w1, w2 = w[1][inside], w[2][inside]
         stats["pixels_covered"] += len(t)
 
-        zf = z0[t] + (w1.astype(np.float64) * a1[t] + w2.astype(np.float64) * a2[t])
+        zf = z0[t] + (w1.astype(np.float32) * a1[t] + w2.astype(np.float32) * a2[t])
         zf = np.where(zf < z_lo[t], z_lo[t], zf)
         zf = np.where(zf > z_hi[t], z_hi[t], zf)
-        bits = zf.astype(np.float32).view(np.uint32).astype(np.uint64)
+        assert zf.dtype == np.float32  # every operation above was a float32 one
+        bits = zf.view(np.uint32).astype(np.uint64)
         key = (bits << np.uint64(32)) | tris.id[t].astype(np.uint64)
         np.minimum.at(keys, j * width + i, key)
         start = stop

@@ -40,7 +40,8 @@ inline bool is_top_left(int64_t dx, int64_t dy) {
 // Design decision: edge functions as integer start values at the pixel centre
 // (x_min, y_min) of the clamped box plus integer steps per pixel. Good: exact
 // incremental evaluation, identical to evaluating the written formula at every
-// pixel. Bad: int64 arithmetic in the inner loop (values reach 2^51).
+// pixel. Bad: values reach 2^51, so the general loop needs int64 lanes; the
+// vector loop switches to int32 lanes when a triangle's box allows it.
 struct TriangleSetup {
   // Pixel box, clamped to the image; empty if x_min > x_max or y_min > y_max.
   int x_min, y_min, x_max, y_max;
@@ -50,9 +51,9 @@ struct TriangleSetup {
   int64_t step_x[3];  // change of w_k from pixel i to i + 1
   int64_t step_y[3];  // change of w_k from row j to j + 1
   int64_t bias[3];    // w_k = biased w_k + bias[k]  (0 or 1)
-  // Depth: z = z0 + (double(w1) * a1 + double(w2) * a2), clamped.
-  double z0, a1, a2, z_lo, z_hi;
-  float z_min_f;  // float(z_lo): no pixel of the triangle stores less
+  // Depth: z = z0 + (float(w1) * a1 + float(w2) * a2) in float32, clamped
+  // to [z_lo, z_hi]. z_lo is the bound culling may use: no pixel is nearer.
+  float z0, a1, a2, z_lo, z_hi;
   int32_t id;
 };
 
@@ -84,25 +85,26 @@ inline TriangleSetup setup_triangle(const ScreenTriangle& t, int width, int heig
     s.step_y[k] = dx * kSubpixelScale;
   }
 
-  // Depth plane in barycentric form.
+  // Depth plane in barycentric form: coefficients in double, rounded once
+  // to float for the per-pixel evaluation.
   const double z0 = t.v[0].z, z1 = t.v[1].z, z2 = t.v[2].z;
   const double inv_area = 1.0 / double(t.area);
-  s.z0 = z0;
-  s.a1 = (z1 - z0) * inv_area;
-  s.a2 = (z2 - z0) * inv_area;
-  s.z_lo = std::min({z0, z1, z2});
-  s.z_hi = std::max({z0, z1, z2});
-  s.z_min_f = float(s.z_lo);
+  s.z0 = float(z0);
+  s.a1 = float((z1 - z0) * inv_area);
+  s.a2 = float((z2 - z0) * inv_area);
+  s.z_lo = float(std::min({z0, z1, z2}));
+  s.z_hi = float(std::max({z0, z1, z2}));
   s.id = t.id;
   return s;
 }
 
-// The one depth formula. w1, w2 are the exact (unbiased) edge values.
+// The one depth formula. w1, w2 are the exact (unbiased) edge values; each
+// operation is one float32 IEEE operation (float(w) rounds to nearest even).
 inline float depth_at(const TriangleSetup& s, int64_t w1, int64_t w2) {
-  double z = s.z0 + (double(w1) * s.a1 + double(w2) * s.a2);
+  float z = s.z0 + (float(w1) * s.a1 + float(w2) * s.a2);
   z = (z < s.z_lo) ? s.z_lo : z;
   z = (z > s.z_hi) ? s.z_hi : z;
-  return float(z);
+  return z;
 }
 
 // The one depth write: smaller depth wins, an exact tie goes to the smaller id.
@@ -117,14 +119,22 @@ inline bool depth_write(float* depth, int32_t* ids, size_t p, float z, int32_t i
 }
 
 // Rasterize the part of a triangle inside the pixel rectangle
-// [x0, x1] x [y0, y1] (inclusive, already inside the triangle's box).
+// [x0, x1] x [y0, y1] (inclusive, already inside the triangle's box), with
+// the fastest loop this build has (see raster_backend()).
 void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                     DepthTarget& target, RenderStats& stats);
 
-// Rasterize the whole triangle (its box).
-inline void rasterize(const TriangleSetup& s, DepthTarget& target, RenderStats& stats) {
-  if (s.x_min > s.x_max || s.y_min > s.y_max) return;
-  rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target, stats);
-}
+// The plain scalar loop, one pixel at a time: the literal form of the rules,
+// kept callable so that tests can hold the vector loop to it.
+void rasterize_rect_scalar(const TriangleSetup& s, int x0, int y0, int x1, int y1,
+                           DepthTarget& target, RenderStats& stats);
+
+// "avx512" or "scalar": which loop rasterize_rect runs in this build.
+const char* raster_backend();
+
+// Set up and rasterize a whole triangle (its box): what the plain Z-buffer
+// does for every triangle. Keeping the setup inside the call lets it stay in
+// registers.
+void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats);
 
 }  // namespace zbuffer
