@@ -4,13 +4,17 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "array_checks.h"
 #include "zbuffer/algorithms.h"
 #include "zbuffer/conventions.h"
 #include "zbuffer/mesh_checks.h"
+#include "zbuffer/mesh_order.h"
 
 namespace zbuffer_py {
 
@@ -72,8 +76,29 @@ py::dict stats_dict(const zbuffer::RenderStats& s) {
   return d;
 }
 
+// The depth and id planes, as two C-contiguous (H, W) arrays in one block.
+// Their start addresses differ by 2 KiB modulo 4 KiB: at widths that are a
+// multiple of 1024 pixels every row of both planes would otherwise fall in
+// the same L1 cache set, and a triangle's rows would evict each other.
+std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height) {
+  const size_t n = size_t(width) * size_t(height);
+  py::array_t<uint8_t> block(py::ssize_t(2 * 4 * n + 4096 + 64));
+  uint8_t* base = block.mutable_data();
+  const size_t depth_at = (64 - reinterpret_cast<uintptr_t>(base) % 64) % 64;
+  const uintptr_t depth_addr = reinterpret_cast<uintptr_t>(base) + depth_at;
+  const uintptr_t ids_min = depth_addr + 4 * n;
+  const uintptr_t want = (depth_addr + 2048) % 4096;
+  const uintptr_t ids_addr = ids_min + (want - ids_min % 4096 + 4096) % 4096;
+  const std::vector<py::ssize_t> shape = {height, width};
+  const std::vector<py::ssize_t> strides = {py::ssize_t(4) * width, 4};
+  py::array_t<float> depth(shape, strides, reinterpret_cast<float*>(depth_addr), block);
+  py::array_t<int32_t> ids(shape, strides, reinterpret_cast<int32_t*>(ids_addr), block);
+  return {depth, ids};
+}
+
 py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_obj,
-                 int width, int height, const std::string& algo, bool cull_backfaces) {
+                 int width, int height, const std::string& algo, bool cull_backfaces,
+                 py::handle face_ids_obj) {
   const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
   if (!algorithm)
     throw py::value_error("unknown algorithm \"" + algo + "\"; valid names are " +
@@ -85,6 +110,16 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
 
   zbuffer::RenderInput input;
   input.mesh = mesh_view(positions, faces);
+  py::array_t<int32_t> face_ids;
+  if (!face_ids_obj.is_none()) {
+    face_ids = require_array<int32_t>(face_ids_obj, "face_ids", {input.mesh.n_faces});
+    const int32_t* id = face_ids.data();
+    for (int64_t f = 0; f < input.mesh.n_faces; ++f)
+      if (id[f] < 0)
+        throw py::value_error("face_ids must be >= 0, got " + std::to_string(id[f]) +
+                              " at " + std::to_string(f));
+    input.mesh.face_ids = id;
+  }
   for (int k = 0; k < 16; ++k) {
     input.mvp[k] = mvp.data()[k];
     if (!std::isfinite(input.mvp[k]))
@@ -93,8 +128,7 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   input.cull_backfaces = cull_backfaces;
 
   // Outputs are the user's arrays: written in place, handed over uncopied.
-  py::array_t<float> depth({py::ssize_t(height), py::ssize_t(width)});
-  py::array_t<int32_t> ids({py::ssize_t(height), py::ssize_t(width)});
+  auto [depth, ids] = allocate_planes(width, height);
   zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
   zbuffer::RenderStats stats;
   {
@@ -118,8 +152,25 @@ void bind_render(py::module_& m) {
       "List of (name, summary) of the registered depth algorithms.");
   m.def("render", &render, py::arg("positions"), py::arg("faces"), py::arg("mvp"),
         py::arg("width"), py::arg("height"), py::arg("algo") = "zbuffer",
-        py::arg("cull_backfaces") = false,
-        "Render depth and triangle ids; returns (depth, triangle_id, stats).");
+        py::arg("cull_backfaces") = false, py::arg("face_ids") = py::none(),
+        "Render depth and triangle ids; returns (depth, triangle_id, stats). With face_ids,\n"
+        "face f is reported as face_ids[f] (faces passed in another order).");
+  m.def(
+      "spatial_order",
+      [](py::handle positions_obj, py::handle faces_obj) {
+        auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
+        auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
+        const zbuffer::MeshView mesh = mesh_view(positions, faces);
+        py::array_t<int32_t> order(py::ssize_t(mesh.n_faces));
+        int32_t* out = order.mutable_data();
+        {
+          py::gil_scoped_release release;
+          zbuffer::spatial_order(mesh, out);
+        }
+        return order;
+      },
+      py::arg("positions"), py::arg("faces"),
+      "Permutation of the faces along a Z-order curve of their centroids (int32).");
 }
 
 }  // namespace zbuffer_py

@@ -7,20 +7,7 @@
 // run whichever the build selected against the numpy reference.
 #include "zbuffer/raster.h"
 
-#if defined(__AVX512F__) && defined(__AVX512DQ__) && defined(__AVX512VL__)
-#if defined(__GNUC__) && !defined(__clang__)
-// GCC 12's own avx512fintrin.h trips this warning (_mm512_undefined_*).
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-#include <immintrin.h>
-#define ZBUFFER_RASTER_AVX512 1
-#endif
-
-#if defined(__GNUC__)
-#define ZBUFFER_INLINE inline __attribute__((always_inline))
-#else
-#define ZBUFFER_INLINE inline
-#endif
+#include "simd.h"
 
 namespace zbuffer {
 
@@ -64,7 +51,7 @@ void rasterize_rect_scalar(const TriangleSetup& s, int x0, int y0, int x1, int y
 
 namespace {
 
-#ifdef ZBUFFER_RASTER_AVX512
+#ifdef ZBUFFER_AVX512
 
 // The Vector Loops
 //
@@ -74,31 +61,8 @@ namespace {
 // an instruction. Lanes outside the rectangle are masked off, and masked
 // loads and stores never touch memory outside the row.
 
-// Depth write of 8 pixels: nearer, or equal with a smaller id.
-ZBUFFER_INLINE __mmask8 write8(__mmask8 inside, __m256 z, __m256i id, float* d_ptr, int32_t* id_ptr) {
-  const __m256 d = _mm256_mask_loadu_ps(_mm256_setzero_ps(), inside, d_ptr);
-  const __m256i ids = _mm256_mask_loadu_epi32(_mm256_setzero_si256(), inside, id_ptr);
-  const __mmask8 nearer = _mm256_mask_cmp_ps_mask(inside, z, d, _CMP_LT_OQ);
-  const __mmask8 tie =
-      _mm256_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ) & _mm256_cmplt_epi32_mask(id, ids);
-  const __mmask8 win = nearer | tie;
-  _mm256_mask_storeu_ps(d_ptr, win, z);
-  _mm256_mask_storeu_epi32(id_ptr, win, id);
-  return win;
-}
-
-// Depth write of 16 pixels.
-ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* d_ptr, int32_t* id_ptr) {
-  const __m512 d = _mm512_mask_loadu_ps(_mm512_setzero_ps(), inside, d_ptr);
-  const __m512i ids = _mm512_mask_loadu_epi32(_mm512_setzero_si512(), inside, id_ptr);
-  const __mmask16 nearer = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_LT_OQ);
-  const __mmask16 tie =
-      _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ) & _mm512_cmplt_epi32_mask(id, ids);
-  const __mmask16 win = nearer | tie;
-  _mm512_mask_storeu_ps(d_ptr, win, z);
-  _mm512_mask_storeu_epi32(id_ptr, win, id);
-  return win;
-}
+using simd::write8;
+using simd::write16;
 
 // The common case: every edge value in the rectangle fits in int32, so 16
 // pixels share each instruction. A box at most 8 pixels wide is walked two
@@ -286,7 +250,7 @@ ZBUFFER_INLINE void rasterize_rect_avx512(const TriangleSetup& s, int x0, int y0
 void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats) {
   const TriangleSetup s = setup_triangle(t, target.width, target.height);
   if (s.x_min > s.x_max || s.y_min > s.y_max) return;
-#ifdef ZBUFFER_RASTER_AVX512
+#ifdef ZBUFFER_AVX512
   rasterize_rect_avx512(s, s.x_min, s.y_min, s.x_max, s.y_max, target, stats);
 #else
   rasterize_rect_scalar(s, s.x_min, s.y_min, s.x_max, s.y_max, target, stats);
@@ -294,7 +258,7 @@ void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStat
 }
 
 const char* raster_backend() {
-#ifdef ZBUFFER_RASTER_AVX512
+#ifdef ZBUFFER_AVX512
   return "avx512";
 #else
   return "scalar";
@@ -303,7 +267,7 @@ const char* raster_backend() {
 
 void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                     DepthTarget& target, RenderStats& stats) {
-#ifdef ZBUFFER_RASTER_AVX512
+#ifdef ZBUFFER_AVX512
   rasterize_rect_avx512(s, x0, y0, x1, y1, target, stats);
 #else
   rasterize_rect_scalar(s, x0, y0, x1, y1, target, stats);

@@ -1,22 +1,119 @@
 // Vertex stage: per-vertex transform and Sutherland-Hodgman clipping.
+//
+// transform_vertices has a scalar loop and an AVX-512 loop (8 vertices per
+// instruction). Both evaluate vertex_stage.h's formulas with the same IEEE
+// operations in the same order, so they produce the same bits.
 #include "zbuffer/vertex_stage.h"
 
 #include <cmath>
 
+#include "simd.h"
+
 namespace zbuffer {
 
-void transform_vertices(const MeshView& mesh, const double* mvp,
-                        const Viewport& vp, ScreenVertex* out) {
-  for (int64_t i = 0; i < mesh.n_vertices; ++i) {
-    const ClipVertex c = transform_point(mvp, mesh.positions + 3 * i);
-    const uint32_t oc = outcode(c, vp);
-    ScreenVertex s{};
-    // Vertices that need clipping get their window coordinates from the
-    // clipped polygon instead; theirs could be unbounded here.
-    if (!(oc & (kOutClip | kOutInvalid))) s = to_screen(c, vp);
-    s.outcode = oc;
-    out[i] = s;
+namespace {
+
+void transform_vertex(const MeshView& mesh, const double* mvp, const Viewport& vp, int64_t i,
+                      ScreenVertices& out) {
+  const ClipVertex c = transform_point(mvp, mesh.positions + 3 * i);
+  const uint32_t oc = outcode(c, vp);
+  ScreenVertex s{};
+  // Vertices that need clipping get their window coordinates from the
+  // clipped polygon instead; theirs could be unbounded here.
+  if (!(oc & (kOutClip | kOutInvalid))) s = to_screen(c, vp);
+  out.x_fx[i] = s.x_fx;
+  out.y_fx[i] = s.y_fx;
+  out.outcode[i] = oc;
+  out.z[i] = s.z;
+}
+
+#ifdef ZBUFFER_AVX512
+// Eight vertices: deinterleave xyz, transform, outcodes, divide, viewport,
+// snap. Lanes of vertices that need clipping or are invalid store zeros,
+// exactly as the scalar loop does.
+void transform_8(const double* p, const double* m, const Viewport& vp, int32_t* x_out,
+                 int32_t* y_out, uint32_t* oc_out, double* z_out) {
+  // Deinterleave 24 doubles (x0 y0 z0 x1 ...) into x, y and z.
+  const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8), c = _mm512_loadu_pd(p + 16);
+  const __m512d x = _mm512_permutex2var_pd(
+      _mm512_permutex2var_pd(a, _mm512_set_epi64(0, 0, 15, 12, 9, 6, 3, 0), b),
+      _mm512_set_epi64(13, 10, 5, 4, 3, 2, 1, 0), c);
+  const __m512d y = _mm512_permutex2var_pd(
+      _mm512_permutex2var_pd(a, _mm512_set_epi64(0, 0, 0, 13, 10, 7, 4, 1), b),
+      _mm512_set_epi64(14, 11, 8, 4, 3, 2, 1, 0), c);
+  const __m512d z = _mm512_permutex2var_pd(
+      _mm512_permutex2var_pd(a, _mm512_set_epi64(0, 0, 0, 14, 11, 8, 5, 2), b),
+      _mm512_set_epi64(15, 12, 9, 4, 3, 2, 1, 0), c);
+
+  // clip = mvp * (p, 1), each row summed left to right.
+  __m512d clip[4];
+  for (int r = 0; r < 4; ++r) {
+    const __m512d xy = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(m[4 * r]), x),
+                                     _mm512_mul_pd(_mm512_set1_pd(m[4 * r + 1]), y));
+    clip[r] = _mm512_add_pd(_mm512_add_pd(xy, _mm512_mul_pd(_mm512_set1_pd(m[4 * r + 2]), z)),
+                            _mm512_set1_pd(m[4 * r + 3]));
   }
+  const __m512d cx = clip[0], cy = clip[1], cz = clip[2], cw = clip[3];
+
+  // Outcodes, as outcode() computes them.
+  constexpr int kNanOrInf = 0x01 | 0x80 | 0x08 | 0x10;  // QNaN, SNaN, +inf, -inf
+  const __mmask8 invalid =
+      _mm512_fpclass_pd_mask(cx, kNanOrInf) | _mm512_fpclass_pd_mask(cy, kNanOrInf) |
+      _mm512_fpclass_pd_mask(cz, kNanOrInf) | _mm512_fpclass_pd_mask(cw, kNanOrInf);
+  const __m512d zero = _mm512_setzero_pd();
+  const __m512d gxw = _mm512_mul_pd(_mm512_set1_pd(vp.guard_x), cw);
+  const __m512d gyw = _mm512_mul_pd(_mm512_set1_pd(vp.guard_y), cw);
+  auto below_zero = [&](__m512d v) { return _mm512_cmp_pd_mask(v, zero, _CMP_LT_OQ); };
+  auto bit = [](__mmask8 k, uint32_t b) { return _mm256_maskz_set1_epi32(k, int(b)); };
+  __m256i oc = bit(below_zero(_mm512_add_pd(cx, cw)), kOutLeft);
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_sub_pd(cw, cx)), kOutRight));
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_add_pd(cy, cw)), kOutBottom));
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_sub_pd(cw, cy)), kOutTop));
+  const __mmask8 behind = _mm512_cmp_pd_mask(cw, zero, _CMP_NGT_UQ);  // !(w > 0)
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_add_pd(cz, cw)) | behind, kOutNear));
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_sub_pd(cw, cz)), kOutFar));
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_add_pd(cx, gxw)), kOutGuardLeft));
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_sub_pd(gxw, cx)), kOutGuardRight));
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_add_pd(cy, gyw)), kOutGuardBottom));
+  oc = _mm256_or_si256(oc, bit(below_zero(_mm512_sub_pd(gyw, cy)), kOutGuardTop));
+  oc = _mm256_mask_set1_epi32(oc, invalid, int(kOutInvalid));
+  const __mmask8 direct =
+      _mm256_testn_epi32_mask(oc, _mm256_set1_epi32(int(kOutClip | kOutInvalid)));
+
+  // Divide, viewport, clamp depth, snap (to_screen).
+  const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5);
+  const __m512d inv_w = _mm512_div_pd(one, cw);
+  const __m512d xn = _mm512_mul_pd(cx, inv_w);
+  const __m512d yn = _mm512_mul_pd(cy, inv_w);
+  const __m512d zn = _mm512_mul_pd(cz, inv_w);
+  const __m512d xw = _mm512_mul_pd(_mm512_add_pd(xn, one), _mm512_set1_pd(vp.half_w));
+  const __m512d yw = _mm512_mul_pd(_mm512_sub_pd(one, yn), _mm512_set1_pd(vp.half_h));
+  __m512d zw = _mm512_add_pd(_mm512_mul_pd(zn, half), half);
+  zw = _mm512_mask_mov_pd(zw, _mm512_cmp_pd_mask(zw, zero, _CMP_LT_OQ), zero);
+  zw = _mm512_mask_mov_pd(zw, _mm512_cmp_pd_mask(zw, one, _CMP_GT_OQ), one);
+  const __m512d scale = _mm512_set1_pd(double(kSubpixelScale));
+  // cvtpd_epi32 rounds in the current mode (to nearest even), like nearbyint.
+  const __m256i xf = _mm256_maskz_mov_epi32(direct, _mm512_cvtpd_epi32(_mm512_mul_pd(xw, scale)));
+  const __m256i yf = _mm256_maskz_mov_epi32(direct, _mm512_cvtpd_epi32(_mm512_mul_pd(yw, scale)));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(x_out), xf);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(y_out), yf);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(oc_out), oc);
+  _mm512_storeu_pd(z_out, _mm512_maskz_mov_pd(direct, zw));
+}
+#endif
+
+}  // namespace
+
+void transform_vertices(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                        ScreenVertices& out) {
+  out.resize(size_t(mesh.n_vertices));
+  int64_t i = 0;
+#ifdef ZBUFFER_AVX512
+  for (; i + 8 <= mesh.n_vertices; i += 8)
+    transform_8(mesh.positions + 3 * i, mvp, vp, &out.x_fx[i], &out.y_fx[i], &out.outcode[i],
+                &out.z[i]);
+#endif
+  for (; i < mesh.n_vertices; ++i) transform_vertex(mesh, mvp, vp, i, out);
 }
 
 int clip_polygon(ClipVertex* poly, int n, const Viewport& vp) {

@@ -100,8 +100,9 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         )
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
+    faces, face_ids = mesh.faces_for_render()
     depth, triangle_id, stats = _core.render(
-        mesh.vertices, mesh.faces, mvp, width, height, algo, bool(cull_backfaces))
+        mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces), face_ids)
     image = None
     shade_ms = 0.0
     if params.mode != "none":

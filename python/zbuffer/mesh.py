@@ -118,6 +118,8 @@ class Mesh:
         self.vertex_colors = _as_colors(vertex_colors, n, "vertex_colors")
         self.face_colors = _as_colors(face_colors, f.shape[0], "face_colors")
         self.name = name
+        self._renders = 0
+        self._visit = None  # (faces in a cache-friendly order, their ids)
 
     def __repr__(self) -> str:
         name = f" {self.name!r}" if self.name else ""
@@ -156,6 +158,33 @@ class Mesh:
             np.add.at(acc, self.faces[:, k], area_normals)
         length = np.linalg.norm(acc, axis=1, keepdims=True)
         return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+
+    # Meshes at least this large get a cache-friendly visiting order.
+    _ORDER_MIN_FACES = 2048
+
+    def prepare(self) -> "Mesh":
+        """Compute the cache-friendly order the compiled algorithms visit the
+        faces in (a Z-order curve through their centroids; about 2 ms per 100k
+        faces) now rather than at the second render. Results never depend on
+        it: only speed does. Returns the mesh itself."""
+        if self._visit is None and len(self.faces) >= self._ORDER_MIN_FACES:
+            from . import _core
+
+            order = _core.spatial_order(self.vertices, self.faces)
+            self._visit = (_readonly(np.ascontiguousarray(self.faces[order])), _readonly(order))
+        return self
+
+    def faces_for_render(self):
+        """((M, 3) int32 faces, (M,) int32 ids or None) in the order the
+        compiled algorithms visit them. The order is computed on the second
+        render of the same Mesh (or by :meth:`prepare`), so that one-off
+        renders of temporary meshes do not pay for it."""
+        self._renders += 1
+        if self._visit is None and self._renders >= 2:
+            self.prepare()
+        if self._visit is None:
+            return self.faces, None
+        return self._visit
 
     @classmethod
     def from_trimesh(cls, tm, name: Optional[str] = None) -> "Mesh":
@@ -202,7 +231,8 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     Returns
     -------
     Mesh
-        Polygons are triangulated by trimesh; scenes are concatenated.
+        Polygons are triangulated by trimesh; scenes are concatenated. The
+        mesh is :meth:`~Mesh.prepare`-d for fast repeated rendering.
 
     Raises
     ------
@@ -228,7 +258,9 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
                          "non-empty file (malformed or unsupported content)")
     mesh = Mesh.from_trimesh(tm, name=os.path.basename(path))
-    return mesh.merged() if merge_vertices else mesh
+    if merge_vertices:
+        mesh = mesh.merged()
+    return mesh.prepare()
 
 
 def _has_content(path: str) -> bool:

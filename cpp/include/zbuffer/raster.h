@@ -129,12 +129,11 @@ void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
 void rasterize_rect_scalar(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                            DepthTarget& target, RenderStats& stats);
 
-// "avx512" or "scalar": which loop rasterize_rect runs in this build.
-const char* raster_backend();
-
-// Set up and rasterize a whole triangle (its box): what the plain Z-buffer
-// does for every triangle. Keeping the setup inside the call lets it stay in
-// registers.
+// Set up and rasterize a whole triangle (its box). Algorithms that draw many
+// triangles use a TriangleBatch (triangle_batch.h), which is faster.
 void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats);
+
+// "avx512" or "scalar": which loops this build runs.
+const char* raster_backend();
 
 }  // namespace zbuffer

@@ -12,11 +12,18 @@ namespace zbuffer {
 // int32 faces. Good: numpy arrays pass through without copies and every
 // algorithm sees the same input. Bad: int32 caps meshes at 2^31 - 1 vertices,
 // and the caller must keep the arrays alive and valid (check_mesh does that).
+//
+// face_ids, if set, gives the id written for each face: an algorithm may then
+// be handed the faces in another order (mesh_order.h) and still report the
+// caller's face indices.
 struct MeshView {
   const double* positions = nullptr;  // (n_vertices, 3) world space
   int64_t n_vertices = 0;
   const int32_t* faces = nullptr;     // (n_faces, 3) vertex indices
   int64_t n_faces = 0;
+  const int32_t* face_ids = nullptr;  // (n_faces,) or nullptr: face f has id f
+
+  int32_t id(int64_t f) const { return face_ids ? face_ids[f] : int32_t(f); }
 };
 
 // The output of visibility: depth and triangle id per pixel, row-major (H, W).

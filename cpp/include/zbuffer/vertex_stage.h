@@ -28,6 +28,27 @@ struct ScreenVertex {
   double z;
 };
 
+// The transformed vertices of a mesh.
+// Design decision: structure of arrays. Good: the vector vertex stage stores
+// and the vector triangle setup gathers one field for 16 vertices at a time.
+// Bad: scalar code touches four arrays per vertex.
+struct ScreenVertices {
+  std::vector<int32_t> x_fx, y_fx;
+  std::vector<uint32_t> outcode;
+  std::vector<double> z;
+
+  // Make room for n vertices. Growing never shrinks, so a buffer reused
+  // across frames is allocated once.
+  void resize(size_t n) {
+    if (x_fx.size() >= n) return;
+    x_fx.resize(n);
+    y_fx.resize(n);
+    outcode.resize(n);
+    z.resize(n);
+  }
+  ScreenVertex operator[](int64_t i) const { return {x_fx[i], y_fx[i], outcode[i], z[i]}; }
+};
+
 // A triangle ready for the raster core: counter-clockwise on screen with y
 // down, i.e. area > 0 (see raster.h), so inside means all edge values >= 0.
 struct ScreenTriangle {
@@ -125,10 +146,11 @@ inline ScreenVertex to_screen(const ClipVertex& c, const Viewport& vp) {
   return s;
 }
 
-// Transform every vertex of the mesh: outcodes for all, window coordinates for
-// those that need neither clipping nor are invalid. out must hold mesh.n_vertices entries.
+// Transform every vertex of the mesh: outcodes for all, window coordinates
+// for those that need neither clipping nor are invalid (the others get 0).
+// Grows out to at least mesh.n_vertices entries.
 void transform_vertices(const MeshView& mesh, const double* mvp,
-                        const Viewport& vp, ScreenVertex* out);
+                        const Viewport& vp, ScreenVertices& out);
 
 // Clip Space Polygon Clipping
 
@@ -204,13 +226,13 @@ inline bool make_triangle(const ScreenVertex& a, const ScreenVertex& b,
 // Pieces keep the face's id.
 template <class Emit>
 inline void assemble_triangle(const MeshView& mesh, const double* mvp,
-                              const Viewport& vp, const ScreenVertex* sv,
+                              const Viewport& vp, const ScreenVertices& sv,
                               int64_t f, bool cull_backfaces,
                               RenderStats& stats, Emit&& emit) {
   const int32_t* idx = mesh.faces + 3 * f;
-  const ScreenVertex& a = sv[idx[0]];
-  const ScreenVertex& b = sv[idx[1]];
-  const ScreenVertex& c = sv[idx[2]];
+  const ScreenVertex a = sv[idx[0]];
+  const ScreenVertex b = sv[idx[1]];
+  const ScreenVertex c = sv[idx[2]];
   const uint32_t all_out = a.outcode & b.outcode & c.outcode;
   const uint32_t any_out = a.outcode | b.outcode | c.outcode;
   if (any_out & kOutInvalid) {
@@ -221,7 +243,7 @@ inline void assemble_triangle(const MeshView& mesh, const double* mvp,
     ++stats.culled_frustum;
     return;
   }
-  const int32_t id = static_cast<int32_t>(f);
+  const int32_t id = mesh.id(f);
   ScreenTriangle tri;
   if (!(any_out & kOutClip)) {  // the common case: no clipping
     if (make_triangle(a, b, c, id, cull_backfaces, tri, stats)) emit(tri);

@@ -1,0 +1,95 @@
+// Triangle batches: the fast path from faces to pixels.
+//
+// A batch takes faces (or already assembled triangles), runs the vertex
+// stage's assembly and the raster core's setup on them, and draws them with
+// the raster core. It changes nothing about *what* is drawn: the rules are
+// those of vertex_stage.h and raster.h, and the depth write makes the result
+// independent of the order triangles are drawn in. It changes *how fast*.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "zbuffer/raster.h"
+#include "zbuffer/types.h"
+#include "zbuffer/vertex_stage.h"
+
+namespace zbuffer {
+
+// Design decision: set-up triangles are kept in structure-of-arrays storage
+// and sorted into four groups of small boxes (at most 8 pixels wide and 2, 4,
+// 6 or 8 rows tall, edge values in int32), each drawn by a loop of fixed
+// length; any other triangle keeps its full TriangleSetup and goes through
+// rasterize_rect. With AVX-512, sixteen faces are assembled and set up per
+// instruction. Good: no branch mispredicted per triangle (a per-triangle box
+// loop has a varying trip count, and in a detailed mesh about half the faces
+// are front faces and half back faces), and setting up one triangle never
+// waits for the previous one to be drawn. Bad: triangles are drawn in another
+// order than they come in -- harmless for depth and ids, but pixels_written
+// depends on it -- and a batch holds about 40 KB.
+class TriangleBatch {
+ public:
+  static constexpr int kCapacity = 512;
+
+  TriangleBatch(DepthTarget& target, RenderStats& stats);
+  TriangleBatch(const TriangleBatch&) = delete;
+  TriangleBatch& operator=(const TriangleBatch&) = delete;
+
+  // Assemble faces [begin, end) of the mesh (vertex_stage.h: culling,
+  // clipping, orientation) and add what survives, counting it in stats.
+  void add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                 const ScreenVertices& sv, int64_t begin, int64_t end, bool cull_backfaces);
+
+  // Add one assembled triangle (area > 0); the caller counts it.
+  void add(const ScreenTriangle& t);
+
+  // Draw everything added so far and empty the batch. Call before reading
+  // the target.
+  void flush();
+
+ private:
+  static constexpr int kGroups = 4;      // boxes of up to 8 x 2, 4, 6, 8 pixels
+  static constexpr int kSlack = 16;      // vector stores write 16 entries
+  static constexpr int kSmallExtentFx = 8 * kSubpixelScale;  // "small": < 8 px
+
+  void add_small(int32_t x0, int32_t y0, int32_t box_w, int32_t box_h,
+                 const TriangleSetup& s);
+  template <int kPasses>
+  void draw_group(int group, int64_t& covered, int64_t& written);
+  // Vector assembly and setup of faces first .. first + 15 (AVX-512 builds).
+  void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                    const ScreenVertices& sv, int64_t first, bool cull_backfaces);
+
+  DepthTarget& target_;
+  RenderStats& stats_;
+
+  // Small boxes, structure of arrays. Edge values are exact, unbiased, and
+  // taken at the centre of the box's first pixel; w0 = area - w1 - w2.
+  int n_small_ = 0;
+  int64_t small_tested_ = 0;
+  alignas(64) int32_t x0_[kCapacity + kSlack], y0_[kCapacity + kSlack];
+  alignas(64) int32_t box_w_[kCapacity + kSlack], box_h_[kCapacity + kSlack];
+  alignas(64) int32_t w1_[kCapacity + kSlack], w2_[kCapacity + kSlack];
+  alignas(64) int32_t area_b0_[kCapacity + kSlack];  // area minus edge 0's bias
+  alignas(64) int32_t sx1_[kCapacity + kSlack], sx2_[kCapacity + kSlack];  // steps in x
+  alignas(64) int32_t sy1_[kCapacity + kSlack], sy2_[kCapacity + kSlack];  // steps in y
+  alignas(64) int32_t bias1_[kCapacity + kSlack], bias2_[kCapacity + kSlack];
+  alignas(64) float z0_[kCapacity + kSlack], a1_[kCapacity + kSlack], a2_[kCapacity + kSlack];
+  alignas(64) float z_lo_[kCapacity + kSlack], z_hi_[kCapacity + kSlack];
+  alignas(64) int32_t id_[kCapacity + kSlack];
+  uint16_t group_[kGroups][kCapacity + kSlack];
+  int group_size_[kGroups] = {0, 0, 0, 0};
+
+  // Where the passes of a box point rows that lie past its end: masked-off
+  // loads and stores must still not share an address with real pixels, or
+  // each waits for the previous triangle's stores to retire. A ring of lines
+  // keeps them apart from each other too.
+  static constexpr int kSpareRows = 16;
+  alignas(64) float spare_depth_[kSpareRows][16] = {};
+  alignas(64) int32_t spare_ids_[kSpareRows][16] = {};
+
+  // Everything else: large or wide boxes, int64 edge values.
+  std::vector<TriangleSetup> large_;
+};
+
+}  // namespace zbuffer

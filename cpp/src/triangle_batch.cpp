@@ -1,0 +1,453 @@
+// Triangle batches: assembly, setup and drawing, grouped by box shape.
+//
+// The scalar paths call vertex_stage.h's assemble_triangle and raster.h's
+// setup_triangle. The AVX-512 paths compute the same integers exactly (all
+// fit in int32 or int64 lanes) and the same IEEE operations on z, so a face
+// ends up with the same edge values, thresholds and depth coefficients
+// whichever path set it up.
+#include "zbuffer/triangle_batch.h"
+
+#include <cstring>
+
+#include "simd.h"
+
+namespace zbuffer {
+
+TriangleBatch::TriangleBatch(DepthTarget& target, RenderStats& stats)
+    : target_(target), stats_(stats) {
+  large_.reserve(kCapacity);
+}
+
+// Scalar Entry Points
+
+void TriangleBatch::add(const ScreenTriangle& t) {
+  if (n_small_ + kSlack > kCapacity || large_.size() >= size_t(kCapacity)) flush();
+  const TriangleSetup s = setup_triangle(t, target_.width, target_.height);
+  const int bw = s.x_max - s.x_min + 1, bh = s.y_max - s.y_min + 1;
+  if (bw <= 0 || bh <= 0) return;  // no pixel centre in its box
+  int32_t lo_x = t.v[0].x_fx, hi_x = lo_x, lo_y = t.v[0].y_fx, hi_y = lo_y;
+  for (int k = 1; k < 3; ++k) {
+    lo_x = std::min(lo_x, t.v[k].x_fx);
+    hi_x = std::max(hi_x, t.v[k].x_fx);
+    lo_y = std::min(lo_y, t.v[k].y_fx);
+    hi_y = std::max(hi_y, t.v[k].y_fx);
+  }
+#ifdef ZBUFFER_AVX512
+  if (hi_x - lo_x < kSmallExtentFx && hi_y - lo_y < kSmallExtentFx) {
+    add_small(s.x_min, s.y_min, bw, bh, s);
+    return;
+  }
+#endif
+  large_.push_back(s);
+}
+
+void TriangleBatch::add_small(int32_t x0, int32_t y0, int32_t box_w, int32_t box_h,
+                              const TriangleSetup& s) {
+  // A triangle less than 8 pixels across in x and y: every edge value over
+  // its box and every step is far below 2^31.
+  const int i = n_small_++;
+  x0_[i] = x0;
+  y0_[i] = y0;
+  box_w_[i] = box_w;
+  box_h_[i] = box_h;
+  const int64_t w0 = s.w_origin[0] + s.bias[0], w1 = s.w_origin[1] + s.bias[1],
+                w2 = s.w_origin[2] + s.bias[2];
+  w1_[i] = int32_t(w1);
+  w2_[i] = int32_t(w2);
+  area_b0_[i] = int32_t(w0 + w1 + w2 - s.bias[0]);
+  sx1_[i] = int32_t(s.step_x[1]);
+  sx2_[i] = int32_t(s.step_x[2]);
+  sy1_[i] = int32_t(s.step_y[1]);
+  sy2_[i] = int32_t(s.step_y[2]);
+  bias1_[i] = int32_t(s.bias[1]);
+  bias2_[i] = int32_t(s.bias[2]);
+  z0_[i] = s.z0;
+  a1_[i] = s.a1;
+  a2_[i] = s.a2;
+  z_lo_[i] = s.z_lo;
+  z_hi_[i] = s.z_hi;
+  id_[i] = s.id;
+  const int g = (box_h - 1) >> 1;
+  group_[g][group_size_[g]++] = uint16_t(i);
+  small_tested_ += int64_t(box_w) * box_h;
+}
+
+void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                              const ScreenVertices& sv, int64_t begin, int64_t end,
+                              bool cull_backfaces) {
+  int64_t f = begin;
+#ifdef ZBUFFER_AVX512
+  for (; f + 16 <= end; f += 16) add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces);
+#endif
+  for (; f < end; ++f) {
+    assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats_,
+                      [&](const ScreenTriangle& t) {
+                        ++stats_.rasterized;
+                        add(t);
+                      });
+  }
+}
+
+// Drawing
+
+void TriangleBatch::flush() {
+  int64_t covered = 0, written = 0;
+#ifdef ZBUFFER_AVX512
+  draw_group<1>(0, covered, written);
+  draw_group<2>(1, covered, written);
+  draw_group<3>(2, covered, written);
+  draw_group<4>(3, covered, written);
+#endif
+  stats_.pixels_tested += small_tested_;
+  stats_.pixels_covered += covered;
+  stats_.pixels_written += written;
+  for (const TriangleSetup& s : large_)
+    rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target_, stats_);
+  large_.clear();
+  n_small_ = 0;
+  small_tested_ = 0;
+  for (int& g : group_size_) g = 0;
+}
+
+#ifdef ZBUFFER_AVX512
+
+// kPasses passes of 8 x 2 pixels cover every box of a group: lanes 0-7 are
+// row y, lanes 8-15 row y + 1. Rows past the box are masked off and point at
+// a spare row of the batch, so no address outside the image is formed and no
+// masked-off access waits on a real store.
+//
+// All of a triangle's loads come before any of its stores. Interleaved, the
+// load of row y + 1 would follow the store to row y, and when the row pitch
+// is a multiple of 4 KiB (1024-pixel images) the two share their low 12
+// address bits: the CPU then holds the load until the store retires.
+template <int kPasses>
+void TriangleBatch::draw_group(int group, int64_t& covered, int64_t& written) {
+  constexpr int kRows = 2 * kPasses;
+  const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+  const __m512i col = _mm512_and_si512(lane, _mm512_set1_epi32(7));
+  const __m512i second_row = _mm512_srli_epi32(lane, 3);
+  const size_t pitch = size_t(target_.width);
+  for (int n = 0; n < group_size_[group]; ++n) {
+    const int i = group_[group][n];
+    // Edge values of the 16 lanes at the first pass.
+    __m512i w1 = _mm512_add_epi32(
+        _mm512_set1_epi32(w1_[i]),
+        _mm512_add_epi32(_mm512_mullo_epi32(col, _mm512_set1_epi32(sx1_[i])),
+                         _mm512_mullo_epi32(second_row, _mm512_set1_epi32(sy1_[i]))));
+    __m512i w2 = _mm512_add_epi32(
+        _mm512_set1_epi32(w2_[i]),
+        _mm512_add_epi32(_mm512_mullo_epi32(col, _mm512_set1_epi32(sx2_[i])),
+                         _mm512_mullo_epi32(second_row, _mm512_set1_epi32(sy2_[i]))));
+    const __m512i area_b0 = _mm512_set1_epi32(area_b0_[i]);
+    const __m512i step1 = _mm512_set1_epi32(2 * sy1_[i]), step2 = _mm512_set1_epi32(2 * sy2_[i]);
+    const __m512i bias1 = _mm512_set1_epi32(bias1_[i]), bias2 = _mm512_set1_epi32(bias2_[i]);
+    const __m512 z0 = _mm512_set1_ps(z0_[i]), a1 = _mm512_set1_ps(a1_[i]),
+                 a2 = _mm512_set1_ps(a2_[i]);
+    const __m512 z_lo = _mm512_set1_ps(z_lo_[i]), z_hi = _mm512_set1_ps(z_hi_[i]);
+    const unsigned one_row = (1u << box_w_[i]) - 1;
+    const int rows = box_h_[i];
+
+    // Coverage and depth of every pass.
+    __m256 z[kRows];
+    __mmask8 inside[kRows];
+    for (int p = 0; p < kPasses; ++p) {
+      const __mmask16 in_box = __mmask16((2 * p < rows ? one_row : 0u) |
+                                         (2 * p + 1 < rows ? one_row << 8 : 0u));
+      // All biased edge values >= 0 (w0's bias is in area_b0).
+      const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
+      const __m512i any = _mm512_ternarylogic_epi32(
+          w0b, _mm512_sub_epi32(w1, bias1), _mm512_sub_epi32(w2, bias2), 0xFE);  // a | b | c
+      const __mmask16 in = _mm512_mask_cmpge_epi32_mask(in_box, any, _mm512_setzero_si512());
+      // Depth: the one formula, 16 lanes, clamped (no NaN, no -0 here).
+      __m512 zp = _mm512_add_ps(z0, _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(w1), a1),
+                                                  _mm512_mul_ps(_mm512_cvtepi32_ps(w2), a2)));
+      zp = _mm512_min_ps(_mm512_max_ps(zp, z_lo), z_hi);
+      z[2 * p] = _mm512_castps512_ps256(zp);
+      z[2 * p + 1] = _mm512_extractf32x8_ps(zp, 1);
+      inside[2 * p] = __mmask8(in);
+      inside[2 * p + 1] = __mmask8(in >> 8);
+      covered += __builtin_popcount(in);
+      w1 = _mm512_add_epi32(w1, step1);
+      w2 = _mm512_add_epi32(w2, step2);
+    }
+
+    // Depth write: every load, then every store.
+    float* depth_rows[kRows];
+    int32_t* id_rows[kRows];
+    float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
+    int32_t* const ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
+    for (int r = 0; r < kRows; ++r) {
+      depth_rows[r] = r < rows ? depth + r * pitch : spare_depth_[(n + r) % kSpareRows];
+      id_rows[r] = r < rows ? ids + r * pitch : spare_ids_[(n + r) % kSpareRows];
+    }
+    __m256 old_depth[kRows];
+    __m256i old_ids[kRows];
+    for (int r = 0; r < kRows; ++r) {
+      old_depth[r] = _mm256_mask_loadu_ps(_mm256_setzero_ps(), inside[r], depth_rows[r]);
+      old_ids[r] = _mm256_mask_loadu_epi32(_mm256_setzero_si256(), inside[r], id_rows[r]);
+    }
+    const __m256i id = _mm256_set1_epi32(id_[i]);
+    for (int r = 0; r < kRows; ++r) {
+      const __mmask8 nearer = _mm256_mask_cmp_ps_mask(inside[r], z[r], old_depth[r], _CMP_LT_OQ);
+      const __mmask8 tie = _mm256_mask_cmp_ps_mask(inside[r], z[r], old_depth[r], _CMP_EQ_OQ) &
+                           _mm256_cmplt_epi32_mask(id, old_ids[r]);
+      const __mmask8 win = nearer | tie;
+      _mm256_mask_storeu_ps(depth_rows[r], win, z[r]);
+      _mm256_mask_storeu_epi32(id_rows[r], win, id);
+      written += __builtin_popcount(win);
+    }
+  }
+}
+
+namespace {
+
+// Lane permutations that split 48 interleaved face indices (i0 i1 i2 i0 ...)
+// held in three vectors a, b, c into the 16 first, second and third indices.
+struct Deinterleave {
+  alignas(64) int32_t ab[3][16];  // from a (0..15) and b (16..31)
+  alignas(64) int32_t tc[3][16];  // from that (0..15) and c (16..31)
+  constexpr Deinterleave() : ab{}, tc{} {
+    for (int k = 0; k < 3; ++k)
+      for (int lane = 0; lane < 16; ++lane) {
+        const int global = 3 * lane + k;  // position in the 48 indices
+        ab[k][lane] = global < 32 ? global : 0;
+        tc[k][lane] = global < 32 ? lane : 16 + (global - 32);
+      }
+  }
+};
+constexpr Deinterleave kDeinterleave;
+
+inline __m512i load_i32(const int32_t* p) { return _mm512_load_si512(p); }
+
+// The 16 int64 products a * b of the sign-extended int32 lanes, as two halves.
+inline void mul_wide(__m512i a, __m512i b, __m512i& lo, __m512i& hi) {
+  lo = _mm512_mul_epi32(_mm512_cvtepi32_epi64(_mm512_castsi512_si256(a)),
+                        _mm512_cvtepi32_epi64(_mm512_castsi512_si256(b)));
+  hi = _mm512_mul_epi32(_mm512_cvtepi32_epi64(_mm512_extracti64x4_epi64(a, 1)),
+                        _mm512_cvtepi32_epi64(_mm512_extracti64x4_epi64(b, 1)));
+}
+
+inline __m512 join(__m256 lo, __m256 hi) {
+  return _mm512_insertf32x8(_mm512_castps256_ps512(lo), hi, 1);
+}
+
+}  // namespace
+
+void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                                 const ScreenVertices& sv, int64_t first, bool cull_backfaces) {
+  if (n_small_ + kSlack > kCapacity || large_.size() + 16 > size_t(kCapacity)) flush();
+
+  // Gather the three vertices of 16 faces.
+  const int32_t* fp = mesh.faces + 3 * first;
+  const __m512i a = _mm512_loadu_si512(fp), b = _mm512_loadu_si512(fp + 16),
+                c = _mm512_loadu_si512(fp + 32);
+  __m512i idx[3], x[3], y[3];
+  __m512d z_lo[3], z_hi[3];
+  __m512i oc[3];
+  for (int k = 0; k < 3; ++k) {
+    idx[k] = _mm512_permutex2var_epi32(
+        _mm512_permutex2var_epi32(a, load_i32(kDeinterleave.ab[k]), b),
+        load_i32(kDeinterleave.tc[k]), c);
+    x[k] = _mm512_i32gather_epi32(idx[k], sv.x_fx.data(), 4);
+    y[k] = _mm512_i32gather_epi32(idx[k], sv.y_fx.data(), 4);
+    oc[k] = _mm512_i32gather_epi32(idx[k], sv.outcode.data(), 4);
+    z_lo[k] = _mm512_i32gather_pd(_mm512_castsi512_si256(idx[k]), sv.z.data(), 8);
+    z_hi[k] = _mm512_i32gather_pd(_mm512_extracti64x4_epi64(idx[k], 1), sv.z.data(), 8);
+  }
+
+  // Culling and clipping decisions, as assemble_triangle makes them.
+  const __m512i any_out = _mm512_ternarylogic_epi32(oc[0], oc[1], oc[2], 0xFE);  // a | b | c
+  const __m512i all_out = _mm512_ternarylogic_epi32(oc[0], oc[1], oc[2], 0x80);  // a & b & c
+  const __mmask16 invalid = _mm512_test_epi32_mask(any_out, _mm512_set1_epi32(int(kOutInvalid)));
+  const __mmask16 outside =
+      _mm512_test_epi32_mask(all_out, _mm512_set1_epi32(int(kOutView))) & ~invalid;
+  const __mmask16 clip =
+      _mm512_test_epi32_mask(any_out, _mm512_set1_epi32(int(kOutClip))) & ~invalid & ~outside;
+  const __mmask16 simple = __mmask16(~(invalid | outside | clip));
+  stats_.culled_invalid += __builtin_popcount(invalid);
+  stats_.culled_frustum += __builtin_popcount(outside);
+
+  // Exact integer area (int64 halves): area > 0 is clockwise in NDC.
+  __m512i p_lo, p_hi, q_lo, q_hi;
+  mul_wide(_mm512_sub_epi32(x[1], x[0]), _mm512_sub_epi32(y[2], y[0]), p_lo, p_hi);
+  mul_wide(_mm512_sub_epi32(y[1], y[0]), _mm512_sub_epi32(x[2], x[0]), q_lo, q_hi);
+  const __m512i area_lo = _mm512_sub_epi64(p_lo, q_lo), area_hi = _mm512_sub_epi64(p_hi, q_hi);
+  const __m512i zero64 = _mm512_setzero_si512();
+  const __mmask16 degenerate = _mm512_kunpackb(_mm512_cmpeq_epi64_mask(area_hi, zero64),
+                                               _mm512_cmpeq_epi64_mask(area_lo, zero64));
+  const __mmask16 back = _mm512_kunpackb(_mm512_cmpgt_epi64_mask(area_hi, zero64),
+                                         _mm512_cmpgt_epi64_mask(area_lo, zero64));
+  const __mmask16 front_lo = _mm512_cmplt_epi64_mask(area_lo, zero64);
+  const __mmask16 front_hi = _mm512_cmplt_epi64_mask(area_hi, zero64);
+  const __mmask16 front = __mmask16(front_lo | (front_hi << 8));
+  const __mmask16 culled_back = cull_backfaces ? __mmask16(simple & back & ~degenerate) : 0;
+  const __mmask16 draw = simple & ~degenerate & ~culled_back;
+  stats_.culled_degenerate += __builtin_popcount(simple & degenerate);
+  stats_.culled_backface += __builtin_popcount(culled_back);
+  stats_.rasterized += __builtin_popcount(draw);
+
+  // Front faces swap vertices 1 and 2 so that area > 0.
+  {
+    const __m512i x1 = x[1], y1 = y[1];
+    x[1] = _mm512_mask_blend_epi32(front, x[1], x[2]);
+    x[2] = _mm512_mask_blend_epi32(front, x[2], x1);
+    y[1] = _mm512_mask_blend_epi32(front, y[1], y[2]);
+    y[2] = _mm512_mask_blend_epi32(front, y[2], y1);
+    const __m512d zl = z_lo[1], zh = z_hi[1];
+    z_lo[1] = _mm512_mask_blend_pd(__mmask8(front_lo), z_lo[1], z_lo[2]);
+    z_lo[2] = _mm512_mask_blend_pd(__mmask8(front_lo), z_lo[2], zl);
+    z_hi[1] = _mm512_mask_blend_pd(__mmask8(front_hi), z_hi[1], z_hi[2]);
+    z_hi[2] = _mm512_mask_blend_pd(__mmask8(front_hi), z_hi[2], zh);
+  }
+  const __m512i abs_lo = _mm512_abs_epi64(area_lo), abs_hi = _mm512_abs_epi64(area_hi);
+
+  // Pixel box, and which faces are small enough for the int32 groups.
+  const __m512i min_x = _mm512_min_epi32(x[0], _mm512_min_epi32(x[1], x[2]));
+  const __m512i max_x = _mm512_max_epi32(x[0], _mm512_max_epi32(x[1], x[2]));
+  const __m512i min_y = _mm512_min_epi32(y[0], _mm512_min_epi32(y[1], y[2]));
+  const __m512i max_y = _mm512_max_epi32(y[0], _mm512_max_epi32(y[1], y[2]));
+  const __m512i half = _mm512_set1_epi32(kHalfPixel);
+  const __m512i round_up = _mm512_set1_epi32(kHalfPixel - (kSubpixelScale - 1));
+  const __m512i zero = _mm512_setzero_si512();
+  const __m512i i0 =
+      _mm512_max_epi32(_mm512_srai_epi32(_mm512_sub_epi32(min_x, round_up), kSubpixelBits), zero);
+  const __m512i i1 = _mm512_min_epi32(_mm512_srai_epi32(_mm512_sub_epi32(max_x, half), kSubpixelBits),
+                                      _mm512_set1_epi32(target_.width - 1));
+  const __m512i j0 =
+      _mm512_max_epi32(_mm512_srai_epi32(_mm512_sub_epi32(min_y, round_up), kSubpixelBits), zero);
+  const __m512i j1 = _mm512_min_epi32(_mm512_srai_epi32(_mm512_sub_epi32(max_y, half), kSubpixelBits),
+                                      _mm512_set1_epi32(target_.height - 1));
+  const __m512i box_w = _mm512_add_epi32(_mm512_sub_epi32(i1, i0), _mm512_set1_epi32(1));
+  const __m512i box_h = _mm512_add_epi32(_mm512_sub_epi32(j1, j0), _mm512_set1_epi32(1));
+  const __mmask16 nonempty = _mm512_cmpgt_epi32_mask(box_w, zero) &
+                             _mm512_cmpgt_epi32_mask(box_h, zero);
+  const __m512i small_extent = _mm512_set1_epi32(kSmallExtentFx);
+  const __mmask16 small = _mm512_cmplt_epi32_mask(_mm512_sub_epi32(max_x, min_x), small_extent) &
+                          _mm512_cmplt_epi32_mask(_mm512_sub_epi32(max_y, min_y), small_extent);
+  const __mmask16 vector_setup = draw & nonempty & small;
+  const __mmask16 scalar_setup = draw & nonempty & ~small;
+
+  if (vector_setup) {
+    // Edge functions at the centre of the box's first pixel (raster.h), exact
+    // in int32 for small faces. Edge 1 runs from vertex 2 to 0, edge 2 from 0
+    // to 1, edge 0 from 1 to 2.
+    const __m512i px = _mm512_add_epi32(_mm512_slli_epi32(i0, kSubpixelBits), half);
+    const __m512i py = _mm512_add_epi32(_mm512_slli_epi32(j0, kSubpixelBits), half);
+    auto edge = [&](int from, int to, __m512i& w, __m512i& bias, __m512i& sx, __m512i& sy) {
+      const __m512i dx = _mm512_sub_epi32(x[to], x[from]), dy = _mm512_sub_epi32(y[to], y[from]);
+      w = _mm512_sub_epi32(_mm512_mullo_epi32(dx, _mm512_sub_epi32(py, y[from])),
+                           _mm512_mullo_epi32(dy, _mm512_sub_epi32(px, x[from])));
+      // Top-left: dy < 0, or dy == 0 and dx > 0. Bias 1 for the others.
+      const __mmask16 top_left =
+          _mm512_cmplt_epi32_mask(dy, zero) |
+          (_mm512_cmpeq_epi32_mask(dy, zero) & _mm512_cmpgt_epi32_mask(dx, zero));
+      bias = _mm512_maskz_set1_epi32(__mmask16(~top_left), 1);
+      sx = _mm512_slli_epi32(_mm512_sub_epi32(zero, dy), kSubpixelBits);
+      sy = _mm512_slli_epi32(dx, kSubpixelBits);
+    };
+    __m512i w1, w2, w0_unused, bias0, bias1, bias2, sx1, sx2, sy1, sy2, sx0, sy0;
+    edge(1, 2, w0_unused, bias0, sx0, sy0);
+    edge(2, 0, w1, bias1, sx1, sy1);
+    edge(0, 1, w2, bias2, sx2, sy2);
+    const __m512i area32 = _mm512_inserti64x4(
+        _mm512_castsi256_si512(_mm512_cvtepi64_epi32(abs_lo)), _mm512_cvtepi64_epi32(abs_hi), 1);
+
+    // Depth coefficients: binary64, rounded once to binary32 (raster.h).
+    const __m512d one = _mm512_set1_pd(1.0);
+    auto coefficients = [&](__m512i area64, const __m512d* z, __m256& z0f, __m256& a1f,
+                            __m256& a2f, __m256& lo, __m256& hi) {
+      const __m512d inv_area = _mm512_div_pd(one, _mm512_cvtepi64_pd(area64));
+      a1f = _mm512_cvtpd_ps(_mm512_mul_pd(_mm512_sub_pd(z[1], z[0]), inv_area));
+      a2f = _mm512_cvtpd_ps(_mm512_mul_pd(_mm512_sub_pd(z[2], z[0]), inv_area));
+      z0f = _mm512_cvtpd_ps(z[0]);
+      lo = _mm512_cvtpd_ps(_mm512_min_pd(z[0], _mm512_min_pd(z[1], z[2])));
+      hi = _mm512_cvtpd_ps(_mm512_max_pd(z[0], _mm512_max_pd(z[1], z[2])));
+    };
+    __m256 z0l, a1l, a2l, lol, hil, z0h, a1h, a2h, loh, hih;
+    coefficients(abs_lo, z_lo, z0l, a1l, a2l, lol, hil);
+    coefficients(abs_hi, z_hi, z0h, a1h, a2h, loh, hih);
+
+    // Append the vector-set-up faces to the structure of arrays.
+    const int n = n_small_;
+    const __mmask16 m = vector_setup;
+    auto put = [&](int32_t* dst, __m512i v) {
+      _mm512_storeu_si512(dst + n, _mm512_maskz_compress_epi32(m, v));
+    };
+    auto put_f = [&](float* dst, __m512 v) {
+      _mm512_storeu_ps(dst + n, _mm512_maskz_compress_ps(m, v));
+    };
+    put(x0_, i0);
+    put(y0_, j0);
+    put(box_w_, box_w);
+    put(box_h_, box_h);
+    put(w1_, w1);
+    put(w2_, w2);
+    put(area_b0_, _mm512_sub_epi32(area32, bias0));
+    put(sx1_, sx1);
+    put(sx2_, sx2);
+    put(sy1_, sy1);
+    put(sy2_, sy2);
+    put(bias1_, bias1);
+    put(bias2_, bias2);
+    put_f(z0_, join(z0l, z0h));
+    put_f(a1_, join(a1l, a1h));
+    put_f(a2_, join(a2l, a2h));
+    put_f(z_lo_, join(lol, loh));
+    put_f(z_hi_, join(hil, hih));
+    const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+    put(id_, mesh.face_ids ? _mm512_loadu_si512(mesh.face_ids + first)
+                           : _mm512_add_epi32(_mm512_set1_epi32(int32_t(first)), lane));
+    small_tested_ += _mm512_mask_reduce_add_epi32(m, _mm512_mullo_epi32(box_w, box_h));
+    const int count = __builtin_popcount(m);
+    for (int k = n; k < n + count; ++k) {
+      const int g = (box_h_[k] - 1) >> 1;
+      group_[g][group_size_[g]++] = uint16_t(k);
+    }
+    n_small_ += count;
+  }
+
+  if (scalar_setup) {
+    // Large faces: the scalar setup from the assembled triangle.
+    alignas(64) int32_t xs[3][16], ys[3][16];
+    alignas(64) double zs[3][16];
+    alignas(64) int64_t areas[16];
+    for (int k = 0; k < 3; ++k) {
+      _mm512_store_si512(xs[k], x[k]);
+      _mm512_store_si512(ys[k], y[k]);
+      _mm512_store_pd(zs[k], z_lo[k]);
+      _mm512_store_pd(zs[k] + 8, z_hi[k]);
+    }
+    _mm512_store_si512(areas, abs_lo);
+    _mm512_store_si512(areas + 8, abs_hi);
+    for (unsigned m = scalar_setup; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      ScreenTriangle t;
+      for (int k = 0; k < 3; ++k) t.v[k] = {xs[k][lane], ys[k][lane], 0u, zs[k][lane]};
+      t.area = areas[lane];
+      t.id = mesh.id(first + lane);
+      large_.push_back(setup_triangle(t, target_.width, target_.height));
+    }
+  }
+
+  // Faces that need clipping: the scalar assembly.
+  for (unsigned m = clip; m; m &= m - 1) {
+    const int64_t f = first + __builtin_ctz(m);
+    assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats_,
+                      [&](const ScreenTriangle& t) {
+                        ++stats_.rasterized;
+                        add(t);
+                      });
+  }
+}
+
+#else  // no AVX-512: the scalar entry points above do everything
+
+template <int kPasses>
+void TriangleBatch::draw_group(int, int64_t&, int64_t&) {}
+
+void TriangleBatch::add_16_faces(const MeshView&, const double*, const Viewport&,
+                                 const ScreenVertices&, int64_t, bool) {}
+
+#endif
+
+}  // namespace zbuffer
