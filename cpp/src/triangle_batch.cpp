@@ -33,23 +33,22 @@ void TriangleBatch::add(const ScreenTriangle& t) {
     hi_y = std::max(hi_y, t.v[k].y_fx);
   }
 #ifdef ZBUFFER_AVX512
-  if (hi_x - lo_x < kSmallExtentFx && hi_y - lo_y < kSmallExtentFx) {
-    add_small(s.x_min, s.y_min, bw, bh, s);
+  if (hi_x - lo_x < kSmallFx && hi_y - lo_y < kSmallFx) {
+    add_small(group_of(hi_x - lo_x < kNarrowFx, bh), s);
     return;
   }
 #endif
   large_.push_back(s);
 }
 
-void TriangleBatch::add_small(int32_t x0, int32_t y0, int32_t box_w, int32_t box_h,
-                              const TriangleSetup& s) {
-  // A triangle less than 8 pixels across in x and y: every edge value over
+void TriangleBatch::add_small(int group, const TriangleSetup& s) {
+  // A triangle less than 16 pixels across in x and y: every edge value over
   // its box and every step is far below 2^31.
   const int i = n_small_++;
-  x0_[i] = x0;
-  y0_[i] = y0;
-  box_w_[i] = box_w;
-  box_h_[i] = box_h;
+  x0_[i] = s.x_min;
+  y0_[i] = s.y_min;
+  box_w_[i] = s.x_max - s.x_min + 1;
+  box_h_[i] = s.y_max - s.y_min + 1;
   const int64_t w0 = s.w_origin[0] + s.bias[0], w1 = s.w_origin[1] + s.bias[1],
                 w2 = s.w_origin[2] + s.bias[2];
   w1_[i] = int32_t(w1);
@@ -67,9 +66,8 @@ void TriangleBatch::add_small(int32_t x0, int32_t y0, int32_t box_w, int32_t box
   z_lo_[i] = s.z_lo;
   z_hi_[i] = s.z_hi;
   id_[i] = s.id;
-  const int g = (box_h - 1) >> 1;
-  group_[g][group_size_[g]++] = uint16_t(i);
-  small_tested_ += int64_t(box_w) * box_h;
+  group_[group][group_size_[group]++] = uint16_t(i);
+  small_tested_ += int64_t(box_w_[i]) * box_h_[i];
 }
 
 void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
@@ -93,10 +91,22 @@ void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Vie
 void TriangleBatch::flush() {
   int64_t covered = 0, written = 0;
 #ifdef ZBUFFER_AVX512
-  draw_group<1>(0, covered, written);
-  draw_group<2>(1, covered, written);
-  draw_group<3>(2, covered, written);
-  draw_group<4>(3, covered, written);
+  draw_narrow<1>(0, covered, written);
+  draw_narrow<2>(1, covered, written);
+  draw_narrow<3>(2, covered, written);
+  draw_narrow<4>(3, covered, written);
+  draw_narrow<5>(4, covered, written);
+  draw_narrow<6>(5, covered, written);
+  draw_narrow<7>(6, covered, written);
+  draw_narrow<8>(7, covered, written);
+  draw_wide<2>(8, covered, written);
+  draw_wide<4>(9, covered, written);
+  draw_wide<6>(10, covered, written);
+  draw_wide<8>(11, covered, written);
+  draw_wide<10>(12, covered, written);
+  draw_wide<12>(13, covered, written);
+  draw_wide<14>(14, covered, written);
+  draw_wide<16>(15, covered, written);
 #endif
   stats_.pixels_tested += small_tested_;
   stats_.pixels_covered += covered;
@@ -121,7 +131,7 @@ void TriangleBatch::flush() {
 // is a multiple of 4 KiB (1024-pixel images) the two share their low 12
 // address bits: the CPU then holds the load until the store retires.
 template <int kPasses>
-void TriangleBatch::draw_group(int group, int64_t& covered, int64_t& written) {
+void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
   constexpr int kRows = 2 * kPasses;
   const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   const __m512i col = _mm512_and_si512(lane, _mm512_set1_epi32(7));
@@ -195,6 +205,52 @@ void TriangleBatch::draw_group(int group, int64_t& covered, int64_t& written) {
       _mm256_mask_storeu_ps(depth_rows[r], win, z[r]);
       _mm256_mask_storeu_epi32(id_rows[r], win, id);
       written += __builtin_popcount(win);
+    }
+  }
+}
+
+// kRows passes of 16 x 1 pixels: lane k is pixel k of a row. Rows past the
+// box are masked off and point at a spare row.
+template <int kRows>
+void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
+  const __m512i col = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+  const size_t pitch = size_t(target_.width);
+  for (int n = 0; n < group_size_[group]; ++n) {
+    const int i = group_[group][n];
+    __m512i w1 = _mm512_add_epi32(_mm512_set1_epi32(w1_[i]),
+                                  _mm512_mullo_epi32(col, _mm512_set1_epi32(sx1_[i])));
+    __m512i w2 = _mm512_add_epi32(_mm512_set1_epi32(w2_[i]),
+                                  _mm512_mullo_epi32(col, _mm512_set1_epi32(sx2_[i])));
+    const __m512i area_b0 = _mm512_set1_epi32(area_b0_[i]);
+    const __m512i step1 = _mm512_set1_epi32(sy1_[i]), step2 = _mm512_set1_epi32(sy2_[i]);
+    const __m512i bias1 = _mm512_set1_epi32(bias1_[i]), bias2 = _mm512_set1_epi32(bias2_[i]);
+    const __m512 z0 = _mm512_set1_ps(z0_[i]), a1 = _mm512_set1_ps(a1_[i]),
+                 a2 = _mm512_set1_ps(a2_[i]);
+    const __m512 z_lo = _mm512_set1_ps(z_lo_[i]), z_hi = _mm512_set1_ps(z_hi_[i]);
+    const __m512i id = _mm512_set1_epi32(id_[i]);
+    const __mmask16 one_row = __mmask16((1u << box_w_[i]) - 1);
+    const int rows = box_h_[i];
+    float* depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
+    int32_t* ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
+    for (int r = 0; r < kRows; ++r) {
+      const bool real = r < rows;
+      const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
+      const __m512i any = _mm512_ternarylogic_epi32(
+          w0b, _mm512_sub_epi32(w1, bias1), _mm512_sub_epi32(w2, bias2), 0xFE);  // a | b | c
+      const __mmask16 inside =
+          _mm512_mask_cmpge_epi32_mask(real ? one_row : __mmask16(0), any, _mm512_setzero_si512());
+      __m512 z = _mm512_add_ps(z0, _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(w1), a1),
+                                                 _mm512_mul_ps(_mm512_cvtepi32_ps(w2), a2)));
+      z = _mm512_min_ps(_mm512_max_ps(z, z_lo), z_hi);
+      const __mmask16 win =
+          simd::write16(inside, z, id, real ? depth : spare_depth_[(n + r) % kSpareRows],
+                        real ? ids : spare_ids_[(n + r) % kSpareRows]);
+      covered += __builtin_popcount(inside);
+      written += __builtin_popcount(win);
+      w1 = _mm512_add_epi32(w1, step1);
+      w2 = _mm512_add_epi32(w2, step2);
+      depth += pitch;
+      ids += pitch;
     }
   }
 }
@@ -321,15 +377,17 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
   const __m512i box_h = _mm512_add_epi32(_mm512_sub_epi32(j1, j0), _mm512_set1_epi32(1));
   const __mmask16 nonempty = _mm512_cmpgt_epi32_mask(box_w, zero) &
                              _mm512_cmpgt_epi32_mask(box_h, zero);
-  const __m512i small_extent = _mm512_set1_epi32(kSmallExtentFx);
-  const __mmask16 small = _mm512_cmplt_epi32_mask(_mm512_sub_epi32(max_x, min_x), small_extent) &
-                          _mm512_cmplt_epi32_mask(_mm512_sub_epi32(max_y, min_y), small_extent);
+  const __m512i extent_x = _mm512_sub_epi32(max_x, min_x);
+  const __mmask16 small =
+      _mm512_cmplt_epi32_mask(extent_x, _mm512_set1_epi32(kSmallFx)) &
+      _mm512_cmplt_epi32_mask(_mm512_sub_epi32(max_y, min_y), _mm512_set1_epi32(kSmallFx));
+  const __mmask16 narrow = _mm512_cmplt_epi32_mask(extent_x, _mm512_set1_epi32(kNarrowFx));
   const __mmask16 vector_setup = draw & nonempty & small;
   const __mmask16 scalar_setup = draw & nonempty & ~small;
 
   if (vector_setup) {
     // Edge functions at the centre of the box's first pixel (raster.h), exact
-    // in int32 for small faces. Edge 1 runs from vertex 2 to 0, edge 2 from 0
+    // in int32 for faces less than 16 pixels across. Edge 1 runs from vertex 2 to 0, edge 2 from 0
     // to 1, edge 0 from 1 to 2.
     const __m512i px = _mm512_add_epi32(_mm512_slli_epi32(i0, kSubpixelBits), half);
     const __m512i py = _mm512_add_epi32(_mm512_slli_epi32(j0, kSubpixelBits), half);
@@ -398,10 +456,16 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     put(id_, mesh.face_ids ? _mm512_loadu_si512(mesh.face_ids + first)
                            : _mm512_add_epi32(_mm512_set1_epi32(int32_t(first)), lane));
     small_tested_ += _mm512_mask_reduce_add_epi32(m, _mm512_mullo_epi32(box_w, box_h));
+    // Groups: narrow ones from 0, wide ones from kWideGroups, by row pairs.
+    const __m512i group = _mm512_add_epi32(
+        _mm512_maskz_set1_epi32(__mmask16(~narrow), kWideGroups),
+        _mm512_srai_epi32(_mm512_sub_epi32(box_h, _mm512_set1_epi32(1)), 1));
+    alignas(64) int32_t groups[16];
+    _mm512_store_si512(groups, _mm512_maskz_compress_epi32(m, group));
     const int count = __builtin_popcount(m);
-    for (int k = n; k < n + count; ++k) {
-      const int g = (box_h_[k] - 1) >> 1;
-      group_[g][group_size_[g]++] = uint16_t(k);
+    for (int k = 0; k < count; ++k) {
+      const int g = groups[k];
+      group_[g][group_size_[g]++] = uint16_t(n + k);
     }
     n_small_ += count;
   }
@@ -443,7 +507,9 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
 #else  // no AVX-512: the scalar entry points above do everything
 
 template <int kPasses>
-void TriangleBatch::draw_group(int, int64_t&, int64_t&) {}
+void TriangleBatch::draw_narrow(int, int64_t&, int64_t&) {}
+template <int kRows>
+void TriangleBatch::draw_wide(int, int64_t&, int64_t&) {}
 
 void TriangleBatch::add_16_faces(const MeshView&, const double*, const Viewport&,
                                  const ScreenVertices&, int64_t, bool) {}

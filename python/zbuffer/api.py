@@ -17,13 +17,16 @@ from .shading import DEFAULT_BACKGROUND, ShadingParams, color_source
 __all__ = ["render", "algorithms"]
 
 
+_ALGORITHMS = tuple(name for name, _ in _core.algorithms())
+
+
 def algorithms() -> List[str]:
     """Names of the registered depth algorithms, in presentation order.
 
     Every name is a valid ``algo=`` for :func:`render`; all of them produce
     bit-identical ``depth`` and ``triangle_id``.
     """
-    return [name for name, _ in _core.algorithms()]
+    return list(_ALGORITHMS)
 
 
 def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
@@ -93,10 +96,9 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         Arguments of the wrong type.
     """
     start = time.perf_counter()
-    names = algorithms()
-    if algo not in names:
+    if algo not in _ALGORITHMS:
         raise ValueError(
-            f"unknown algorithm {algo!r}; valid names are {', '.join(map(repr, names))}"
+            f"unknown algorithm {algo!r}; valid names are {', '.join(map(repr, _ALGORITHMS))}"
         )
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)

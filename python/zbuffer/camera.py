@@ -120,6 +120,7 @@ class Camera:
             raise ValueError(f"near must be smaller than far, got near={near!r}, far={far!r}")
         object.__setattr__(self, "near", None if near is None else float(near))
         object.__setattr__(self, "far", None if far is None else float(far))
+        object.__setattr__(self, "_mvp_cache", {})  # (width, height) -> matrix
 
     # Construction
 
@@ -289,8 +290,17 @@ class Camera:
         return m
 
     def mvp(self, width: int, height: int) -> np.ndarray:
-        """(4, 4) float64 C-contiguous model-view-projection matrix."""
-        return np.ascontiguousarray(self.projection_matrix(width / height) @ self.view_matrix())
+        """(4, 4) float64 C-contiguous, read-only model-view-projection matrix
+        (computed once per image size: cameras are immutable)."""
+        key = (int(width), int(height))
+        m = self._mvp_cache.get(key)
+        if m is None:
+            m = np.ascontiguousarray(self.projection_matrix(width / height) @ self.view_matrix())
+            m.flags.writeable = False
+            if len(self._mvp_cache) > 64:
+                self._mvp_cache.clear()
+            self._mvp_cache[key] = m
+        return m
 
     def viewer(self) -> np.ndarray:
         """(4,) float64 homogeneous viewer: (eye, 1), or (towards camera, 0) if orthographic."""

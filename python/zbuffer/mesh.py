@@ -50,6 +50,9 @@ class Mesh:
     vertex_colors, face_colors : (N, 3|4) or (M, 3|4) array_like, optional
         RGB(A) as integers 0-255 or floats 0-1; alpha is ignored. At most one.
     name : str, optional
+    face_polygon : (M,) array_like of int, optional
+        For meshes triangulated from polygons: the polygon (in file order)
+        each triangle came from.
 
     Attributes
     ----------
@@ -57,6 +60,7 @@ class Mesh:
     faces : (M, 3) int32, read-only
     vertex_colors : (N, 3) float32 or None
     face_colors : (M, 3) float32 or None
+    face_polygon : (M,) int64 or None
 
     Raises
     ------
@@ -74,7 +78,7 @@ class Mesh:
     """
 
     def __init__(self, vertices, faces, vertex_colors=None, face_colors=None,
-                 name: Optional[str] = None):
+                 name: Optional[str] = None, face_polygon=None):
         v = np.asarray(vertices)
         f = np.asarray(faces)
         if v.dtype == object or not (np.issubdtype(v.dtype, np.floating)
@@ -118,6 +122,12 @@ class Mesh:
         self.vertex_colors = _as_colors(vertex_colors, n, "vertex_colors")
         self.face_colors = _as_colors(face_colors, f.shape[0], "face_colors")
         self.name = name
+        self.face_polygon = None
+        if face_polygon is not None:
+            fp = np.asarray(face_polygon, dtype=np.int64)
+            if fp.shape != (f.shape[0],):
+                raise ValueError(f"face_polygon must have shape ({f.shape[0]},), got {fp.shape}")
+            self.face_polygon = _readonly(fp)
         self._renders = 0
         self._visit = None  # (faces in a cache-friendly order, their ids)
 
@@ -158,6 +168,18 @@ class Mesh:
             np.add.at(acc, self.faces[:, k], area_normals)
         length = np.linalg.norm(acc, axis=1, keepdims=True)
         return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+
+    def auto_camera(self, aspect: float):
+        """The camera ``render(camera=None)`` uses: :meth:`Camera.fit` from
+        +z, resolved (cached per aspect ratio)."""
+        cache = self.__dict__.setdefault("_auto_cameras", {})
+        camera = cache.get(aspect)
+        if camera is None:
+            from .camera import Camera
+
+            camera = Camera.fit(self, aspect=aspect).resolve(self)
+            cache[aspect] = camera
+        return camera
 
     # Meshes at least this large get a cache-friendly visiting order.
     _ORDER_MIN_FACES = 2048
@@ -218,21 +240,26 @@ class Mesh:
 
 
 def load(path, merge_vertices: bool = True) -> Mesh:
-    """Read a mesh file in any format trimesh reads (OBJ, PLY, STL, OFF, glTF, ...).
+    """Read a mesh file: OBJ with zbuffer's own reader, any other format
+    trimesh reads (PLY, STL, OFF, glTF, ...) through trimesh.
 
     Parameters
     ----------
     path : str or os.PathLike
     merge_vertices : bool
-        Share vertices that have identical positions (files with texture
-        coordinates or normals repeat positions, which costs render time).
-        Face order, and therefore triangle ids, is kept either way.
+        For non-OBJ files: share vertices that have identical positions
+        (formats with per-corner attributes repeat positions, which costs
+        render time). OBJ files keep their ``v`` records as vertices. Face
+        order, and therefore triangle ids, is kept either way.
 
     Returns
     -------
     Mesh
-        Polygons are triangulated by trimesh; scenes are concatenated. The
-        mesh is :meth:`~Mesh.prepare`-d for fast repeated rendering.
+        OBJ polygons are triangulated exactly (fans for convex polygons, ear
+        clipping for concave ones) and ``face_polygon`` maps triangles to
+        them; trimesh fan-triangulates other formats' polygons; scenes are
+        concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
+        rendering.
 
     Raises
     ------
@@ -246,6 +273,8 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise FileNotFoundError(f"no such mesh file: {path!r}")
+    if path.lower().endswith(".obj"):
+        return _load_obj(path).prepare()
     try:
         tm = trimesh.load(path, force="mesh", process=False)
     except Exception as err:  # trimesh raises many types for bad files
@@ -261,6 +290,22 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     if merge_vertices:
         mesh = mesh.merged()
     return mesh.prepare()
+
+
+def _load_obj(path: str) -> Mesh:
+    from .obj import read_obj, triangulate_polygons
+
+    try:
+        data = read_obj(path)
+    except ValueError as err:
+        raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
+    if len(data.vertices) == 0 and _has_content(path):
+        raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
+                         "non-empty file")
+    faces, owner = triangulate_polygons(data.vertices, data.polygon_sizes, data.polygon_indices)
+    polygons = bool(len(data.polygon_sizes)) and bool((data.polygon_sizes > 3).any())
+    return Mesh(data.vertices, faces, vertex_colors=data.vertex_colors,
+                name=os.path.basename(path), face_polygon=owner if polygons else None)
 
 
 def _has_content(path: str) -> bool:

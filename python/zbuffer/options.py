@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Optional, Tuple
 
 import numpy as np
@@ -40,12 +41,12 @@ def prepare(mesh, camera: Optional[Camera], width, height, shading, light_dir,
     width, height = check_size(width, height)
     mesh = as_mesh(mesh)
     if camera is None:
-        camera = Camera.fit(mesh, aspect=width / height)
+        camera = mesh.auto_camera(width / height)
     elif not isinstance(camera, Camera):
         raise TypeError(f"camera must be a zbuffer.Camera or None, got {type(camera).__name__}")
     camera = camera.resolve(mesh)
     mvp = camera.mvp(width, height)
-    if not np.all(np.isfinite(mvp)):
+    if not math.isfinite(float(mvp.sum())) and not np.isfinite(mvp).all():
         raise ValueError("the camera matrix has a NaN or infinite entry")
     params = resolve_shading(shading, camera, light_dir, ambient, diffuse, color, background)
     return mesh, camera, mvp, width, height, params

@@ -56,6 +56,9 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = 0.2,
         raise ValueError(
             f"unknown shading {shading!r}; valid values are {', '.join(map(repr, SHADINGS))}"
         )
+    if shading == "none" and light_dir is None and color is None and ambient == 0.2 \
+            and diffuse == 0.8 and background is DEFAULT_BACKGROUND:
+        return _NO_SHADING  # visibility only, default options: nothing to check
     if light_dir is None:
         light = camera.forward()
     else:
@@ -80,6 +83,11 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = 0.2,
         color=None if color is None else _rgb_float(color, "color"),
         background=np.round(bg.astype(np.float64) * 255.0).astype(np.uint8),
     )
+
+
+_NO_SHADING = ShadingParams(mode="none", light_dir=np.array([0.0, 0.0, -1.0]), ambient=0.2,
+                            diffuse=0.8, color=None,
+                            background=np.array(DEFAULT_BACKGROUND, np.uint8))
 
 
 def color_source(mesh, params: ShadingParams):

@@ -17,9 +17,11 @@
 namespace zbuffer {
 
 // Design decision: set-up triangles are kept in structure-of-arrays storage
-// and sorted into four groups of small boxes (at most 8 pixels wide and 2, 4,
-// 6 or 8 rows tall, edge values in int32), each drawn by a loop of fixed
-// length; any other triangle keeps its full TriangleSetup and goes through
+// and sorted into groups by the size of their box, each drawn by a loop of
+// fixed length with int32 edge values: triangles less than 8 pixels wide by
+// passes of 8 x 2 pixels, less than 16 pixels wide by passes of 16 x 1, in
+// both cases with boxes up to 16 rows tall, grouped by their number of row
+// pairs. Any other triangle keeps its full TriangleSetup and goes through
 // rasterize_rect. With AVX-512, sixteen faces are assembled and set up per
 // instruction. Good: no branch mispredicted per triangle (a per-triangle box
 // loop has a varying trip count, and in a detailed mesh about half the faces
@@ -48,14 +50,22 @@ class TriangleBatch {
   void flush();
 
  private:
-  static constexpr int kGroups = 4;      // boxes of up to 8 x 2, 4, 6, 8 pixels
-  static constexpr int kSlack = 16;      // vector stores write 16 entries
-  static constexpr int kSmallExtentFx = 8 * kSubpixelScale;  // "small": < 8 px
+  // Groups 0-7: narrow (< 8 px wide), 1-8 passes of 8 x 2 pixels.
+  // Groups 8-15: wide (< 16 px wide), 2-16 passes of 16 x 1 pixels.
+  static constexpr int kGroups = 16;
+  static constexpr int kWideGroups = 8;
+  static constexpr int kSlack = 16;  // vector stores write 16 entries
+  static constexpr int kNarrowFx = 8 * kSubpixelScale;   // x extent of narrow triangles
+  static constexpr int kSmallFx = 16 * kSubpixelScale;   // any extent of batched triangles
 
-  void add_small(int32_t x0, int32_t y0, int32_t box_w, int32_t box_h,
-                 const TriangleSetup& s);
+  // The group of a box of `rows` rows, narrow or not.
+  static int group_of(bool narrow, int rows) { return (narrow ? 0 : kWideGroups) + ((rows - 1) >> 1); }
+
+  void add_small(int group, const TriangleSetup& s);
   template <int kPasses>
-  void draw_group(int group, int64_t& covered, int64_t& written);
+  void draw_narrow(int group, int64_t& covered, int64_t& written);
+  template <int kRows>
+  void draw_wide(int group, int64_t& covered, int64_t& written);
   // Vector assembly and setup of faces first .. first + 15 (AVX-512 builds).
   void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                     const ScreenVertices& sv, int64_t first, bool cull_backfaces);
@@ -78,12 +88,11 @@ class TriangleBatch {
   alignas(64) float z_lo_[kCapacity + kSlack], z_hi_[kCapacity + kSlack];
   alignas(64) int32_t id_[kCapacity + kSlack];
   uint16_t group_[kGroups][kCapacity + kSlack];
-  int group_size_[kGroups] = {0, 0, 0, 0};
+  int group_size_[kGroups] = {};
 
   // Where the passes of a box point rows that lie past its end: masked-off
-  // loads and stores must still not share an address with real pixels, or
-  // each waits for the previous triangle's stores to retire. A ring of lines
-  // keeps them apart from each other too.
+  // loads and stores then touch neither memory outside the image nor lines
+  // that real pixels use. A ring of lines keeps them apart from each other.
   static constexpr int kSpareRows = 16;
   alignas(64) float spare_depth_[kSpareRows][16] = {};
   alignas(64) int32_t spare_ids_[kSpareRows][16] = {};

@@ -1,0 +1,248 @@
+"""Reading Wavefront OBJ files, polygons as written.
+
+zbuffer reads OBJ itself rather than through trimesh for three reasons:
+relative (negative) indices must count from the vertices defined *so far*
+(trimesh 5.2 resolves them wrongly once a file changes group or object, e.g.
+the McGuire Cornell box); positions only matter for rendering, so corners
+that differ only in texture coordinates or normals need not be split into
+separate vertices; and polygon faces are kept as written, so that a concave
+polygon can be triangulated correctly (ear clipping) rather than as a fan,
+which covers area outside it.
+"""
+
+from __future__ import annotations
+
+from typing import List, Optional, Tuple
+
+import numpy as np
+
+__all__ = ["read_obj", "triangulate_polygons", "ObjData"]
+
+
+class ObjData:
+    """What :func:`read_obj` found.
+
+    Attributes
+    ----------
+    vertices : (N, 3) float64
+    polygon_sizes : (P,) int64
+        Number of corners of each face, in file order (>= 3).
+    polygon_indices : (sum of sizes,) int64
+        Vertex indices of all faces' corners, concatenated, 0-based.
+    vertex_colors : (N, 3) float64 or None
+        From ``v x y z r g b`` lines, when every vertex has them.
+    """
+
+    def __init__(self, vertices, polygon_sizes, polygon_indices, vertex_colors):
+        self.vertices = vertices
+        self.polygon_sizes = polygon_sizes
+        self.polygon_indices = polygon_indices
+        self.vertex_colors = vertex_colors
+
+
+def read_obj(path: str) -> ObjData:
+    """Parse the ``v`` and ``f`` records of an OBJ file.
+
+    Supports ``v x y z [w]`` and ``v x y z r g b``, faces of any number of
+    corners written ``i``, ``i/t``, ``i//n`` or ``i/t/n`` with positive or
+    negative (relative) indices, ``#`` comments and ``\\`` line continuations
+    (which do not extend comments: a comment ends at its line's end).
+    Everything else (texture coordinates, normals, groups, materials, lines,
+    points) is ignored.
+
+    Raises
+    ------
+    ValueError
+        A malformed ``v`` or ``f`` record, or an index outside the vertices,
+        naming the line.
+    """
+    with open(path, "rb") as fh:
+        text = fh.read().decode("utf-8", errors="replace")
+
+    coords: List[str] = []        # the numbers of the v records, as text
+    coord_count: List[int] = []   # how many numbers each v record has
+    sizes: List[int] = []
+    corners: List[int] = []
+    lines = text.splitlines()
+    number = 0
+    while number < len(lines):
+        line = lines[number]
+        number += 1
+        start = number  # 1-based number of the record's first line
+        if not line or line[0] not in "vf":
+            continue  # comments (even ending in a backslash) and other records
+        while line.endswith("\\") and number < len(lines):  # continuation
+            line = line[:-1] + " " + lines[number]
+            number += 1
+        parts = line.split()
+        if not parts:
+            continue
+        tag = parts[0]
+        if tag == "v":
+            if len(parts) not in (4, 5, 7):
+                raise ValueError(f"line {start}: a vertex needs 3 coordinates "
+                                 f"(optionally w, or r g b), got {line.strip()!r}")
+            coords.extend(parts[1:])
+            coord_count.append(len(parts) - 1)
+        elif tag == "f":
+            if len(parts) < 4:
+                raise ValueError(f"line {start}: a face needs at least 3 corners, "
+                                 f"got {line.strip()!r}")
+            defined = len(coord_count)
+            try:
+                for corner in parts[1:]:
+                    k = int(corner.split("/", 1)[0])
+                    if k < 0:
+                        k += defined   # -1 is the last vertex defined so far
+                    elif k > 0:
+                        k -= 1
+                    else:
+                        raise ValueError("index 0")
+                    corners.append(k)
+            except ValueError:
+                raise ValueError(f"line {start}: bad face record {line.strip()!r}") from None
+            sizes.append(len(parts) - 1)
+
+    try:
+        values = np.array(coords, dtype=np.float64)
+    except ValueError as err:
+        raise ValueError(f"a vertex record has a non-numeric coordinate: {err}") from None
+    counts = np.array(coord_count, dtype=np.int64)
+    n = len(counts)
+    if n and (counts == counts[0]).all():
+        table = values.reshape(n, counts[0])
+    else:  # mixed record lengths: pad to 7 columns
+        table = np.zeros((n, 7))
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]]) if n else counts
+        for c in np.unique(counts):
+            rows = np.flatnonzero(counts == c)
+            idx = starts[rows, None] + np.arange(c)
+            table[rows, :c] = values[idx]
+    vertices = np.ascontiguousarray(table[:, :3]) if n else np.zeros((0, 3))
+    colors = None
+    if n and (counts == 6).all():
+        colors = np.ascontiguousarray(table[:, 3:6])
+        if colors.max(initial=0.0) > 1.0:  # some exporters write 0-255
+            colors = colors / 255.0
+
+    polygon_sizes = np.array(sizes, dtype=np.int64)
+    polygon_indices = np.array(corners, dtype=np.int64)
+    bad = (polygon_indices < 0) | (polygon_indices >= n)
+    if bad.any():
+        k = int(np.argmax(bad))
+        face = int(np.searchsorted(np.cumsum(polygon_sizes), k, side="right"))
+        raise ValueError(f"face {face} refers to vertex {int(polygon_indices[k]) + 1} "
+                         f"(1-based, after resolving relative indices), but the file "
+                         f"has {n} vertices")
+    return ObjData(vertices, polygon_sizes, polygon_indices, colors)
+
+
+# Triangulation
+
+def _newell_normal(p: np.ndarray) -> np.ndarray:
+    """(3,) normal of a polygon (corners (n, 3)), length = twice its area."""
+    q = np.roll(p, -1, axis=0)
+    return np.array([((p[:, 1] - q[:, 1]) * (p[:, 2] + q[:, 2])).sum(),
+                     ((p[:, 2] - q[:, 2]) * (p[:, 0] + q[:, 0])).sum(),
+                     ((p[:, 0] - q[:, 0]) * (p[:, 1] + q[:, 1])).sum()])
+
+
+def _ear_clip(p2: np.ndarray) -> List[Tuple[int, int, int]]:
+    """Triangles (local indices) of a simple polygon given counter-clockwise
+    in 2D, by ear clipping. Falls back to a fan if no ear is found (the
+    polygon is self-intersecting or degenerate)."""
+    remaining = list(range(len(p2)))
+    triangles = []
+
+    def cross(o, a, b):
+        return (p2[a, 0] - p2[o, 0]) * (p2[b, 1] - p2[o, 1]) - \
+               (p2[a, 1] - p2[o, 1]) * (p2[b, 0] - p2[o, 0])
+
+    guard = 0
+    while len(remaining) > 3 and guard < 10 * len(p2) ** 2:
+        guard += 1
+        m = len(remaining)
+        for k in range(m):
+            a, b, c = remaining[k - 1], remaining[k], remaining[(k + 1) % m]
+            if cross(a, b, c) <= 0.0:  # reflex or flat corner: not an ear
+                continue
+            inside = False
+            for d in remaining:
+                if d in (a, b, c):
+                    continue
+                if cross(a, b, d) >= 0.0 and cross(b, c, d) >= 0.0 and cross(c, a, d) >= 0.0:
+                    inside = True
+                    break
+            if not inside:
+                triangles.append((a, b, c))
+                del remaining[k]
+                break
+        else:
+            break  # no ear: give up on this polygon's remainder
+    if len(remaining) >= 3:
+        triangles += [(remaining[0], remaining[k], remaining[k + 1])
+                      for k in range(1, len(remaining) - 1)]
+    return triangles
+
+
+def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.ndarray
+                         ) -> Tuple[np.ndarray, np.ndarray]:
+    """Triangles covering each polygon exactly.
+
+    Convex polygons become fans from their first corner (in the corners'
+    order, so triangles keep the polygon's winding); other polygons are ear
+    clipped in their best-fit plane. A fan of a concave polygon would cover
+    area outside it.
+
+    Returns
+    -------
+    faces : (M, 3) int64
+    face_polygon : (M,) int64
+        The polygon each triangle came from.
+    """
+    sizes = np.asarray(sizes, dtype=np.int64)
+    indices = np.asarray(indices, dtype=np.int64)
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]) if len(sizes) else sizes
+    faces: List[np.ndarray] = []
+    owners: List[np.ndarray] = []
+    for n in np.unique(sizes):
+        polys = np.flatnonzero(sizes == n)
+        corner = starts[polys, None] + np.arange(n)       # (P, n) positions in indices
+        idx = indices[corner]                              # (P, n) vertex indices
+        if n == 3:
+            faces.append(idx)
+            owners.append(polys)
+            continue
+        # Convexity: every corner turns the same way as the polygon's normal.
+        p = vertices[idx]                                  # (P, n, 3)
+        q = np.roll(p, -1, axis=1)
+        normal = np.stack([((p[..., 1] - q[..., 1]) * (p[..., 2] + q[..., 2])).sum(1),
+                           ((p[..., 2] - q[..., 2]) * (p[..., 0] + q[..., 0])).sum(1),
+                           ((p[..., 0] - q[..., 0]) * (p[..., 1] + q[..., 1])).sum(1)], -1)
+        turn = np.cross(p - np.roll(p, 1, axis=1), q - p)  # (P, n, 3)
+        convex = (np.einsum("pnk,pk->pn", turn, normal) >= 0.0).all(axis=1)
+        k = np.arange(1, n - 1)
+        fan = np.stack([np.repeat(idx[convex, :1], n - 2, axis=1),
+                        idx[convex][:, k], idx[convex][:, k + 1]], -1)
+        faces.append(fan.reshape(-1, 3))
+        owners.append(np.repeat(polys[convex], n - 2))
+        for j in np.flatnonzero(~convex):
+            corners = idx[j]
+            pts = vertices[corners]
+            nrm = _newell_normal(pts)
+            axis = int(np.argmax(np.abs(nrm)))
+            # Project along the dominant axis onto a right-handed 2D frame
+            # (y, z), (z, x) or (x, y), mirrored if the normal points the
+            # other way: the polygon is then counter-clockwise.
+            p2 = pts[:, [(axis + 1) % 3, (axis + 2) % 3]]
+            if nrm[axis] < 0.0:
+                p2 = p2[:, ::-1]
+            tris = _ear_clip(p2)
+            faces.append(corners[np.array(tris, dtype=np.int64).reshape(-1, 3)])
+            owners.append(np.full(len(tris), polys[j]))
+    if not faces:
+        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+    faces_all = np.concatenate(faces)
+    owner_all = np.concatenate(owners)
+    order = np.argsort(owner_all, kind="stable")  # triangles in polygon order
+    return faces_all[order], owner_all[order]

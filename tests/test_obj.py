@@ -1,0 +1,112 @@
+"""zbuffer's OBJ reader: relative indices, polygons as written, exact triangulation."""
+
+import numpy as np
+import pytest
+
+import zbuffer
+from zbuffer.obj import read_obj, triangulate_polygons
+from helpers import model_path
+
+
+def write(tmp_path, text, name="mesh.obj"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_relative_indices_count_from_the_vertices_defined_so_far(tmp_path):
+    # Two quads in separate groups, the second written with negative indices.
+    absolute = """o a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4
+o b\nv 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\nf 5/1/1 6/2/1 7/3/1 8/4/1\n"""
+    relative = """o a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf -4 -3 -2 -1
+g b\nusemtl red\nv 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\nf -4/-4/-1 -3//-1 -2 -1\n"""
+    a = read_obj(write(tmp_path, absolute, "a.obj"))
+    r = read_obj(write(tmp_path, relative, "r.obj"))
+    np.testing.assert_array_equal(a.polygon_indices, r.polygon_indices)
+    np.testing.assert_array_equal(a.polygon_indices, np.arange(8))
+    assert list(r.polygon_sizes) == [4, 4]
+
+
+@pytest.mark.models
+def test_cornell_box_with_relative_indices_and_groups():
+    mesh = zbuffer.load(model_path("cornell_box_original.obj"))
+    assert len(mesh.faces) == 36 and len(mesh.vertices) == 72
+    # Every quad's two triangles use four distinct corners of one face
+    # record, none from another record (what a wrong relative index gives).
+    for k in range(18):
+        tris = mesh.faces[mesh.face_polygon == k]
+        assert len(tris) == 2 and len(np.unique(tris)) == 4
+    res = zbuffer.render(mesh, width=64, height=64, shading="none")
+    assert res.mask.mean() > 0.3
+    # Floor, ceiling, back and side walls, both boxes: many polygons show.
+    assert len(np.unique(mesh.face_polygon[res.triangle_id[res.mask]])) >= 10
+
+
+def test_vertex_colours_and_continuation_lines(tmp_path):
+    text = "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 \\\n 0 0 0 1\n# comment \\\nf 1 2 3\n"
+    data = read_obj(write(tmp_path, text))
+    np.testing.assert_array_equal(data.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    np.testing.assert_array_equal(data.vertex_colors, np.eye(3))
+    mesh = zbuffer.load(write(tmp_path, text, "c.obj"))
+    assert mesh.vertex_colors is not None and len(mesh.faces) == 1
+
+
+@pytest.mark.parametrize("text, message", [
+    ("v 0 0\nf 1 1 1\n", "line 1: a vertex needs 3 coordinates"),
+    ("v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3: a face needs at least 3 corners"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "line 4: bad face record"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", "line 4: bad face record"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "face 0 refers to vertex 4"),
+    ("v 0 0 0\nv 1 0 0\nf -1 -2 -3\n", "face 0 refers to vertex 0"),
+    ("v 0 zero 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "non-numeric coordinate"),
+])
+def test_malformed_records_name_the_problem(tmp_path, text, message):
+    with pytest.raises(ValueError, match=message):
+        zbuffer.load(write(tmp_path, text))
+
+
+def polygon_area_normal(p):
+    q = np.roll(p, -1, axis=0)
+    return 0.5 * np.cross(p, q).sum(axis=0)
+
+
+def star(n, seed, concave=True):
+    """A simple star-shaped polygon of n corners in a random plane."""
+    rng = np.random.default_rng(seed)
+    angles = np.sort(rng.uniform(0, 2 * np.pi, n))
+    radii = rng.uniform(0.2, 1.0, n) if concave else np.ones(n)
+    flat = np.stack([radii * np.cos(angles), radii * np.sin(angles), np.zeros(n)], -1)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return flat @ q.T + rng.normal(size=3)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_triangulation_covers_the_polygon_exactly(seed):
+    # Concave polygons: the triangles' vector areas add up to the polygon's
+    # (no overlap, no gap, same winding), and every triangle lies inside it.
+    n = 5 + seed % 9
+    p = star(n, seed)
+    faces, owner = triangulate_polygons(p, np.array([n]), np.arange(n))
+    assert len(faces) == n - 2 and (owner == 0).all()
+    tri = p[faces]
+    tri_areas = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    target = polygon_area_normal(p)
+    np.testing.assert_allclose(tri_areas.sum(axis=0), target, atol=1e-12)
+    # Same winding: each triangle's normal points along the polygon's.
+    assert (tri_areas @ target > 0).all()
+    np.testing.assert_allclose(np.linalg.norm(tri_areas, axis=1).sum(), np.linalg.norm(target))
+
+
+@pytest.mark.models
+def test_concave_plane_is_not_triangulated_as_a_fan():
+    mesh = zbuffer.load(model_path("concave_plane.obj"))
+    p = mesh.vertices
+    tri = p[mesh.faces]
+    areas = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    polygon = np.linalg.norm(polygon_area_normal(p))
+    assert areas.sum() == pytest.approx(polygon)  # a fan from vertex 1 covers more
+    fan = np.stack([np.zeros(6, int), np.arange(1, 7), np.arange(2, 8)], 1)
+    fan_tri = p[fan]
+    fan_area = 0.5 * np.linalg.norm(np.cross(fan_tri[:, 1] - fan_tri[:, 0],
+                                             fan_tri[:, 2] - fan_tri[:, 0]), axis=1).sum()
+    assert fan_area > polygon * 1.01
