@@ -5,6 +5,7 @@
 #include <string>
 
 #include "array_checks.h"
+#include "zbuffer/mesh_checks.h"
 #include "zbuffer/shading.h"
 
 namespace zbuffer_py {
@@ -12,7 +13,7 @@ namespace zbuffer_py {
 namespace {
 
 py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::handle faces_obj,
-                           py::handle inv_mvp_obj, py::handle viewer_obj,
+                           py::handle mvp_obj, py::handle viewer_obj,
                            py::handle light_dir_obj, double ambient, double diffuse,
                            py::handle background_obj, py::handle uniform_color_obj,
                            const std::string& color_source, py::handle colors_obj,
@@ -20,7 +21,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   auto ids = require_array<int32_t>(ids_obj, "triangle_id", {-1, -1});
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
   auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
-  auto inv_mvp = require_array<double>(inv_mvp_obj, "inv_mvp", {4, 4});
+  auto mvp = require_array<double>(mvp_obj, "mvp", {4, 4});
   auto viewer = require_array<double>(viewer_obj, "viewer", {4});
   auto light = require_array<double>(light_dir_obj, "light_dir", {3});
   auto background = require_array<uint8_t>(background_obj, "background", {3});
@@ -43,9 +44,8 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   if (lo < -1 || hi >= in.mesh.n_faces)
     throw py::value_error("triangle_id holds ids outside [-1, " +
                           std::to_string(in.mesh.n_faces) + ")");
-  for (py::ssize_t k = 0; k < faces.size(); ++k)
-    if (faces.data()[k] < 0 || faces.data()[k] >= in.mesh.n_vertices)
-      throw py::value_error("face index out of range in shade()");
+  if (zbuffer::find_bad_face_index(in.mesh) >= 0)
+    throw py::value_error("face index out of range in shade()");
 
   py::array_t<float> colors;
   if (color_source == "uniform") {
@@ -66,7 +66,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
     normals = require_array<double>(normals_obj, "vertex_normals", {in.mesh.n_vertices, 3});
     in.vertex_normals = normals.data();
   }
-  for (int k = 0; k < 16; ++k) in.inv_mvp[k] = inv_mvp.data()[k];
+  for (int k = 0; k < 16; ++k) in.mvp[k] = mvp.data()[k];
   for (int k = 0; k < 4; ++k) in.viewer[k] = viewer.data()[k];
   for (int k = 0; k < 3; ++k) {
     in.light_dir[k] = light.data()[k];
@@ -89,7 +89,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
 
 void bind_shading(py::module_& m) {
   m.def("shade", &shade, py::arg("triangle_id"), py::arg("positions"), py::arg("faces"),
-        py::arg("inv_mvp"), py::arg("viewer"), py::arg("light_dir"), py::arg("ambient"),
+        py::arg("mvp"), py::arg("viewer"), py::arg("light_dir"), py::arg("ambient"),
         py::arg("diffuse"), py::arg("background"), py::arg("uniform_color"),
         py::arg("color_source") = "uniform", py::arg("colors") = py::none(),
         py::arg("vertex_normals") = py::none(),

@@ -1,8 +1,17 @@
 // Lambert shading of a visibility result. See shading.h for the model.
+//
+// Per-face work (normal, facing, perspective-correct barycentric functions,
+// and for flat faces the final colour) is done once, the first time a face
+// shows up in the image, and cached; per-pixel work is then a handful of
+// multiply-adds.
 #include "zbuffer/shading.h"
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <vector>
+
+#include "simd.h"
 
 namespace zbuffer {
 
@@ -24,32 +33,107 @@ inline Vec3 normalized(Vec3 a) {
 }
 inline Vec3 load3(const double* p) { return {p[0], p[1], p[2]}; }
 
-// m * (x, y, z, 1), dehomogenised.
-inline Vec3 unproject(const double* m, double x, double y, double z) {
-  const double r[4] = {m[0] * x + m[1] * y + m[2] * z + m[3],
-                       m[4] * x + m[5] * y + m[6] * z + m[7],
-                       m[8] * x + m[9] * y + m[10] * z + m[11],
-                       m[12] * x + m[13] * y + m[14] * z + m[15]};
-  return {r[0] / r[3], r[1] / r[3], r[2] / r[3]};
-}
-
 inline uint8_t to_byte(double c) {
   return uint8_t(std::floor(std::min(1.0, std::max(0.0, c)) * 255.0 + 0.5));
 }
 
+// What a face needs at every pixel it covers.
+// Design decision: computed lazily, the first time the face is seen, into
+// an uninitialised per-render array. Good: hidden faces cost nothing, and
+// per-pixel work is a few multiply-adds. Bad: ~120 bytes per face of memory
+// for the duration of the pass.
+struct FaceShade {
+  // Perspective-correct barycentrics: with clip-space corners (x_k, y_k, w_k)
+  // as the columns of M, adj(M) (x_ndc, y_ndc, 1) is proportional to them.
+  double bary[9];
+  Vec3 normal;   // flat: the unit face normal, facing the viewer
+  double side;   // +1 or -1: which way the face turns towards the viewer
+  uint8_t rgb[3];  // flat shading with a per-face colour: the final colour
+};
+
+// Everything about one face that the pass needs, computed once.
+FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary) {
+  FaceShade s;
+  const double* m = in.mvp;
+  const Vec3 viewer = load3(in.viewer);
+  const int32_t* idx = in.mesh.faces + 3 * int64_t(f);
+  Vec3 p[3];
+  for (int k = 0; k < 3; ++k) p[k] = load3(in.mesh.positions + 3 * int64_t(idx[k]));
+  const Vec3 ng = cross(p[1] - p[0], p[2] - p[0]);
+  s.side = dot(ng, viewer - in.viewer[3] * p[0]) < 0.0 ? -1.0 : 1.0;
+  s.normal = s.side * normalized(ng);
+  for (double& b : s.bary) b = 0.0;
+  if (need_bary) {
+    double cx[3], cy[3], cw[3];
+    for (int k = 0; k < 3; ++k) {
+      cx[k] = m[0] * p[k].x + m[1] * p[k].y + m[2] * p[k].z + m[3];
+      cy[k] = m[4] * p[k].x + m[5] * p[k].y + m[6] * p[k].z + m[7];
+      cw[k] = m[12] * p[k].x + m[13] * p[k].y + m[14] * p[k].z + m[15];
+    }
+    // Rows of the adjugate of [[x0 x1 x2], [y0 y1 y2], [w0 w1 w2]].
+    for (int k = 0; k < 3; ++k) {
+      const int a = (k + 1) % 3, b = (k + 2) % 3;
+      s.bary[3 * k + 0] = cy[a] * cw[b] - cy[b] * cw[a];
+      s.bary[3 * k + 1] = cw[a] * cx[b] - cw[b] * cx[a];
+      s.bary[3 * k + 2] = cx[a] * cy[b] - cx[b] * cy[a];
+    }
+    // Scale so that the largest coefficient is about 1: the vector pass
+    // evaluates them in float32, whose range the raw products can exceed.
+    double big = 0.0;
+    for (double b : s.bary) big = std::max(big, std::abs(b));
+    if (big > 0.0 && std::isfinite(big))
+      for (double& b : s.bary) b /= big;
+  }
+  const Vec3 to_light = -1.0 * load3(in.light_dir);
+  const double intensity = in.ambient + in.diffuse * std::max(0.0, dot(s.normal, to_light));
+  for (int c = 0; c < 3; ++c) {
+    const double albedo = in.color_source == ColorSource::kPerFace
+                              ? in.colors[3 * int64_t(f) + c]
+                              : in.uniform_color[c];
+    s.rgb[c] = to_byte(albedo * intensity);
+  }
+  return s;
+}
+
+#ifdef ZBUFFER_AVX512
+void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image);
+#endif
+
 }  // namespace
 
 void shade(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+#ifdef ZBUFFER_AVX512
+  shade_avx512(in, triangle_id, image);
+#else
+  shade_scalar(in, triangle_id, image);
+#endif
+}
+
+void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
   const bool smooth = in.vertex_normals != nullptr;
-  const bool need_bary = smooth || in.color_source == ColorSource::kPerVertex;
+  const bool per_vertex = in.color_source == ColorSource::kPerVertex;
+  const bool need_bary = smooth || per_vertex;
   const Vec3 to_light = -1.0 * load3(in.light_dir);
-  const Vec3 viewer = load3(in.viewer);
   const double half_w = 0.5 * in.width, half_h = 0.5 * in.height;
 
-  int32_t cached_id = -1;  // flat shading: neighbours share a face's colour
-  uint8_t cached_rgb[3] = {0, 0, 0};
+  std::unique_ptr<FaceShade[]> faces(new FaceShade[size_t(in.mesh.n_faces)]);
+  std::vector<uint8_t> ready(size_t(in.mesh.n_faces), 0);
+
+  auto lambert = [&](Vec3 n, const double albedo[3], uint8_t* out) {
+    const double intensity = in.ambient + in.diffuse * std::max(0.0, dot(n, to_light));
+    for (int c = 0; c < 3; ++c) out[c] = to_byte(albedo[c] * intensity);
+  };
+
+  auto prepare = [&](int32_t f) -> const FaceShade& {
+    if (!ready[f]) {
+      faces[f] = prepare_face(in, f, need_bary);
+      ready[f] = 1;
+    }
+    return faces[f];
+  };
 
   for (int j = 0; j < in.height; ++j) {
+    const double yn = 1.0 - (j + 0.5) / half_h;
     for (int i = 0; i < in.width; ++i) {
       const size_t p = size_t(j) * size_t(in.width) + size_t(i);
       uint8_t* out = image + 3 * p;
@@ -60,81 +144,252 @@ void shade(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
         out[2] = in.background[2];
         continue;
       }
-      if (!need_bary && f == cached_id) {
-        out[0] = cached_rgb[0];
-        out[1] = cached_rgb[1];
-        out[2] = cached_rgb[2];
+      const FaceShade& s = prepare(f);
+      if (!need_bary) {
+        out[0] = s.rgb[0];
+        out[1] = s.rgb[1];
+        out[2] = s.rgb[2];
         continue;
       }
 
-      // Face geometry and which side the viewer sees.
+      // Barycentrics at the pixel centre, clamped into the triangle: a
+      // snapped pixel centre may lie a hair outside it.
+      const double xn = (i + 0.5) / half_w - 1.0;
+      double b[3];
+      for (int k = 0; k < 3; ++k)
+        b[k] = s.bary[3 * k] * xn + s.bary[3 * k + 1] * yn + s.bary[3 * k + 2];
+      const double sum = b[0] + b[1] + b[2];
+      if (sum != 0.0 && std::isfinite(sum)) {
+        for (double& v : b) v = std::min(1.0, std::max(0.0, v / sum));
+        const double total = b[0] + b[1] + b[2];
+        for (double& v : b) v /= total;
+      } else {
+        b[0] = b[1] = b[2] = 1.0 / 3.0;
+      }
+
       const int32_t* idx = in.mesh.faces + 3 * int64_t(f);
-      const Vec3 p0 = load3(in.mesh.positions + 3 * int64_t(idx[0]));
-      const Vec3 e1 = load3(in.mesh.positions + 3 * int64_t(idx[1])) - p0;
-      const Vec3 e2 = load3(in.mesh.positions + 3 * int64_t(idx[2])) - p0;
-      const Vec3 ng = cross(e1, e2);
-      const Vec3 to_viewer = viewer - in.viewer[3] * p0;
-      const double side = dot(ng, to_viewer) < 0.0 ? -1.0 : 1.0;
-
-      // Barycentrics of the view ray through the pixel centre (Moller-Trumbore),
-      // clamped into the triangle: a snapped pixel centre may lie a hair outside.
-      double b1 = 1.0 / 3.0, b2 = 1.0 / 3.0;
-      if (need_bary) {
-        const double xn = (i + 0.5) / half_w - 1.0;
-        const double yn = 1.0 - (j + 0.5) / half_h;
-        const Vec3 origin = unproject(in.inv_mvp, xn, yn, -1.0);
-        const Vec3 dir = unproject(in.inv_mvp, xn, yn, 1.0) - origin;
-        const Vec3 pvec = cross(dir, e2);
-        const double det = dot(e1, pvec);
-        if (det != 0.0 && std::isfinite(det)) {
-          const double inv_det = 1.0 / det;
-          const Vec3 tvec = origin - p0;
-          b1 = dot(tvec, pvec) * inv_det;
-          b2 = dot(dir, cross(tvec, e1)) * inv_det;
-          b1 = std::min(1.0, std::max(0.0, b1));
-          b2 = std::min(1.0, std::max(0.0, b2));
-          if (b1 + b2 > 1.0) {
-            const double s = 1.0 / (b1 + b2);
-            b1 *= s;
-            b2 *= s;
-          }
-        }
-      }
-      const double b0 = 1.0 - b1 - b2;
-
-      // Normal, facing the viewer.
-      Vec3 n = ng;
+      Vec3 n = s.normal;
       if (smooth) {
-        const Vec3 n0 = load3(in.vertex_normals + 3 * int64_t(idx[0]));
-        const Vec3 n1 = load3(in.vertex_normals + 3 * int64_t(idx[1]));
-        const Vec3 n2 = load3(in.vertex_normals + 3 * int64_t(idx[2]));
-        const Vec3 ns = b0 * n0 + b1 * n1 + b2 * n2;
-        if (dot(ns, ns) > 0.0) n = ns;
+        Vec3 ns{0, 0, 0};
+        for (int k = 0; k < 3; ++k)
+          ns = ns + b[k] * load3(in.vertex_normals + 3 * int64_t(idx[k]));
+        if (dot(ns, ns) > 0.0) n = s.side * normalized(ns);
       }
-      n = side * normalized(n);
-
-      // Lambert.
-      const double intensity =
-          in.ambient + in.diffuse * std::max(0.0, dot(n, to_light));
-      double albedo[3] = {0.0, 0.0, 0.0};
+      double albedo[3];
       for (int c = 0; c < 3; ++c) {
         switch (in.color_source) {
           case ColorSource::kUniform: albedo[c] = in.uniform_color[c]; break;
           case ColorSource::kPerFace: albedo[c] = in.colors[3 * int64_t(f) + c]; break;
           case ColorSource::kPerVertex:
-            albedo[c] = b0 * in.colors[3 * int64_t(idx[0]) + c] +
-                        b1 * in.colors[3 * int64_t(idx[1]) + c] +
-                        b2 * in.colors[3 * int64_t(idx[2]) + c];
+            albedo[c] = b[0] * in.colors[3 * int64_t(idx[0]) + c] +
+                        b[1] * in.colors[3 * int64_t(idx[1]) + c] +
+                        b[2] * in.colors[3 * int64_t(idx[2]) + c];
             break;
         }
       }
-      for (int c = 0; c < 3; ++c) out[c] = to_byte(albedo[c] * intensity);
-      cached_id = f;
-      cached_rgb[0] = out[0];
-      cached_rgb[1] = out[1];
-      cached_rgb[2] = out[2];
+      lambert(n, albedo, out);
     }
   }
 }
+
+namespace {
+
+#ifdef ZBUFFER_AVX512
+
+// The Vector Pass
+//
+// 16 pixels of a row per step, in float32 (shading need not be bit-exact;
+// it agrees with the scalar pass and the numpy twin within one level).
+// Per-face data sits in structure-of-arrays form for gathers.
+
+struct FaceTable {
+  explicit FaceTable(size_t n)
+      : bary(new float[9 * n]), normal(new float[3 * n]), side(new float[n]),
+        rgb(new int32_t[n]), ready(n, 0) {}
+  std::unique_ptr<float[]> bary;    // 9 per face: coefficient c of row k at 9 f + 3 k + c
+  std::unique_ptr<float[]> normal;  // 3 per face: the flat normal, facing the viewer
+  std::unique_ptr<float[]> side;
+  std::unique_ptr<int32_t[]> rgb;   // flat colour, 0x00BBGGRR
+  std::vector<int32_t> ready;  // int32 so that 16 flags are one gather
+};
+
+// Pack 16 colours 0x00BBGGRR into 48 bytes R G B R G B ... and store them.
+inline void store_rgb16(uint8_t* out, __m512i rgba, __mmask16 lanes) {
+  // Within each 128-bit lane: the 12 colour bytes first, then padding.
+  const __m512i bytes = _mm512_set4_epi32(-1, 0x0E0D0C0A, 0x09080605, 0x04020100);
+  const __m512i packed = _mm512_shuffle_epi8(rgba, bytes);
+  // Then the three useful dwords of each 128-bit lane next to each other.
+  const __m512i dwords = _mm512_set_epi32(15, 15, 15, 15, 14, 13, 12, 10, 9, 8, 6, 5, 4, 2, 1, 0);
+  const __m512i line = _mm512_permutexvar_epi32(dwords, packed);
+  // 3 bytes per lane: byte mask of the first 3 * count bytes.
+  const int count = 32 - __builtin_clz(uint32_t(lanes) | 1u);  // lanes are a prefix
+  const __mmask64 keep = count >= 16 ? __mmask64(0xFFFFFFFFFFFFull) : ((__mmask64(1) << (3 * count)) - 1);
+  _mm512_mask_storeu_epi8(out, keep, line);
+}
+
+inline __m512i to_bytes(__m512 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
+  const __m512 v = _mm512_min_ps(_mm512_max_ps(c, _mm512_setzero_ps()), _mm512_set1_ps(1.0f));
+  return _mm512_cvtps_epi32(_mm512_roundscale_ps(
+      _mm512_add_ps(_mm512_mul_ps(v, _mm512_set1_ps(255.0f)), _mm512_set1_ps(0.5f)),
+      _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
+}
+
+void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+  const bool smooth = in.vertex_normals != nullptr;
+  const bool per_vertex = in.color_source == ColorSource::kPerVertex;
+  const bool need_bary = smooth || per_vertex;
+  const size_t n_faces = size_t(in.mesh.n_faces);
+  FaceTable table(n_faces);
+
+  // Vertex normals and colours as float32 structure of arrays.
+  const size_t nv = size_t(in.mesh.n_vertices);
+  std::vector<float> vn, vc;
+  if (smooth) {
+    vn.resize(3 * nv);
+    for (size_t v = 0; v < nv; ++v)
+      for (int c = 0; c < 3; ++c) vn[c * nv + v] = float(in.vertex_normals[3 * v + c]);
+  }
+  if (per_vertex) {
+    vc.resize(3 * nv);
+    for (size_t v = 0; v < nv; ++v)
+      for (int c = 0; c < 3; ++c) vc[c * nv + v] = in.colors[3 * v + c];
+  }
+
+  const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
+  const __m512 lanes_f = _mm512_set_ps(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+  const __m512i zero = _mm512_setzero_si512();
+  const int32_t bg = int32_t(in.background[0]) | (int32_t(in.background[1]) << 8) |
+                     (int32_t(in.background[2]) << 16);
+  const __m512i background = _mm512_set1_epi32(bg);
+  const __m512 lx = _mm512_set1_ps(float(-in.light_dir[0]));
+  const __m512 ly = _mm512_set1_ps(float(-in.light_dir[1]));
+  const __m512 lz = _mm512_set1_ps(float(-in.light_dir[2]));
+  const __m512 ambient = _mm512_set1_ps(float(in.ambient));
+  const __m512 diffuse = _mm512_set1_ps(float(in.diffuse));
+  const __m512 one = _mm512_set1_ps(1.0f), third = _mm512_set1_ps(1.0f / 3.0f);
+
+  for (int j = 0; j < in.height; ++j) {
+    const int32_t* ids = triangle_id + size_t(j) * size_t(in.width);
+    uint8_t* row = image + 3 * size_t(j) * size_t(in.width);
+    const __m512 yn = _mm512_set1_ps(1.0f - (float(j) + 0.5f) / half_h);
+    for (int i = 0; i < in.width; i += 16) {
+      const __mmask16 valid =
+          in.width - i >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (in.width - i)) - 1);
+      const __m512i f = _mm512_maskz_loadu_epi32(valid, ids + i);
+      const __mmask16 drawn = _mm512_mask_cmpge_epi32_mask(valid, f, zero);
+      // Faces seen for the first time: prepare them (scalar, once per face).
+      const __mmask16 first_seen = _mm512_mask_cmpeq_epi32_mask(
+          drawn, _mm512_mask_i32gather_epi32(zero, drawn, f, table.ready.data(), 4), zero);
+      for (unsigned m = first_seen; m; m &= m - 1) {
+        const int32_t face = ids[i + __builtin_ctz(m)];
+        if (table.ready[face]) continue;  // two lanes of one new face
+        const FaceShade s = prepare_face(in, face, need_bary);
+        for (int c = 0; c < 9; ++c) table.bary[9 * size_t(face) + c] = float(s.bary[c]);
+        table.normal[3 * size_t(face) + 0] = float(s.normal.x);
+        table.normal[3 * size_t(face) + 1] = float(s.normal.y);
+        table.normal[3 * size_t(face) + 2] = float(s.normal.z);
+        table.side[face] = float(s.side);
+        table.rgb[face] =
+            int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
+        table.ready[face] = 1;
+      }
+      __m512i rgba = background;
+      if (drawn && !need_bary) {
+        rgba = _mm512_mask_i32gather_epi32(background, drawn, f, table.rgb.get(), 4);
+      } else if (drawn) {
+        // Barycentrics at the pixel centres, normalised and clamped.
+        const __m512 xn = _mm512_sub_ps(
+            _mm512_div_ps(_mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(float(i)), lanes_f),
+                                        _mm512_set1_ps(0.5f)),
+                          _mm512_set1_ps(half_w)),
+            one);
+        const __m512i f9 = _mm512_mullo_epi32(f, _mm512_set1_epi32(9));
+        __m512 b[3];
+        for (int k = 0; k < 3; ++k) {
+          auto coef = [&](int c) {
+            return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), drawn,
+                                            _mm512_add_epi32(f9, _mm512_set1_epi32(3 * k + c)),
+                                            table.bary.get(), 4);
+          };
+          b[k] = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(coef(0), xn), _mm512_mul_ps(coef(1), yn)),
+                               coef(2));
+        }
+        const __m512 sum = _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]);
+        constexpr int kNanOrInfOrZero = 0x01 | 0x80 | 0x08 | 0x10 | 0x02 | 0x04;
+        const __mmask16 bad = _mm512_fpclass_ps_mask(sum, kNanOrInfOrZero);
+        const __m512 inv = _mm512_div_ps(one, sum);
+        for (auto& bk : b)
+          bk = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(bk, inv), _mm512_setzero_ps()), one);
+        const __m512 inv_total = _mm512_div_ps(one, _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]));
+        for (auto& bk : b) bk = _mm512_mask_mov_ps(_mm512_mul_ps(bk, inv_total), bad, third);
+
+        // Vertex indices of each lane's face.
+        const __m512i f3 = _mm512_mullo_epi32(f, _mm512_set1_epi32(3));
+        __m512i vid[3];
+        if (smooth || per_vertex)
+          for (int k = 0; k < 3; ++k)
+            vid[k] = _mm512_mask_i32gather_epi32(zero, drawn, _mm512_add_epi32(f3, _mm512_set1_epi32(k)),
+                                                 in.mesh.faces, 4);
+        // Normal: flat, or interpolated and normalised.
+        __m512 n[3];
+        for (int c = 0; c < 3; ++c)
+          n[c] = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), drawn,
+                                          _mm512_add_epi32(f3, _mm512_set1_epi32(c)),
+                                          table.normal.get(), 4);
+        if (smooth) {
+          __m512 ns[3];
+          for (int c = 0; c < 3; ++c) {
+            const float* comp = vn.data() + size_t(c) * nv;
+            ns[c] = _mm512_setzero_ps();
+            for (int k = 0; k < 3; ++k)
+              ns[c] = _mm512_add_ps(ns[c], _mm512_mul_ps(b[k], _mm512_mask_i32gather_ps(
+                                                                   _mm512_setzero_ps(), drawn,
+                                                                   vid[k], comp, 4)));
+          }
+          const __m512 len2 = _mm512_add_ps(
+              _mm512_add_ps(_mm512_mul_ps(ns[0], ns[0]), _mm512_mul_ps(ns[1], ns[1])),
+              _mm512_mul_ps(ns[2], ns[2]));
+          const __mmask16 usable = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);
+          const __m512 side = _mm512_mask_i32gather_ps(one, drawn, f, table.side.get(), 4);
+          const __m512 scale = _mm512_div_ps(side, _mm512_sqrt_ps(len2));
+          for (int c = 0; c < 3; ++c) n[c] = _mm512_mask_mov_ps(n[c], usable, _mm512_mul_ps(ns[c], scale));
+        }
+        const __m512 ndotl = _mm512_add_ps(
+            _mm512_add_ps(_mm512_mul_ps(n[0], lx), _mm512_mul_ps(n[1], ly)), _mm512_mul_ps(n[2], lz));
+        const __m512 intensity =
+            _mm512_add_ps(ambient, _mm512_mul_ps(diffuse, _mm512_max_ps(ndotl, _mm512_setzero_ps())));
+        // Albedo.
+        __m512i channel[3];
+        for (int c = 0; c < 3; ++c) {
+          __m512 albedo;
+          if (per_vertex) {
+            const float* comp = vc.data() + size_t(c) * nv;
+            albedo = _mm512_setzero_ps();
+            for (int k = 0; k < 3; ++k)
+              albedo = _mm512_add_ps(albedo, _mm512_mul_ps(b[k], _mm512_mask_i32gather_ps(
+                                                                    _mm512_setzero_ps(), drawn,
+                                                                    vid[k], comp, 4)));
+          } else if (in.color_source == ColorSource::kPerFace) {
+            albedo = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), drawn,
+                                              _mm512_add_epi32(f3, _mm512_set1_epi32(c)),
+                                              in.colors, 4);
+          } else {
+            albedo = _mm512_set1_ps(in.uniform_color[c]);
+          }
+          channel[c] = to_bytes(_mm512_mul_ps(albedo, intensity));
+        }
+        const __m512i colour = _mm512_or_si512(
+            channel[0], _mm512_or_si512(_mm512_slli_epi32(channel[1], 8),
+                                        _mm512_slli_epi32(channel[2], 16)));
+        rgba = _mm512_mask_mov_epi32(background, drawn, colour);
+      }
+      store_rgb16(row + 3 * size_t(i), rgba, valid);
+    }
+  }
+}
+
+#endif
+
+}  // namespace
 
 }  // namespace zbuffer

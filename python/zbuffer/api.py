@@ -35,7 +35,7 @@ def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
     source, colors, uniform = color_source(mesh, params)
     return _core.shade(
         triangle_id, mesh.vertices, mesh.faces,
-        inv_mvp=np.ascontiguousarray(np.linalg.inv(mvp)),
+        mvp=mvp,
         viewer=camera.viewer(), light_dir=params.light_dir,
         ambient=params.ambient, diffuse=params.diffuse,
         background=params.background, uniform_color=uniform,

@@ -100,11 +100,6 @@ def color_source(mesh, params: ShadingParams):
     return "uniform", None, uniform
 
 
-def _unproject(m: np.ndarray, x: np.ndarray, y: np.ndarray, z: float) -> np.ndarray:
-    r = [m[k, 0] * x + m[k, 1] * y + m[k, 2] * z + m[k, 3] for k in range(4)]
-    return np.stack([r[0] / r[3], r[1] / r[3], r[2] / r[3]], axis=-1)
-
-
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
@@ -136,26 +131,31 @@ def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
     b1 = np.full(len(f), 1.0 / 3.0)
     b2 = np.full(len(f), 1.0 / 3.0)
     if need_bary:
-        inv = np.linalg.inv(mvp)
+        # Perspective-correct barycentrics: adj(M) (x_ndc, y_ndc, 1), with the
+        # corners' clip-space (x, y, w) as the columns of M (shading.h).
         xn = (is_ + 0.5) / (0.5 * width) - 1.0
         yn = 1.0 - (js + 0.5) / (0.5 * height)
-        origin = _unproject(inv, xn, yn, -1.0)
-        direction = _unproject(inv, xn, yn, 1.0) - origin
-        pvec = np.cross(direction, e2)
-        det = _dot(e1, pvec)
-        ok = (det != 0.0) & np.isfinite(det)
-        inv_det = 1.0 / np.where(ok, det, 1.0)
-        tvec = origin - p0
-        u = np.clip(_dot(tvec, pvec) * inv_det, 0.0, 1.0)
-        w = np.clip(_dot(direction, np.cross(tvec, e1)) * inv_det, 0.0, 1.0)
-        total = u + w
-        scale = np.where(total > 1.0, 1.0 / np.where(total > 0, total, 1.0), 1.0)
-        b1 = np.where(ok, u * scale, b1)
-        b2 = np.where(ok, w * scale, b2)
+        corners = [v[idx[:, k]] for k in range(3)]
+        cx = [c @ mvp[0, :3] + mvp[0, 3] for c in corners]
+        cy = [c @ mvp[1, :3] + mvp[1, 3] for c in corners]
+        cw = [c @ mvp[3, :3] + mvp[3, 3] for c in corners]
+        b = []
+        for k in range(3):
+            a, c = (k + 1) % 3, (k + 2) % 3
+            b.append((cy[a] * cw[c] - cy[c] * cw[a]) * xn
+                     + (cw[a] * cx[c] - cw[c] * cx[a]) * yn
+                     + (cx[a] * cy[c] - cx[c] * cy[a]))
+        total = b[0] + b[1] + b[2]
+        ok = (total != 0.0) & np.isfinite(total)
+        safe = np.where(ok, total, 1.0)
+        b = [np.clip(bk / safe, 0.0, 1.0) for bk in b]
+        total = b[0] + b[1] + b[2]
+        b1 = np.where(ok, b[1] / total, b1)
+        b2 = np.where(ok, b[2] / total, b2)
     b0 = 1.0 - b1 - b2
 
     n = ng
-    if smooth:
+    if smooth:  # (b0 computed from b1, b2 above)
         vn = mesh.vertex_normals
         ns = (b0[:, None] * vn[idx[:, 0]] + b1[:, None] * vn[idx[:, 1]]
               + b2[:, None] * vn[idx[:, 2]])

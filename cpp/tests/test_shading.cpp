@@ -1,0 +1,90 @@
+// The shading pass: the vector pass agrees with the scalar one.
+#include <cmath>
+#include <cstdlib>
+#include <vector>
+
+#include "check.h"
+#include "zbuffer/algorithms.h"
+#include "zbuffer/shading.h"
+
+using namespace zbuffer;
+
+namespace {
+
+// A UV sphere of radius 1 at the origin, with unit vertex normals.
+void sphere(int rings, int sectors, std::vector<double>& pos, std::vector<int32_t>& faces,
+            std::vector<double>& normals) {
+  for (int r = 0; r <= rings; ++r)
+    for (int s = 0; s < sectors; ++s) {
+      const double theta = M_PI * r / rings, phi = 2 * M_PI * s / sectors;
+      const double p[3] = {std::sin(theta) * std::cos(phi), std::cos(theta),
+                           std::sin(theta) * std::sin(phi)};
+      for (double c : p) {
+        pos.push_back(c);
+        normals.push_back(c);
+      }
+    }
+  for (int r = 0; r < rings; ++r)
+    for (int s = 0; s < sectors; ++s) {
+      const int a = r * sectors + s, b = r * sectors + (s + 1) % sectors;
+      const int c = a + sectors, d = b + sectors;
+      faces.insert(faces.end(), {a, c, d, a, d, b});
+    }
+}
+
+void test_vector_pass_matches_scalar_pass() {
+  std::vector<double> pos, normals;
+  std::vector<int32_t> faces;
+  sphere(24, 48, pos, faces, normals);
+  const int n_faces = int(faces.size() / 3), n_vertices = int(pos.size() / 3);
+  // Perspective camera at (0.3, 0.4, 3) looking at the origin (precomputed).
+  const double f = 1.0 / std::tan(M_PI / 8), n = 1.0, fa = 6.0;
+  const double ez = 3.0;
+  const double mvp[16] = {f, 0, 0, 0, 0, f, 0, 0, 0, 0, -(fa + n) / (fa - n),
+                          -2 * fa * n / (fa - n) + (fa + n) / (fa - n) * ez, 0, 0, -1, ez};
+  const int w = 77, h = 61;
+  RenderInput input;
+  input.mesh = {pos.data(), n_vertices, faces.data(), n_faces};
+  for (int k = 0; k < 16; ++k) input.mvp[k] = mvp[k];
+  std::vector<float> depth(size_t(w) * h);
+  std::vector<int32_t> ids(size_t(w) * h);
+  DepthTarget target{depth.data(), ids.data(), w, h};
+  RenderStats stats;
+  render(*find_algorithm("zbuffer"), input, target, stats);
+  CHECK(stats.pixels_written > 1000);
+
+  std::vector<float> colors_v(size_t(n_vertices) * 3), colors_f(size_t(n_faces) * 3);
+  for (size_t k = 0; k < colors_v.size(); ++k) colors_v[k] = float((k * 37) % 101) / 100.0f;
+  for (size_t k = 0; k < colors_f.size(); ++k) colors_f[k] = float((k * 53) % 97) / 96.0f;
+  for (int smooth = 0; smooth < 2; ++smooth)
+    for (int source = 0; source < 3; ++source) {
+      ShadingInput in;
+      in.mesh = input.mesh;
+      in.width = w;
+      in.height = h;
+      for (int k = 0; k < 16; ++k) in.mvp[k] = mvp[k];
+      in.viewer[0] = 0;
+      in.viewer[1] = 0;
+      in.viewer[2] = ez;
+      in.viewer[3] = 1;
+      const double l[3] = {0.3, -0.5, -0.8};
+      const double len = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+      for (int k = 0; k < 3; ++k) in.light_dir[k] = l[k] / len;
+      in.vertex_normals = smooth ? normals.data() : nullptr;
+      in.color_source = ColorSource(source);
+      in.colors = source == 1 ? colors_v.data() : source == 2 ? colors_f.data() : nullptr;
+      std::vector<uint8_t> fast(size_t(w) * h * 3), slow(size_t(w) * h * 3);
+      shade(in, ids.data(), fast.data());
+      shade_scalar(in, ids.data(), slow.data());
+      int worst = 0;
+      for (size_t k = 0; k < fast.size(); ++k) worst = std::max(worst, std::abs(int(fast[k]) - int(slow[k])));
+      CHECK(worst <= 1);
+    }
+}
+
+}  // namespace
+
+int main() {
+  test_vector_pass_matches_scalar_pass();
+  return check_report("test_shading");
+}
