@@ -52,6 +52,10 @@ def machine() -> dict:
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE,
                                 capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "cpp", "src", "python"],
+                               cwd=HERE.parent, capture_output=True, text=True).stdout.strip()
+        if dirty:
+            commit += " (with uncommitted changes to the sources)"
     except (OSError, subprocess.CalledProcessError):
         commit = "unknown"
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
@@ -90,8 +94,32 @@ def bench(mesh, width, height, shading, runs):
         "triangles": len(mesh.faces),
         "mtris_per_s": len(mesh.faces) / statistics.median(core) / 1e3,
         "pixels_covered": stats["pixels_covered"],
-        "raster_ms_median": statistics.median([stats["raster_ms"]]),
+        "backend": zbuffer._core.RASTER_BACKEND,
     }
+
+
+def bench_vtk(path: Path, width: int, height: int, runs: int):
+    """VTK offscreen depth maps through pyvista (render + get_image_depth), for
+    scale: median ms per frame, or None where pyvista cannot render here."""
+    try:
+        import pyvista as pv
+
+        pv.OFF_SCREEN = True
+        mesh = pv.read(str(path))
+        plotter = pv.Plotter(off_screen=True, window_size=(width, height))
+        plotter.add_mesh(mesh)
+        plotter.show(auto_close=False)
+        times = []
+        for _ in range(runs + 1):
+            t0 = time.perf_counter()
+            plotter.render()
+            plotter.get_image_depth()
+            times.append((time.perf_counter() - t0) * 1e3)
+        plotter.close()
+        return statistics.median(times[1:])
+    except Exception as err:  # no OpenGL context on this machine, no pyvista...
+        print(f"VTK comparison skipped: {err}", file=sys.stderr)
+        return None
 
 
 def markdown(report: dict) -> str:
@@ -101,7 +129,7 @@ def markdown(report: dict) -> str:
         "",
         f"- date: {report['date']}",
         f"- machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}",
-        f"- commit: {m['commit']}",
+        f"- commit: {m['commit']}; raster backend: {report['cases'][0].get('backend', '?')}",
         f"- command: `{report['command']}`",
         "- times: median of the runs; *core* is the compiled render (and shading) call,",
         "  *total* the whole `zbuffer.render` call from Python. Single thread.",
@@ -118,6 +146,15 @@ def markdown(report: dict) -> str:
             f"| {c['mesh']} | {c['size']} | {c['shading']} | {c['triangles']:,} | "
             f"{c['core_ms_median']:.3f} | {c['total_ms_median']:.3f} | "
             f"{c['mtris_per_s']:.1f} | {c['target']} |")
+    vtk = [c for c in report["cases"] if c.get("vtk_ms_median")]
+    if vtk:
+        lines += ["", "Same run, VTK offscreen depth (pyvista `render()` + `get_image_depth()`, "
+                  "median of 5 frames; software OpenGL on this machine):", "",
+                  "| mesh | size | VTK ms | zbuffer total ms | zbuffer speed-up |",
+                  "|---|---|---:|---:|---:|"]
+        for c in vtk:
+            lines.append(f"| {c['mesh']} | {c['size']} | {c['vtk_ms_median']:.1f} | "
+                         f"{c['total_ms_median']:.3f} | {c['vtk_ms_median'] / c['total_ms_median']:.0f}x |")
     return "\n".join(lines) + "\n"
 
 
@@ -132,7 +169,7 @@ def main(argv=None) -> int:
     report = {
         "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "machine": machine(),
-        "command": "python benchmarks/bench_render.py " + " ".join(argv or sys.argv[1:]),
+        "command": " ".join(["python benchmarks/bench_render.py", *(argv or sys.argv[1:])]),
         "cases": [],
     }
     for name, width, height, shading, target in CASES:
@@ -144,6 +181,10 @@ def main(argv=None) -> int:
             case["skipped"] = f"{MODELS / name} not found"
         else:
             case.update(bench(mesh, width, height, shading, runs))
+            if not args.quick and shading == "none" and width >= 1024:
+                vtk = bench_vtk(MODELS / name, width, height, 5)
+                if vtk is not None:
+                    case["vtk_ms_median"] = vtk
             print(f"{label:<40} {width}x{height} {shading:<6} core {case['core_ms_median']:8.3f} ms"
                   f"  total {case['total_ms_median']:8.3f} ms  {case['mtris_per_s']:6.1f} Mtri/s",
                   flush=True)

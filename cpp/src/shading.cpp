@@ -175,7 +175,7 @@ void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
           ns = ns + b[k] * load3(in.vertex_normals + 3 * int64_t(idx[k]));
         if (dot(ns, ns) > 0.0) n = s.side * normalized(ns);
       }
-      double albedo[3];
+      double albedo[3] = {0.0, 0.0, 0.0};
       for (int c = 0; c < 3; ++c) {
         switch (in.color_source) {
           case ColorSource::kUniform: albedo[c] = in.uniform_color[c]; break;

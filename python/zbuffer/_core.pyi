@@ -1,0 +1,42 @@
+"""Type stubs for zbuffer's compiled core (private: use the zbuffer package)."""
+
+from typing import Dict, List, Optional, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+SUBPIXEL_BITS: int
+MAX_IMAGE_SIDE: int
+MAX_IMAGE_PIXELS: int
+GUARD_BAND_PX: float
+RASTER_BACKEND: str
+
+def algorithms() -> List[Tuple[str, str]]: ...
+def render(
+    positions: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.int32],
+    mvp: npt.NDArray[np.float64],
+    width: int,
+    height: int,
+    algo: str = "zbuffer",
+    cull_backfaces: bool = False,
+    face_ids: Optional[npt.NDArray[np.int32]] = None,
+) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.int32], Dict[str, Union[int, float]]]: ...
+def spatial_order(
+    positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32]
+) -> npt.NDArray[np.int32]: ...
+def shade(
+    triangle_id: npt.NDArray[np.int32],
+    positions: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.int32],
+    mvp: npt.NDArray[np.float64],
+    viewer: npt.NDArray[np.float64],
+    light_dir: npt.NDArray[np.float64],
+    ambient: float,
+    diffuse: float,
+    background: npt.NDArray[np.uint8],
+    uniform_color: npt.NDArray[np.float32],
+    color_source: str = "uniform",
+    colors: Optional[npt.NDArray[np.float32]] = None,
+    vertex_normals: Optional[npt.NDArray[np.float64]] = None,
+) -> npt.NDArray[np.uint8]: ...
