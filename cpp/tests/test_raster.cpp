@@ -28,6 +28,34 @@ struct Frame {
 
 ScreenVertex sv(int32_t x_fx, int32_t y_fx, double z) { return {x_fx, y_fx, 0u, z}; }
 
+// A small deterministic generator: the tests need no <random> distributions
+// whose output differs between standard libraries.
+struct Lcg {
+  uint64_t state;
+  int64_t operator()(int64_t lo, int64_t hi) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return lo + int64_t((state >> 33) % uint64_t(hi - lo + 1));
+  }
+};
+
+// A random screen triangle around (cx, cy) within r sub-pixels.
+ScreenTriangle random_triangle(Lcg& next, int64_t cx, int64_t cy, int64_t r, int32_t id,
+                               RenderStats& stats, bool& ok) {
+  ScreenVertex v[3];
+  for (auto& p : v)
+    p = sv(int32_t(cx + next(-r, r)), int32_t(cy + next(-r, r)), double(next(0, 64)) / 64.0);
+  ScreenTriangle tri;
+  ok = make_triangle(v[0], v[1], v[2], id, false, tri, stats);
+  return tri;
+}
+
+bool same_pixels(const Frame& a, const Frame& b) {
+  bool same = true;
+  for (size_t p = 0; p < a.depth.size(); ++p)
+    same &= a.ids[p] == b.ids[p] && std::memcmp(&a.depth[p], &b.depth[p], sizeof(float)) == 0;
+  return same;
+}
+
 // Hand a triangle through the same assembly the algorithms use.
 void draw(Frame& fr, ScreenVertex a, ScreenVertex b, ScreenVertex c, int32_t id,
           RenderStats& stats) {
@@ -120,19 +148,12 @@ void test_box_clamped_to_image() {
 void test_fast_loop_equals_scalar_loop() {
   Frame fast(70, 45), slow(70, 45);
   RenderStats fs, ss;
-  uint64_t seed = 12345;
-  auto next = [&seed](int64_t lo, int64_t hi) {
-    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-    return lo + int64_t((seed >> 33) % uint64_t(hi - lo + 1));
-  };
+  Lcg next{12345};
   for (int t = 0; t < 3000; ++t) {
-    ScreenVertex v[3];
-    const int64_t cx = next(-2000, 72 * 256), cy = next(-2000, 47 * 256);
-    const int64_t r = t % 3 == 0 ? 6000 : 800;
-    for (auto& p : v)
-      p = sv(int32_t(cx + next(-r, r)), int32_t(cy + next(-r, r)), double(next(0, 1000)) / 1000.0);
-    ScreenTriangle tri;
-    if (!make_triangle(v[0], v[1], v[2], t % 500, false, tri, fs)) continue;
+    bool ok;
+    const ScreenTriangle tri = random_triangle(next, next(-2000, 72 * 256), next(-2000, 47 * 256),
+                                               t % 3 == 0 ? 6000 : 800, t % 500, fs, ok);
+    if (!ok) continue;
     const TriangleSetup s = setup_triangle(tri, 70, 45);
     if (s.x_min > s.x_max || s.y_min > s.y_max) continue;
     if (t % 2) {  // the whole-triangle entry point, against the scalar loop
@@ -153,11 +174,7 @@ void test_fast_loop_equals_scalar_loop() {
       }
     }
   }
-  bool same = true;
-  for (size_t p = 0; p < fast.depth.size(); ++p)
-    same &= fast.ids[p] == slow.ids[p] &&
-            std::memcmp(&fast.depth[p], &slow.depth[p], sizeof(float)) == 0;
-  CHECK(same);
+  CHECK(same_pixels(fast, slow));
   CHECK(fs.pixels_covered == ss.pixels_covered);
   CHECK(fs.pixels_written == ss.pixels_written);
   CHECK(ss.pixels_covered > 10000);
@@ -169,38 +186,88 @@ void test_fast_loop_equals_scalar_loop() {
 void test_batch_equals_scalar_loop() {
   Frame fast(90, 61), slow(90, 61);
   RenderStats fs, ss;
-  uint64_t seed = 777;
-  auto next = [&seed](int64_t lo, int64_t hi) {
-    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-    return lo + int64_t((seed >> 33) % uint64_t(hi - lo + 1));
-  };
+  Lcg next{777};
   TriangleBatch batch(fast.target, fs);
   for (int t = 0; t < 5000; ++t) {
-    ScreenVertex v[3];
-    const int64_t cx = next(-3000, 92 * 256), cy = next(-3000, 63 * 256);
-    const int64_t r = t % 7 == 0 ? 9000 : t % 3 == 0 ? 1500 : 600;
-    for (auto& p : v)
-      p = sv(int32_t(cx + next(-r, r)), int32_t(cy + next(-r, r)), double(next(0, 64)) / 64.0);
-    ScreenTriangle tri;
-    if (!make_triangle(v[0], v[1], v[2], t % 700, false, tri, fs)) continue;
+    bool ok;
+    const ScreenTriangle tri =
+        random_triangle(next, next(-3000, 92 * 256), next(-3000, 63 * 256),
+                        t % 7 == 0 ? 9000 : t % 3 == 0 ? 1500 : 600, t % 700, fs, ok);
+    if (!ok) continue;
     batch.add(tri);
     const TriangleSetup s = setup_triangle(tri, 90, 61);
     if (s.x_min <= s.x_max && s.y_min <= s.y_max)
       rasterize_rect_scalar(s, s.x_min, s.y_min, s.x_max, s.y_max, slow.target, ss);
   }
   batch.flush();
-  bool same = true;
-  for (size_t p = 0; p < fast.depth.size(); ++p)
-    same &= fast.ids[p] == slow.ids[p] &&
-            std::memcmp(&fast.depth[p], &slow.depth[p], sizeof(float)) == 0;
-  CHECK(same);
+  CHECK(same_pixels(fast, slow));
   CHECK(fs.pixels_covered == ss.pixels_covered);
   CHECK(ss.pixels_covered > 10000);
+}
+
+// Faces through the batch's vector assembly and setup (16 at a time) draw
+// the same bits as the scalar assembly and scalar loop, and count the same
+// triangles, with clipping, culling and degenerate faces mixed in.
+void test_batch_faces_equal_scalar_assembly() {
+  const int w = 83, h = 67;
+  Lcg next{4242};
+  std::vector<double> pos;
+  for (int i = 0; i < 3000; ++i) {
+    const double cx = double(next(-1200, 1200)) / 1000.0, cy = double(next(-1200, 1200)) / 1000.0;
+    const double cz = double(next(-3000, 900)) / 1000.0;  // some behind the near plane
+    pos.insert(pos.end(), {cx, cy, cz});
+  }
+  std::vector<int32_t> faces;
+  for (int f = 0; f < 1000; ++f) {
+    const int32_t a = int32_t(next(0, 2999));
+    // Mostly small triangles (neighbouring vertices), some big, some degenerate.
+    const int32_t b = f % 11 == 0 ? a : int32_t(next(0, 2999));
+    const int32_t c = f % 5 == 0 ? int32_t(next(0, 2999)) : int32_t((a + 1) % 3000);
+    faces.insert(faces.end(), {a, b, c});
+  }
+  // Shrink most triangles: move each face's later vertices near its first.
+  for (size_t f = 0; f < faces.size(); f += 3)
+    if (f % 4 != 0)
+      for (int k = 1; k < 3; ++k)
+        for (int c = 0; c < 3; ++c)
+          pos[3 * size_t(faces[f + k]) + c] =
+              pos[3 * size_t(faces[f]) + c] + double(next(-40, 40)) / 1000.0;
+  const MeshView mesh{pos.data(), int64_t(pos.size() / 3), faces.data(),
+                      int64_t(faces.size() / 3)};
+  // Perspective looking down -z from z = 1, near 0.1, far 4.
+  const double n = 0.1, fa = 4.0, e = 1.0;
+  const double mvp[16] = {1.2, 0, 0, 0, 0, 1.5, 0, 0, 0, 0, -(fa + n) / (fa - n),
+                          -2 * fa * n / (fa - n) + (fa + n) / (fa - n) * e, 0, 0, -1, e};
+  const Viewport vp(w, h);
+  ScreenVertices screen;
+  transform_vertices(mesh, mvp, vp, screen);
+  for (int cull = 0; cull < 2; ++cull) {
+    Frame fast(w, h), slow(w, h);
+    RenderStats fs, ss;
+    TriangleBatch batch(fast.target, fs);
+    batch.add_faces(mesh, mvp, vp, screen, 0, mesh.n_faces, cull != 0);
+    batch.flush();
+    for (int64_t f = 0; f < mesh.n_faces; ++f)
+      assemble_triangle(mesh, mvp, vp, screen, f, cull != 0, ss, [&](const ScreenTriangle& t) {
+        ++ss.rasterized;
+        const TriangleSetup s = setup_triangle(t, w, h);
+        if (s.x_min <= s.x_max && s.y_min <= s.y_max)
+          rasterize_rect_scalar(s, s.x_min, s.y_min, s.x_max, s.y_max, slow.target, ss);
+      });
+    CHECK(same_pixels(fast, slow));
+    CHECK(fs.rasterized == ss.rasterized && fs.clipped == ss.clipped &&
+          fs.culled_frustum == ss.culled_frustum && fs.culled_backface == ss.culled_backface &&
+          fs.culled_degenerate == ss.culled_degenerate && fs.clip_pieces == ss.clip_pieces);
+    CHECK(fs.pixels_covered == ss.pixels_covered && fs.pixels_tested == ss.pixels_tested);
+    CHECK(ss.clipped > 0 && ss.culled_degenerate > 0 && ss.pixels_covered > 1000);
+    CHECK(cull == 0 || ss.culled_backface > 0);
+  }
 }
 
 }  // namespace
 
 int main() {
+  test_batch_faces_equal_scalar_assembly();
   test_batch_equals_scalar_loop();
   test_fast_loop_equals_scalar_loop();
   test_tessellated_square_covered_once();
