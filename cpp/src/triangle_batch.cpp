@@ -124,15 +124,9 @@ void TriangleBatch::flush() {
 // kPasses passes of 8 x 2 pixels cover every box of a group: lanes 0-7 are
 // row y, lanes 8-15 row y + 1. Rows past the box are masked off and point at
 // a spare row of the batch, so no address outside the image is formed and no
-// masked-off access waits on a real store.
-//
-// All of a triangle's loads come before any of its stores. Interleaved, the
-// load of row y + 1 would follow the store to row y, and when the row pitch
-// is a multiple of 4 KiB (1024-pixel images) the two share their low 12
-// address bits: the CPU then holds the load until the store retires.
+// masked-off access touches a line that real pixels use.
 template <int kPasses>
 void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
-  constexpr int kRows = 2 * kPasses;
   const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   const __m512i col = _mm512_and_si512(lane, _mm512_set1_epi32(7));
   const __m512i second_row = _mm512_srli_epi32(lane, 3);
@@ -154,57 +148,49 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
     const __m512 z0 = _mm512_set1_ps(z0_[i]), a1 = _mm512_set1_ps(a1_[i]),
                  a2 = _mm512_set1_ps(a2_[i]);
     const __m512 z_lo = _mm512_set1_ps(z_lo_[i]), z_hi = _mm512_set1_ps(z_hi_[i]);
+    const __m512i id = _mm512_set1_epi32(id_[i]);
+    const __m256i id8 = _mm512_castsi512_si256(id);
     const unsigned one_row = (1u << box_w_[i]) - 1;
     const int rows = box_h_[i];
-
-    // Coverage and depth of every pass.
-    __m256 z[kRows];
-    __mmask8 inside[kRows];
+    float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
+    int32_t* const ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
     for (int p = 0; p < kPasses; ++p) {
-      const __mmask16 in_box = __mmask16((2 * p < rows ? one_row : 0u) |
-                                         (2 * p + 1 < rows ? one_row << 8 : 0u));
-      // All biased edge values >= 0 (w0's bias is in area_b0).
+      const int r = 2 * p;
+      const bool first = r < rows, second = r + 1 < rows;
+      const __mmask16 in_box = __mmask16((first ? one_row : 0u) | (second ? one_row << 8 : 0u));
+      // Coverage: all biased edge values >= 0 (w0's bias is in area_b0).
       const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
       const __m512i any = _mm512_ternarylogic_epi32(
           w0b, _mm512_sub_epi32(w1, bias1), _mm512_sub_epi32(w2, bias2), 0xFE);  // a | b | c
-      const __mmask16 in = _mm512_mask_cmpge_epi32_mask(in_box, any, _mm512_setzero_si512());
+      const __mmask16 inside = _mm512_mask_cmpge_epi32_mask(in_box, any, _mm512_setzero_si512());
       // Depth: the one formula, 16 lanes, clamped (no NaN, no -0 here).
-      __m512 zp = _mm512_add_ps(z0, _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(w1), a1),
-                                                  _mm512_mul_ps(_mm512_cvtepi32_ps(w2), a2)));
-      zp = _mm512_min_ps(_mm512_max_ps(zp, z_lo), z_hi);
-      z[2 * p] = _mm512_castps512_ps256(zp);
-      z[2 * p + 1] = _mm512_extractf32x8_ps(zp, 1);
-      inside[2 * p] = __mmask8(in);
-      inside[2 * p + 1] = __mmask8(in >> 8);
-      covered += __builtin_popcount(in);
+      __m512 z = _mm512_add_ps(z0, _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(w1), a1),
+                                                 _mm512_mul_ps(_mm512_cvtepi32_ps(w2), a2)));
+      z = _mm512_min_ps(_mm512_max_ps(z, z_lo), z_hi);
+      // Depth write of both rows with one set of 16-lane compares.
+      float* const d0 = first ? depth + r * pitch : spare_depth_[(n + r) % kSpareRows];
+      float* const d1 = second ? depth + (r + 1) * pitch : spare_depth_[(n + r + 1) % kSpareRows];
+      int32_t* const i0 = first ? ids + r * pitch : spare_ids_[(n + r) % kSpareRows];
+      int32_t* const i1 = second ? ids + (r + 1) * pitch : spare_ids_[(n + r + 1) % kSpareRows];
+      const __mmask8 lo = __mmask8(inside), hi = __mmask8(inside >> 8);
+      const __m512 old_depth = _mm512_insertf32x8(
+          _mm512_castps256_ps512(_mm256_mask_loadu_ps(_mm256_setzero_ps(), lo, d0)),
+          _mm256_mask_loadu_ps(_mm256_setzero_ps(), hi, d1), 1);
+      const __m512i old_ids = _mm512_inserti64x4(
+          _mm512_castsi256_si512(_mm256_mask_loadu_epi32(_mm256_setzero_si256(), lo, i0)),
+          _mm256_mask_loadu_epi32(_mm256_setzero_si256(), hi, i1), 1);
+      const __mmask16 nearer = _mm512_mask_cmp_ps_mask(inside, z, old_depth, _CMP_LT_OQ);
+      const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, old_depth, _CMP_EQ_OQ) &
+                            _mm512_cmplt_epi32_mask(id, old_ids);
+      const __mmask16 win = nearer | tie;
+      _mm256_mask_storeu_ps(d0, __mmask8(win), _mm512_castps512_ps256(z));
+      _mm256_mask_storeu_ps(d1, __mmask8(win >> 8), _mm512_extractf32x8_ps(z, 1));
+      _mm256_mask_storeu_epi32(i0, __mmask8(win), id8);
+      _mm256_mask_storeu_epi32(i1, __mmask8(win >> 8), id8);
+      covered += __builtin_popcount(inside);
+      written += __builtin_popcount(win);
       w1 = _mm512_add_epi32(w1, step1);
       w2 = _mm512_add_epi32(w2, step2);
-    }
-
-    // Depth write: every load, then every store.
-    float* depth_rows[kRows];
-    int32_t* id_rows[kRows];
-    float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
-    int32_t* const ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
-    for (int r = 0; r < kRows; ++r) {
-      depth_rows[r] = r < rows ? depth + r * pitch : spare_depth_[(n + r) % kSpareRows];
-      id_rows[r] = r < rows ? ids + r * pitch : spare_ids_[(n + r) % kSpareRows];
-    }
-    __m256 old_depth[kRows];
-    __m256i old_ids[kRows];
-    for (int r = 0; r < kRows; ++r) {
-      old_depth[r] = _mm256_mask_loadu_ps(_mm256_setzero_ps(), inside[r], depth_rows[r]);
-      old_ids[r] = _mm256_mask_loadu_epi32(_mm256_setzero_si256(), inside[r], id_rows[r]);
-    }
-    const __m256i id = _mm256_set1_epi32(id_[i]);
-    for (int r = 0; r < kRows; ++r) {
-      const __mmask8 nearer = _mm256_mask_cmp_ps_mask(inside[r], z[r], old_depth[r], _CMP_LT_OQ);
-      const __mmask8 tie = _mm256_mask_cmp_ps_mask(inside[r], z[r], old_depth[r], _CMP_EQ_OQ) &
-                           _mm256_cmplt_epi32_mask(id, old_ids[r]);
-      const __mmask8 win = nearer | tie;
-      _mm256_mask_storeu_ps(depth_rows[r], win, z[r]);
-      _mm256_mask_storeu_epi32(id_rows[r], win, id);
-      written += __builtin_popcount(win);
     }
   }
 }
