@@ -4,6 +4,7 @@
 
 #include "zbuffer/conventions.h"
 #include "zbuffer/raster.h"
+#include "zbuffer/vertex_stage.h"
 
 namespace py = pybind11;
 
@@ -18,6 +19,8 @@ PYBIND11_MODULE(_core, m) {
   m.attr("MAX_IMAGE_SIDE") = zbuffer::kMaxImageSide;
   m.attr("MAX_IMAGE_PIXELS") = zbuffer::kMaxImagePixels;
   m.attr("GUARD_BAND_PX") = zbuffer::kGuardBandPx;
+  m.attr("MIN_CLIP_W") = zbuffer::kMinClipW;
+  m.attr("MAX_CLIP_VERTICES") = zbuffer::kMaxClipVertices;
   m.attr("RASTER_BACKEND") = zbuffer::raster_backend();
   zbuffer_py::bind_render(m);
   zbuffer_py::bind_shading(m);

@@ -78,6 +78,8 @@ def test_bad_image_size(render, width, height, error, match):
     (dict(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 0, 1)), "up is parallel"),
     (dict(eye=(0, 0, 3), up=(0, 0, 0)), "up is the zero vector"),
     (dict(eye=(0, 0, 3), near=0.0), "near must be > 0"),
+    (dict(eye=(0, 0, 3), near=1e-320), "near must be at least"),
+    (dict(eye=(0, 0, 3), near=10**400, far=10**401), "near must be a finite number"),
     (dict(eye=(0, 0, 3), near=-1.0), "near must be > 0"),
     (dict(eye=(0, 0, 3), near=5.0, far=2.0), "near must be smaller than far"),
     (dict(eye=(0, 0, 3), near=2.0, far=2.0), "near must be smaller than far"),
@@ -140,10 +142,39 @@ def test_unreadable_and_malformed_files(tmp_path):
     unknown.write_text("hello")
     with pytest.raises(ValueError, match="could not read a mesh from"):
         zbuffer.load(unknown)
+    huge = tmp_path / "huge_index.obj"
+    huge.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 100000000000000000000\n")
+    with pytest.raises(ValueError, match="line 4: bad face record"):
+        zbuffer.load(huge)
     binary = tmp_path / "garbage.stl"
     binary.write_bytes(bytes(range(256)) * 3)
     with pytest.raises(ValueError):
         zbuffer.load(binary)
+
+
+def test_huge_coordinates_cannot_be_framed_automatically():
+    with pytest.raises(ValueError, match="too large to frame automatically"):
+        zbuffer.render(([[0, 0, 0], [1e300, 0, 0], [0, 1e300, 0]], [[0, 1, 2]]), width=4, height=4)
+
+
+def test_tiny_clip_w_counts_as_behind_the_eye():
+    # A projection with a subnormal near plane (Camera refuses it; a raw
+    # matrix need not) puts a vertex just in front of the eye at w ~ 1e-315,
+    # where 1 / w overflows. Below MIN_CLIP_W such a vertex counts as behind
+    # the eye: C++ and reference agree, nothing crashes.
+    n, f, t = 1e-320, 10.0, 1.0 / np.tan(np.radians(22.5))
+    mvp = np.array([[t, 0, 0, 0], [0, t, 0, 0],
+                    [0, 0, -(f + n) / (f - n), -2 * f * n / (f - n)], [0, 0, -1, 0]])
+    points = np.array([[0, 0, -1e-315]] + [[0.4, -0.4 + 0.05 * k, -1] for k in range(17)]
+                      + [[-0.5, -0.5, -2], [0.5, -0.5, -2], [0, 0.5, -2]])
+    faces = np.array([[0, k, k + 1] for k in range(1, 17)] + [[18, 19, 20]], np.int32)
+    depth, ids, stats = _core.render(points, faces, mvp, 64, 64)
+    tris, ref_stats = zbuffer.reference.vertex_stage(points, faces, mvp, 64, 64)
+    ref_depth, ref_ids, _ = zbuffer.reference.rasterize(tris, 64, 64)
+    np.testing.assert_array_equal(ids, ref_ids)
+    np.testing.assert_array_equal(depth, ref_depth)
+    assert stats["clipped_away"] == 16 == ref_stats["clipped_away"]
+    assert (ids == 16).any()  # the ordinary triangle behind them is drawn
 
 
 def test_coordinates_that_overflow_the_transform_are_skipped():

@@ -20,3 +20,8 @@ def test_reference_needs_no_compiled_code():
                  for a in n.names}
         modules = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
         assert "_core" not in names and "api" not in modules
+
+
+def test_clip_constants_match_the_compiled_core():
+    assert conventions.MIN_CLIP_W == _core.MIN_CLIP_W
+    assert conventions.MAX_CLIP_VERTICES == _core.MAX_CLIP_VERTICES

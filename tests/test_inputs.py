@@ -73,13 +73,19 @@ def test_merging_vertices_keeps_face_order_and_ids():
     np.testing.assert_array_equal(merged.vertices[merged.faces], unmerged.vertices[unmerged.faces])
 
 
-def test_mesh_arrays_are_read_only_and_not_copied_needlessly():
+def test_mesh_arrays_are_read_only_and_faces_private():
     v, f = scenes.box()
     f = f.astype(np.int32)
     mesh = zbuffer.Mesh(v, f)
-    assert np.shares_memory(mesh.vertices, v) and np.shares_memory(mesh.faces, f)
+    assert np.shares_memory(mesh.vertices, v)  # no needless copy of positions
+    # Faces are the core's indices, read without the GIL: the mesh owns them.
+    assert not np.shares_memory(mesh.faces, f)
+    f[0, 0] = 10**6
+    assert mesh.faces[0, 0] != 10**6
     with pytest.raises(ValueError):
         mesh.vertices[0, 0] = 1.0
+    with pytest.raises(ValueError):
+        mesh.faces[0, 0] = 1
 
 
 def test_vertex_normals_point_outwards():

@@ -1,10 +1,11 @@
-// The raster core's pixel loop.
+// The raster core's pixel loops.
 //
-// Two transcriptions of docs/rasterization.md section 3: a scalar loop, and
-// an AVX-512 loop that evaluates 8 pixels of a row at once. They perform the
-// same IEEE operations per pixel (int64 -> double conversion, two products,
-// two sums, clamp, double -> float), so they produce the same bits; the tests
-// run whichever the build selected against the numpy reference.
+// Transcriptions of docs/rasterization.md section 3: a scalar loop, and
+// AVX-512 loops that evaluate 16 pixels at once with int32 edge values (or 8
+// with int64 ones for huge triangles). They perform the same IEEE operations
+// per pixel (integer -> float32 conversion, two products, two sums, clamp),
+// so they produce the same bits; tests hold the vector loops to the scalar
+// one, and every build's loops to the numpy reference.
 #include "zbuffer/raster.h"
 
 #include "simd.h"
@@ -76,11 +77,14 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
   const __m512i col = pairs ? _mm512_and_si512(lane, _mm512_set1_epi32(7)) : lane;
   const __m512i rowsel = pairs ? _mm512_srli_epi32(lane, 3) : _mm512_setzero_si512();
   __m512i lane_w[3];
-  int32_t row[3];
+  // Edge values at the current row, stepped with unsigned (wrapping)
+  // arithmetic: the fixed two passes of a short box may step past the rows
+  // that fits_int32 bounded, into lanes that are masked off anyway.
+  uint32_t row[3];
   for (int k = 0; k < 3; ++k) {
     lane_w[k] = _mm512_add_epi32(_mm512_mullo_epi32(col, _mm512_set1_epi32(int32_t(s.step_x[k]))),
                                  _mm512_mullo_epi32(rowsel, _mm512_set1_epi32(int32_t(s.step_y[k]))));
-    row[k] = int32_t(row0[k]);
+    row[k] = uint32_t(int32_t(row0[k]));
   }
   const __m512i bias1 = _mm512_set1_epi32(int32_t(s.bias[1]));
   const __m512i bias2 = _mm512_set1_epi32(int32_t(s.bias[2]));
@@ -115,9 +119,9 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
           __mmask16((first ? one_row : 0u) | (second ? one_row << 8 : 0u));
       __m512 z;
       const __mmask16 inside =
-          shade16(_mm512_add_epi32(_mm512_set1_epi32(row[0]), lane_w[0]),
-                  _mm512_add_epi32(_mm512_set1_epi32(row[1]), lane_w[1]),
-                  _mm512_add_epi32(_mm512_set1_epi32(row[2]), lane_w[2]), in_rect, z);
+          shade16(_mm512_add_epi32(_mm512_set1_epi32(int32_t(row[0])), lane_w[0]),
+                  _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[1])), lane_w[1]),
+                  _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[2])), lane_w[2]), in_rect, z);
       const size_t r0 = size_t(first ? y : y1) * pitch, r1 = size_t(second ? y + 1 : y1) * pitch;
       const __mmask8 win_lo = write8(__mmask8(inside), _mm512_castps512_ps256(z), id8,
                                      depth_base + r0, id_base + r0);
@@ -125,7 +129,7 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
                                      depth_base + r1, id_base + r1);
       covered += __builtin_popcount(inside);
       written += __builtin_popcount(win_lo) + __builtin_popcount(win_hi);
-      for (int k = 0; k < 3; ++k) row[k] += int32_t(2 * s.step_y[k]);
+      for (int k = 0; k < 3; ++k) row[k] += uint32_t(int32_t(2 * s.step_y[k]));
     };
     if (y1 - y0 < 4) {
       // Up to 4 rows, the most common box in detailed meshes: always two
@@ -142,9 +146,9 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
                                _mm512_set1_epi32(int32_t(16 * s.step_x[1])),
                                _mm512_set1_epi32(int32_t(16 * s.step_x[2]))};
     for (int y = y0; y <= y1; ++y) {
-      __m512i w0 = _mm512_add_epi32(_mm512_set1_epi32(row[0]), lane_w[0]);
-      __m512i w1 = _mm512_add_epi32(_mm512_set1_epi32(row[1]), lane_w[1]);
-      __m512i w2 = _mm512_add_epi32(_mm512_set1_epi32(row[2]), lane_w[2]);
+      __m512i w0 = _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[0])), lane_w[0]);
+      __m512i w1 = _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[1])), lane_w[1]);
+      __m512i w2 = _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[2])), lane_w[2]);
       for (int x = 0; x < width; x += 16) {
         const __mmask16 in_rect =
             width - x >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (width - x)) - 1);
@@ -157,9 +161,11 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
         w1 = _mm512_add_epi32(w1, step16[1]);
         w2 = _mm512_add_epi32(w2, step16[2]);
       }
-      for (int k = 0; k < 3; ++k) row[k] += int32_t(s.step_y[k]);
-      depth_row += pitch;
-      id_row += pitch;
+      for (int k = 0; k < 3; ++k) row[k] += uint32_t(int32_t(s.step_y[k]));
+      if (y < y1) {  // no pointer past the last row, not even unused
+        depth_row += pitch;
+        id_row += pitch;
+      }
     }
   }
   stats.pixels_covered += covered;
@@ -209,8 +215,10 @@ ZBUFFER_INLINE void rasterize_rect_i64(const TriangleSetup& s, int x0, int y0, i
       w2 = _mm512_add_epi64(w2, step8[2]);
     }
     for (int k = 0; k < 3; ++k) row[k] += s.step_y[k];
-    depth_row += pitch;
-    id_row += pitch;
+    if (y < y1) {
+      depth_row += pitch;
+      id_row += pitch;
+    }
   }
   stats.pixels_covered += covered;
   stats.pixels_written += written;

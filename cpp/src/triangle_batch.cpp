@@ -25,12 +25,12 @@ void TriangleBatch::add(const ScreenTriangle& t) {
   const TriangleSetup s = setup_triangle(t, target_.width, target_.height);
   const int bw = s.x_max - s.x_min + 1, bh = s.y_max - s.y_min + 1;
   if (bw <= 0 || bh <= 0) return;  // no pixel centre in its box
-  int32_t lo_x = t.v[0].x_fx, hi_x = lo_x, lo_y = t.v[0].y_fx, hi_y = lo_y;
+  int64_t lo_x = t.v[0].x_fx, hi_x = lo_x, lo_y = t.v[0].y_fx, hi_y = lo_y;
   for (int k = 1; k < 3; ++k) {
-    lo_x = std::min(lo_x, t.v[k].x_fx);
-    hi_x = std::max(hi_x, t.v[k].x_fx);
-    lo_y = std::min(lo_y, t.v[k].y_fx);
-    hi_y = std::max(hi_y, t.v[k].y_fx);
+    lo_x = std::min<int64_t>(lo_x, t.v[k].x_fx);
+    hi_x = std::max<int64_t>(hi_x, t.v[k].x_fx);
+    lo_y = std::min<int64_t>(lo_y, t.v[k].y_fx);
+    hi_y = std::max<int64_t>(hi_y, t.v[k].y_fx);
   }
 #ifdef ZBUFFER_AVX512
   if (hi_x - lo_x < kSmallFx && hi_y - lo_y < kSmallFx) {
@@ -216,8 +216,8 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
     const __m512i id = _mm512_set1_epi32(id_[i]);
     const __mmask16 one_row = __mmask16((1u << box_w_[i]) - 1);
     const int rows = box_h_[i];
-    float* depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
-    int32_t* ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
+    float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
+    int32_t* const ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
     for (int r = 0; r < kRows; ++r) {
       const bool real = r < rows;
       const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
@@ -229,14 +229,12 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
                                                  _mm512_mul_ps(_mm512_cvtepi32_ps(w2), a2)));
       z = _mm512_min_ps(_mm512_max_ps(z, z_lo), z_hi);
       const __mmask16 win =
-          simd::write16(inside, z, id, real ? depth : spare_depth_[(n + r) % kSpareRows],
-                        real ? ids : spare_ids_[(n + r) % kSpareRows]);
+          simd::write16(inside, z, id, real ? depth + r * pitch : spare_depth_[(n + r) % kSpareRows],
+                        real ? ids + r * pitch : spare_ids_[(n + r) % kSpareRows]);
       covered += __builtin_popcount(inside);
       written += __builtin_popcount(win);
       w1 = _mm512_add_epi32(w1, step1);
       w2 = _mm512_add_epi32(w2, step2);
-      depth += pitch;
-      ids += pitch;
     }
   }
 }
@@ -363,11 +361,13 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
   const __m512i box_h = _mm512_add_epi32(_mm512_sub_epi32(j1, j0), _mm512_set1_epi32(1));
   const __mmask16 nonempty = _mm512_cmpgt_epi32_mask(box_w, zero) &
                              _mm512_cmpgt_epi32_mask(box_h, zero);
+  // Extents compared unsigned: they are never negative, and a wrapped one
+  // could only come from coordinates the vertex stage never produces.
   const __m512i extent_x = _mm512_sub_epi32(max_x, min_x);
   const __mmask16 small =
-      _mm512_cmplt_epi32_mask(extent_x, _mm512_set1_epi32(kSmallFx)) &
-      _mm512_cmplt_epi32_mask(_mm512_sub_epi32(max_y, min_y), _mm512_set1_epi32(kSmallFx));
-  const __mmask16 narrow = _mm512_cmplt_epi32_mask(extent_x, _mm512_set1_epi32(kNarrowFx));
+      _mm512_cmplt_epu32_mask(extent_x, _mm512_set1_epi32(kSmallFx)) &
+      _mm512_cmplt_epu32_mask(_mm512_sub_epi32(max_y, min_y), _mm512_set1_epi32(kSmallFx));
+  const __mmask16 narrow = _mm512_cmplt_epu32_mask(extent_x, _mm512_set1_epi32(kNarrowFx));
   const __mmask16 vector_setup = draw & nonempty & small;
   const __mmask16 scalar_setup = draw & nonempty & ~small;
 

@@ -69,7 +69,8 @@ void transform_8(const double* p, const double* m, const Viewport& vp, int32_t* 
   oc = _mm256_or_si256(oc, bit(below_zero(_mm512_sub_pd(cw, cx)), kOutRight));
   oc = _mm256_or_si256(oc, bit(below_zero(_mm512_add_pd(cy, cw)), kOutBottom));
   oc = _mm256_or_si256(oc, bit(below_zero(_mm512_sub_pd(cw, cy)), kOutTop));
-  const __mmask8 behind = _mm512_cmp_pd_mask(cw, zero, _CMP_NGT_UQ);  // !(w > 0)
+  const __mmask8 behind =  // !(w >= kMinClipW)
+      _mm512_cmp_pd_mask(cw, _mm512_set1_pd(kMinClipW), _CMP_NGE_UQ);
   oc = _mm256_or_si256(oc, bit(below_zero(_mm512_add_pd(cz, cw)) | behind, kOutNear));
   oc = _mm256_or_si256(oc, bit(below_zero(_mm512_sub_pd(cw, cz)), kOutFar));
   oc = _mm256_or_si256(oc, bit(below_zero(_mm512_add_pd(cx, gxw)), kOutGuardLeft));
@@ -117,7 +118,9 @@ void transform_vertices(const MeshView& mesh, const double* mvp, const Viewport&
 }
 
 int clip_polygon(ClipVertex* poly, int n, const Viewport& vp) {
-  ClipVertex tmp[kMaxClipVertices];
+  // A plane cuts a convex polygon into at most one more vertex; tmp has room
+  // for twice as many in case rounding ever made one non-convex.
+  ClipVertex tmp[2 * kMaxClipVertices];
   double d[kMaxClipVertices];
   for (int plane = 0; plane < 6 && n >= 3; ++plane) {
     bool any_out = false;
@@ -139,13 +142,14 @@ int clip_polygon(ClipVertex* poly, int n, const Viewport& vp) {
       }
       if (cur_in) tmp[m++] = poly[k];
     }
+    if (m > kMaxClipVertices) return 0;
     for (int k = 0; k < m; ++k) poly[k] = tmp[k];
     n = m;
   }
   if (n < 3) return 0;
   for (int k = 0; k < n; ++k) {
     const ClipVertex& c = poly[k];
-    if (!(c.w > 0.0) || !std::isfinite(c.x) || !std::isfinite(c.y) ||
+    if (!(c.w >= kMinClipW) || !std::isfinite(c.x) || !std::isfinite(c.y) ||
         !std::isfinite(c.z) || !std::isfinite(c.w))
       return 0;
   }

@@ -9,6 +9,8 @@ SUBPIXEL_BITS: int
 MAX_IMAGE_SIDE: int
 MAX_IMAGE_PIXELS: int
 GUARD_BAND_PX: float
+MIN_CLIP_W: float
+MAX_CLIP_VERTICES: int
 RASTER_BACKEND: str
 
 def algorithms() -> List[Tuple[str, str]]: ...

@@ -19,6 +19,9 @@ __all__ = ["Camera"]
 Vec3 = Tuple[float, float, float]
 
 PROJECTIONS = ("perspective", "orthographic")
+# The smallest perspective near plane: the core treats clip-space w below
+# MIN_CLIP_W (1e-300) as at the eye, and w = near on the near plane.
+MIN_NEAR = 1e-290
 
 
 def _vec3(value, name: str) -> np.ndarray:
@@ -108,12 +111,24 @@ class Camera:
         )
         near, far = self.near, self.far
         for name, value in (("near", near), ("far", far)):
-            if value is not None and not (
-                isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value)
-            ):
+            if value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(
+                    value, (int, float, np.floating, np.integer)):
+                raise TypeError(f"{name} must be a number, got {value!r}")
+            try:
+                finite = math.isfinite(float(value))
+            except OverflowError:  # a Python int beyond float range
+                finite = False
+            if not finite:
                 raise ValueError(f"{name} must be a finite number, got {value!r}")
+        near = None if near is None else float(near)
+        far = None if far is None else float(far)
         if self.projection == "perspective" and near is not None and near <= 0.0:
             raise ValueError(f"near must be > 0 for a perspective camera, got {near!r}")
+        if self.projection == "perspective" and near is not None and near < MIN_NEAR:
+            raise ValueError(f"near must be at least {MIN_NEAR:g} for a perspective camera "
+                             f"(clip-space w below that counts as behind the eye), got {near!r}")
         if self.projection == "perspective" and far is not None and far <= 0.0:
             raise ValueError(f"far must be > 0 for a perspective camera, got {far!r}")
         if near is not None and far is not None and not near < far:
@@ -327,10 +342,12 @@ def bounding_sphere(vertices) -> Tuple[np.ndarray, float]:
         return np.zeros(3), 1.0
     v = np.asarray(vertices, dtype=np.float64)
     lo, hi = v.min(axis=0), v.max(axis=0)
-    center = (lo + hi) * 0.5
-    radius = float(np.sqrt(((v - center) ** 2).sum(axis=1).max()))
-    if not math.isfinite(radius):
-        raise ValueError("vertices must be finite")
+    with np.errstate(over="ignore", invalid="ignore"):
+        center = lo * 0.5 + hi * 0.5
+        radius = float(np.sqrt(((v - center) ** 2).sum(axis=1).max()))
+    if not math.isfinite(radius) or not np.all(np.isfinite(center)):
+        raise ValueError("vertex coordinates are too large to frame automatically "
+                         "(the bounding sphere overflows); pass a camera")
     if radius == 0.0:
         radius = max(1e-6, float(np.abs(center).max()) * 1e-6)
     return center, radius

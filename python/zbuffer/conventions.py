@@ -10,3 +10,5 @@ HALF_PIXEL = SUBPIXEL_SCALE // 2   # pixel centres sit at 256 i + 128
 MAX_IMAGE_SIDE = 32768             # largest width or height
 MAX_IMAGE_PIXELS = 1 << 27         # largest width * height
 GUARD_BAND_PX = 32768.0            # x/y clipping only this far from the image centre
+MIN_CLIP_W = 1e-300                # clip-space w below this: at or behind the eye
+MAX_CLIP_VERTICES = 9              # a clipped triangle has at most 3 + 6 corners

@@ -72,9 +72,9 @@ class Mesh:
 
     Notes
     -----
-    The arrays are not copied when they already have the right dtype and
-    layout; modifying them afterwards invalidates the cached bounding sphere
-    and normals, so build a new Mesh instead.
+    Vertices are not copied when they already are C-contiguous float64;
+    modifying them afterwards invalidates the cached bounding sphere, normals
+    and visiting order, so build a new Mesh instead. Faces are always copied.
     """
 
     def __init__(self, vertices, faces, vertex_colors=None, face_colors=None,
@@ -113,7 +113,10 @@ class Mesh:
                 raise ValueError(
                     f"face {k // 3} has vertex index {int(flat[k])}, outside [0, {n})"
                 )
-        f = np.ascontiguousarray(f, dtype=np.int32)
+        # Faces are always copied: the compiled core reads them without the
+        # GIL after checking them once, so nobody else may hold a writable
+        # reference to them. (Vertices need no such care: any value is safe.)
+        f = np.array(f, dtype=np.int32, order="C", copy=True)
 
         if vertex_colors is not None and face_colors is not None:
             raise ValueError("give vertex_colors or face_colors, not both")

@@ -92,6 +92,8 @@ def read_obj(path: str) -> ObjData:
             try:
                 for corner in parts[1:]:
                     k = int(corner.split("/", 1)[0])
+                    if abs(k) > 2**31:
+                        raise ValueError("index out of range")
                     if k < 0:
                         k += defined   # -1 is the last vertex defined so far
                     elif k > 0:

@@ -18,7 +18,8 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 
 from .camera import Camera
-from .conventions import GUARD_BAND_PX, HALF_PIXEL, SUBPIXEL_BITS, SUBPIXEL_SCALE
+from .conventions import (GUARD_BAND_PX, HALF_PIXEL, MAX_CLIP_VERTICES, MIN_CLIP_W,
+                          SUBPIXEL_BITS, SUBPIXEL_SCALE)
 from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import DEFAULT_BACKGROUND, shade_numpy
@@ -81,7 +82,7 @@ def _outcodes(cx, cy, cz, cw, gx: float, gy: float) -> np.ndarray:
         oc |= np.where(cw - cx < 0.0, OUT_RIGHT, 0)
         oc |= np.where(cy + cw < 0.0, OUT_BOTTOM, 0)
         oc |= np.where(cw - cy < 0.0, OUT_TOP, 0)
-        oc |= np.where((cz + cw < 0.0) | ~(cw > 0.0), OUT_NEAR, 0)
+        oc |= np.where((cz + cw < 0.0) | ~(cw >= MIN_CLIP_W), OUT_NEAR, 0)
         oc |= np.where(cw - cz < 0.0, OUT_FAR, 0)
         oc |= np.where(cx + gxw < 0.0, OUT_GUARD_LEFT, 0)
         oc |= np.where(gxw - cx < 0.0, OUT_GUARD_RIGHT, 0)
@@ -148,11 +149,13 @@ def clip_polygon(poly, gx: float, gy: float):
                     out.append(_intersection(poly[prev], d[prev], poly[k], d[k]))
             if cur_in:
                 out.append(poly[k])
+        if len(out) > MAX_CLIP_VERTICES:  # only rounding at absurd scales
+            return []
         poly = out
     if len(poly) < 3:
         return []
     for v in poly:
-        if not (v[3] > 0.0) or not np.all(np.isfinite(v)):
+        if not (v[3] >= MIN_CLIP_W) or not np.all(np.isfinite(v)):
             return []
     return poly
 
@@ -161,6 +164,9 @@ def vertex_stage(vertices: np.ndarray, faces: np.ndarray, mvp: np.ndarray, width
                  height: int, cull_backfaces: bool = False
                  ) -> Tuple[ScreenTriangles, Dict[str, int]]:
     """Transform, cull, clip, snap and orient: the triangles the raster core sees.
+
+    Expects checked input, as :class:`zbuffer.Mesh` holds it (finite vertices,
+    face indices in range); :func:`render` checks it.
 
     Parameters
     ----------

@@ -18,9 +18,10 @@
 //                 a centre on an edge shared by two triangles belongs to
 //                 exactly one of them.
 //   Depth         Smaller is nearer. Depth at a pixel is one formula of the
-//                 exact integer edge values (raster.h), evaluated in double in
-//                 a fixed order, clamped to the triangle's own depth range and
-//                 stored as float32. Never-written pixels hold +inf and id -1.
+//                 exact integer edge values (raster.h): coefficients in
+//                 double rounded once to float, then float32 operations in a
+//                 fixed order, clamped to the triangle's own depth range.
+//                 Never-written pixels hold +inf and id -1.
 //   Depth write   Keep the smaller depth; on an exact tie the smaller triangle
 //                 id. The result is a pure minimum: independent of the order
 //                 triangles are visited in, of the algorithm and of threads.
@@ -50,5 +51,10 @@ constexpr int64_t kMaxImagePixels = int64_t(1) << 27;
 // the band the raster core simply skips pixels outside the image. The clip
 // planes are |x| <= g_x * w with g_x = kGuardBandPx / (W / 2).
 constexpr double kGuardBandPx = 32768.0;
+
+// A clip-space w below this counts as at or behind the eye (outside the
+// near plane): 1 / w must stay finite for the divide, and only an absurd
+// camera (near ~1e-300) comes anywhere near it.
+constexpr double kMinClipW = 1e-300;
 
 }  // namespace zbuffer

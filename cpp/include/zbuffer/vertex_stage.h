@@ -65,7 +65,7 @@ enum : uint32_t {
   kOutRight = 1u << 1,   // x >  w
   kOutBottom = 1u << 2,  // y < -w
   kOutTop = 1u << 3,     // y >  w
-  kOutNear = 1u << 4,    // z < -w (or w <= 0: behind the eye)
+  kOutNear = 1u << 4,    // z < -w (or w < kMinClipW: at or behind the eye)
   kOutFar = 1u << 5,     // z >  w
   kOutGuardLeft = 1u << 6,    // x < -g_x w
   kOutGuardRight = 1u << 7,   // x >  g_x w
@@ -114,9 +114,9 @@ inline uint32_t outcode(const ClipVertex& c, const Viewport& vp) {
   oc |= (c.w - c.x < 0.0) ? kOutRight : 0u;
   oc |= (c.y + c.w < 0.0) ? kOutBottom : 0u;
   oc |= (c.w - c.y < 0.0) ? kOutTop : 0u;
-  // !(w > 0): a vertex at or behind the eye plane always goes through the
-  // near clip, whatever rounding did to z.
-  oc |= (c.z + c.w < 0.0 || !(c.w > 0.0)) ? kOutNear : 0u;
+  // !(w >= kMinClipW): a vertex at or behind the eye plane always goes
+  // through the near clip, whatever rounding did to z.
+  oc |= (c.z + c.w < 0.0 || !(c.w >= kMinClipW)) ? kOutNear : 0u;
   oc |= (c.w - c.z < 0.0) ? kOutFar : 0u;
   oc |= (c.x + gxw < 0.0) ? kOutGuardLeft : 0u;
   oc |= (gxw - c.x < 0.0) ? kOutGuardRight : 0u;
@@ -126,7 +126,8 @@ inline uint32_t outcode(const ClipVertex& c, const Viewport& vp) {
 }
 
 // Divide, viewport, clamp depth, snap. Only called for vertices inside the
-// near, far and guard-band planes, so the results are finite and bounded.
+// near, far and guard-band planes with w >= kMinClipW, so 1 / w is finite and
+// |x / w|, |y / w| <= g: the results are finite and |x_fx|, |y_fx| < 2^24.
 inline ScreenVertex to_screen(const ClipVertex& c, const Viewport& vp) {
   const double inv_w = 1.0 / c.w;
   const double xn = c.x * inv_w;
@@ -181,9 +182,10 @@ constexpr int kMaxClipVertices = 3 + 6;
 
 // Sutherland-Hodgman against near, far, then the four guard-band planes.
 // Returns the number of polygon vertices left in poly (0 or >= 3). Returns 0
-// as well if a vertex is left with !(w > 0) or a non-finite coordinate, which
-// only rounding or overflow at absurd scales could produce: such a face is
-// dropped rather than divided by zero.
+// as well if a vertex is left with !(w >= kMinClipW) or a non-finite
+// coordinate, or if rounding ever grew the polygon past kMaxClipVertices;
+// only absurd scales could produce these: such a face is dropped rather than
+// divided by (almost) zero.
 int clip_polygon(ClipVertex* poly, int n, const Viewport& vp);
 
 // Triangle Assembly
@@ -196,8 +198,8 @@ inline bool make_triangle(const ScreenVertex& a, const ScreenVertex& b,
                           bool cull_backfaces, ScreenTriangle& out,
                           RenderStats& stats) {
   const int64_t area =
-      int64_t(b.x_fx - a.x_fx) * int64_t(c.y_fx - a.y_fx) -
-      int64_t(b.y_fx - a.y_fx) * int64_t(c.x_fx - a.x_fx);
+      (int64_t(b.x_fx) - a.x_fx) * (int64_t(c.y_fx) - a.y_fx) -
+      (int64_t(b.y_fx) - a.y_fx) * (int64_t(c.x_fx) - a.x_fx);
   if (area == 0) {
     ++stats.culled_degenerate;
     return false;
