@@ -310,7 +310,9 @@ class Camera:
         key = (int(width), int(height))
         m = self._mvp_cache.get(key)
         if m is None:
-            m = np.ascontiguousarray(self.projection_matrix(width / height) @ self.view_matrix())
+            with np.errstate(all="ignore"):  # absurd parameters: caught as non-finite
+                m = np.ascontiguousarray(
+                    self.projection_matrix(width / height) @ self.view_matrix())
             m.flags.writeable = False
             if len(self._mvp_cache) > 64:
                 self._mvp_cache.clear()
