@@ -113,12 +113,11 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   py::array_t<int32_t> face_ids;
   if (!face_ids_obj.is_none()) {
     face_ids = require_array<int32_t>(face_ids_obj, "face_ids", {input.mesh.n_faces});
-    const int32_t* id = face_ids.data();
-    for (int64_t f = 0; f < input.mesh.n_faces; ++f)
-      if (id[f] < 0)
-        throw py::value_error("face_ids must be >= 0, got " + std::to_string(id[f]) +
-                              " at " + std::to_string(f));
-    input.mesh.face_ids = id;
+    input.mesh.face_ids = face_ids.data();
+    const int64_t bad = zbuffer::find_negative_id(input.mesh);
+    if (bad >= 0)
+      throw py::value_error("face_ids must be >= 0, got " +
+                            std::to_string(input.mesh.face_ids[bad]) + " at " + std::to_string(bad));
   }
   for (int k = 0; k < 16; ++k) {
     input.mvp[k] = mvp.data()[k];

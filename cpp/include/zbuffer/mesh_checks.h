@@ -12,6 +12,10 @@ namespace zbuffer {
 // [0, n_vertices), or -1 if all are valid.
 int64_t find_bad_face_index(const MeshView& mesh);
 
+// Index of the first face whose face_ids entry is negative, or -1 (also if
+// the mesh has no face_ids).
+int64_t find_negative_id(const MeshView& mesh);
+
 // Index of the first vertex with a NaN or infinite coordinate, or -1.
 int64_t find_nonfinite_vertex(const MeshView& mesh);
 
