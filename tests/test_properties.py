@@ -135,13 +135,13 @@ def test_tessellated_square_covered_exactly_once(algo, n, cuts):
             tris += [(a, b, e), (a, e, d)] if flips[r * n + c] else [(a, b, d), (b, e, d)]
     v, f = to_arrays(tris)
     depth, ids, stats = render_core(v, f, algo)
-    # Pixel centre p is inside the square iff lo <= p < hi in window x and y
-    # (y flips: window y = 2*SIZE*SUB/2 - k, handled by mapping rows).
+    # Top-left rule: a centre on the square's left or top edge is inside, one
+    # on its right or bottom edge is not. In x: lo <= c < hi.
     centres = np.arange(SIZE) * SUB + SUB // 2
     in_x = (centres >= lo) & (centres < hi)
-    # Window y of grid value k is SIZE*SUB - k (NDC y up, rows down); a centre
-    # at window y c is inside iff SIZE*SUB - hi < c <= SIZE*SUB - lo.
-    in_y = (centres > SIZE * SUB - hi) & (centres <= SIZE * SUB - lo)
+    # Window y of grid value k is SIZE*SUB - k (NDC y up, rows down), so the
+    # top edge is at SIZE*SUB - hi and the bottom one at SIZE*SUB - lo.
+    in_y = (centres >= SIZE * SUB - hi) & (centres < SIZE * SUB - lo)
     inside = in_y[:, None] & in_x[None, :]
     np.testing.assert_array_equal(ids >= 0, inside)
     if algo == "zbuffer":
