@@ -29,13 +29,15 @@ import zbuffer
 HERE = Path(__file__).resolve().parent
 MODELS = Path(os.environ.get("ZBUFFER_MODELS", HERE.parents[1] / "shared" / "models"))
 
-# (model file, width, height, shading, what the issue asks of it)
+# (model file, width, height, shading, algorithm, what the issues ask of it)
 CASES = [
-    ("bunny_10k.obj", 666, 500, "none", "target <= 0.30 ms per frame"),
-    ("bunny_10k.obj", 666, 500, "flat", "shaded frame, for reference"),
-    ("bunny_69k.obj", 1024, 1024, "none", "target >= 30 M triangles/s"),
-    ("armadillo_86k.obj", 1024, 1024, "none", "target >= 30 M triangles/s"),
-    ("bunny_69k.obj", 1024, 1024, "smooth", "shaded frame, for reference"),
+    ("bunny_10k.obj", 666, 500, "none", "zbuffer", "target <= 0.30 ms per frame"),
+    ("bunny_10k.obj", 666, 500, "flat", "zbuffer", "shaded frame, for reference"),
+    ("bunny_69k.obj", 1024, 1024, "none", "zbuffer", "target >= 30 M triangles/s"),
+    ("armadillo_86k.obj", 1024, 1024, "none", "zbuffer", "target >= 30 M triangles/s"),
+    ("bunny_69k.obj", 1024, 1024, "smooth", "zbuffer", "shaded frame, for reference"),
+    ("bunny_69k.obj", 1024, 1024, "none", "hiz", "target <= 1.25x zbuffer (issue 4)"),
+    ("armadillo_86k.obj", 1024, 1024, "none", "hiz", "target <= 1.25x zbuffer (issue 4)"),
 ]
 
 
@@ -72,14 +74,15 @@ def load_case(name: str, quick: bool):
     return zbuffer.scenes.default_scene(), f"{name} (missing: default scene instead)"
 
 
-def bench(mesh, width, height, shading, runs):
+def bench(mesh, width, height, shading, algo, runs):
     camera = zbuffer.Camera.fit(mesh, aspect=width / height).resolve(mesh)
-    zbuffer.render(mesh, camera=camera, width=width, height=height, shading=shading)  # warm up
+    zbuffer.render(mesh, algo=algo, camera=camera, width=width, height=height,
+                   shading=shading)  # warm up
     core, total, wall = [], [], []
     stats = None
     for _ in range(runs):
         t0 = time.perf_counter()
-        res = zbuffer.render(mesh, algo="zbuffer", camera=camera, width=width, height=height,
+        res = zbuffer.render(mesh, algo=algo, camera=camera, width=width, height=height,
                              shading=shading)
         wall.append((time.perf_counter() - t0) * 1e3)
         core.append(res.stats["render_ms"] + res.stats["shade_ms"])
@@ -135,17 +138,18 @@ def markdown(report: dict) -> str:
         "- times: median of the runs; *core* is the compiled render (and shading) call,",
         "  *total* the whole `zbuffer.render` call from Python. Single thread.",
         "",
-        "| mesh | size | shading | triangles | core ms | total ms | M tri/s (core) "
+        "| mesh | size | shading | algo | triangles | core ms | total ms | M tri/s (core) "
         "| M tri/s (total) | target |",
-        "|---|---|---|---:|---:|---:|---:|---:|---|",
+        "|---|---|---|---|---:|---:|---:|---:|---:|---|",
     ]
     for c in report["cases"]:
         if "skipped" in c:
-            lines.append(f"| {c['mesh']} | {c['size']} | {c['shading']} | | | | | | skipped: "
+            lines.append(f"| {c['mesh']} | {c['size']} | {c['shading']} | {c['algo']} | | | | | | "
+                         f"skipped: "
                          f"{c['skipped']} |")
             continue
         lines.append(
-            f"| {c['mesh']} | {c['size']} | {c['shading']} | {c['triangles']:,} | "
+            f"| {c['mesh']} | {c['size']} | {c['shading']} | {c['algo']} | {c['triangles']:,} | "
             f"{c['core_ms_median']:.3f} | {c['total_ms_median']:.3f} | "
             f"{c['mtris_per_s']:.1f} | {c['mtris_per_s_total']:.1f} | {c['target']} |")
     vtk = [c for c in report["cases"] if c.get("vtk_ms_median")]
@@ -174,20 +178,22 @@ def main(argv=None) -> int:
         "command": " ".join(["python benchmarks/bench_render.py", *(argv or sys.argv[1:])]),
         "cases": [],
     }
-    for name, width, height, shading, target in CASES:
+    for name, width, height, shading, algo, target in CASES:
         if args.quick:
             width, height = width // 4, height // 4
         mesh, label = load_case(name, args.quick)
-        case = {"mesh": label, "size": f"{width}x{height}", "shading": shading, "target": target}
+        case = {"mesh": label, "size": f"{width}x{height}", "shading": shading, "algo": algo,
+                "target": target}
         if mesh is None:
             case["skipped"] = f"{MODELS / name} not found"
         else:
-            case.update(bench(mesh, width, height, shading, runs))
-            if not args.quick and shading == "none" and width >= 1024:
+            case.update(bench(mesh, width, height, shading, algo, runs))
+            if not args.quick and shading == "none" and width >= 1024 and algo == "zbuffer":
                 vtk = bench_vtk(MODELS / name, width, height, 5)
                 if vtk is not None:
                     case["vtk_ms_median"] = vtk
-            print(f"{label:<40} {width}x{height} {shading:<6} core {case['core_ms_median']:8.3f} ms"
+            print(f"{label:<40} {width}x{height} {shading:<6} {algo:<8} "
+                  f"core {case['core_ms_median']:8.3f} ms"
                   f"  total {case['total_ms_median']:8.3f} ms  {case['mtris_per_s']:6.1f} Mtri/s",
                   flush=True)
         report["cases"].append(case)

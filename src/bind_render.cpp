@@ -3,8 +3,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <limits>
 #include <string>
 #include <utility>
@@ -15,6 +17,7 @@
 #include "zbuffer/conventions.h"
 #include "zbuffer/mesh_checks.h"
 #include "zbuffer/mesh_order.h"
+#include "zbuffer/zpyramid.h"
 
 namespace zbuffer_py {
 
@@ -66,10 +69,13 @@ py::dict stats_dict(const zbuffer::RenderStats& s) {
   d["clip_pieces"] = s.clip_pieces;
   d["culled_backface"] = s.culled_backface;
   d["culled_degenerate"] = s.culled_degenerate;
+  d["culled_hidden"] = s.culled_hidden;
   d["rasterized"] = s.rasterized;
   d["pixels_tested"] = s.pixels_tested;
   d["pixels_covered"] = s.pixels_covered;
   d["pixels_written"] = s.pixels_written;
+  d["tiles_skipped"] = s.tiles_skipped;
+  d["pyramid_cells_updated"] = s.pyramid_cells_updated;
   d["vertex_ms"] = s.vertex_ms;
   d["raster_ms"] = s.raster_ms;
   d["render_ms"] = s.total_ms;  // the C++ call; Python adds total_ms
@@ -154,6 +160,30 @@ void bind_render(py::module_& m) {
         py::arg("cull_backfaces") = false, py::arg("face_ids") = py::none(),
         "Render depth and triangle ids; returns (depth, triangle_id, stats). With face_ids,\n"
         "face f is reported as face_ids[f] (faces passed in another order).");
+  m.def(
+      "pyramid_levels",
+      [](py::handle depth_obj) {
+        auto depth = require_array<float>(depth_obj, "depth", {-1, -1});
+        const int h = int(depth.shape(0)), w = int(depth.shape(1));
+        if (w <= 0 || h <= 0) throw py::value_error("depth must not be empty");
+        py::list levels;
+        levels.append(depth);
+        std::unique_ptr<zbuffer::ZPyramid> pyramid;
+        {
+          py::gil_scoped_release release;
+          pyramid = std::make_unique<zbuffer::ZPyramid>(depth.data(), w, h);
+        }
+        for (int k = 1; k < pyramid->levels(); ++k) {
+          py::array_t<float> level({py::ssize_t(pyramid->height(k)), py::ssize_t(pyramid->width(k))});
+          std::copy_n(pyramid->level(k), size_t(pyramid->width(k)) * pyramid->height(k),
+                      level.mutable_data());
+          levels.append(level);
+        }
+        return levels;
+      },
+      py::arg("depth"),
+      "Z-pyramid of an (H, W) float32 depth map: [depth, level 1, ...], each cell the max\n"
+      "of its 2x2 children (a list of float32 arrays down to 1x1).");
   m.def(
       "spatial_order",
       [](py::handle positions_obj, py::handle faces_obj) {

@@ -27,15 +27,27 @@ def assert_same_visibility(result, reference):
     np.testing.assert_array_equal(result.depth, reference.depth)
 
 
+# Counters every algorithm must share with the reference: what happens to a
+# triangle before any algorithm-specific decision.
 TRIANGLE_COUNTERS = ("triangles_in", "culled_invalid", "culled_frustum", "clipped",
-                     "clipped_away", "clip_pieces", "culled_backface", "culled_degenerate",
-                     "rasterized")
+                     "clipped_away", "clip_pieces", "culled_backface", "culled_degenerate")
 
 
 def counters_add_up(stats) -> bool:
     s = stats
     return (s["triangles_in"] - s["culled_invalid"] - s["culled_frustum"] - s["clipped"]
-            + s["clip_pieces"]) == s["culled_backface"] + s["culled_degenerate"] + s["rasterized"]
+            + s["clip_pieces"]) == (s["culled_backface"] + s["culled_degenerate"]
+                                    + s.get("culled_hidden", 0) + s["rasterized"])
+
+
+def assert_same_counters(stats, ref_stats):
+    """The shared triangle counters equal the reference's, and the triangles
+    an algorithm culled as hidden plus those it drew are the ones the
+    reference drew."""
+    for key in TRIANGLE_COUNTERS:
+        assert stats[key] == ref_stats[key], key
+    assert stats["rasterized"] + stats["culled_hidden"] == ref_stats["rasterized"]
+    assert counters_add_up(stats) and counters_add_up(ref_stats)
 
 
 ALGORITHMS = zbuffer.algorithms()

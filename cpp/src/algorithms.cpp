@@ -10,6 +10,8 @@ namespace zbuffer {
 const std::vector<Algorithm>& algorithms() {
   static const std::vector<Algorithm> registry = {
       {"zbuffer", "plain Z-buffer: every triangle, its whole pixel box", &render_zbuffer},
+      {"hiz", "hierarchical Z-buffer: triangles and 8x8 tiles tested against a Z-pyramid",
+       &render_hiz},
   };
   return registry;
 }

@@ -24,7 +24,7 @@ void perspective(double fov_y_deg, double aspect, double n, double f, double* m)
 
 bool counters_add_up(const RenderStats& s) {
   return s.triangles_in - s.culled_invalid - s.culled_frustum - s.clipped + s.clip_pieces ==
-         s.culled_backface + s.culled_degenerate + s.rasterized;
+         s.culled_backface + s.culled_degenerate + s.culled_hidden + s.rasterized;
 }
 
 RenderStats render_faces(const std::vector<double>& pos, const std::vector<int32_t>& faces,

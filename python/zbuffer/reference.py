@@ -37,7 +37,7 @@ OUT_CLIP = OUT_NEAR | OUT_FAR | OUT_GUARD_LEFT | OUT_GUARD_RIGHT | OUT_GUARD_BOT
 _BATCH_PIXELS = 1 << 20
 
 STAT_KEYS = ("triangles_in", "culled_invalid", "culled_frustum", "clipped", "clipped_away",
-             "clip_pieces", "culled_backface", "culled_degenerate", "rasterized",
+             "clip_pieces", "culled_backface", "culled_degenerate", "culled_hidden", "rasterized",
              "pixels_tested", "pixels_covered")
 
 

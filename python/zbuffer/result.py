@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, Optional
+from typing import Any, Dict, List, Optional
 
 import numpy as np
 
@@ -50,6 +50,15 @@ class RenderResult:
     def mask(self) -> np.ndarray:
         """(H, W) bool: pixels where a triangle was drawn."""
         return self.triangle_id >= 0
+
+    def pyramid(self) -> List[np.ndarray]:
+        """The Z-pyramid of ``depth``: a list of float32 arrays from ``depth``
+        itself down to 1 x 1, each cell the farthest depth of its 2 x 2
+        children (+inf where nothing was drawn below it). It equals the
+        pyramid the ``hiz`` algorithms hold at the end of the render."""
+        from . import _core
+
+        return _core.pyramid_levels(self.depth)
 
     def eye_depth(self) -> np.ndarray:
         """(H, W) float64 distance along the viewing direction (eye-space -z),

@@ -47,10 +47,10 @@ struct RenderInput {
 // Counters and timings of one render. Triangle counters follow a triangle
 // through the pipeline: every input face is culled_invalid, culled_frustum,
 // clipped_away, or handed on (split into clip_pieces if it was clipped).
-// Each triangle handed on is culled_backface, culled_degenerate or
-// rasterized:
+// Each triangle handed on is culled_backface, culled_degenerate,
+// culled_hidden (by a hierarchical algorithm's occlusion test) or rasterized:
 //   triangles_in - culled_invalid - culled_frustum - clipped + clip_pieces
-//     == culled_backface + culled_degenerate + rasterized
+//     == culled_backface + culled_degenerate + culled_hidden + rasterized
 struct RenderStats {
   int64_t triangles_in = 0;        // input faces
   int64_t culled_invalid = 0;      // a vertex overflowed in the transform
@@ -60,10 +60,13 @@ struct RenderStats {
   int64_t clip_pieces = 0;         // triangles produced by clipping
   int64_t culled_backface = 0;     // pieces wound clockwise in NDC (cull on)
   int64_t culled_degenerate = 0;   // pieces with zero snapped area
+  int64_t culled_hidden = 0;       // found hidden by an occlusion test
   int64_t rasterized = 0;          // pieces handed to the raster core
   int64_t pixels_tested = 0;       // pixel centres whose coverage was tested
   int64_t pixels_covered = 0;      // ...that the triangle covered
   int64_t pixels_written = 0;      // ...that won the depth test
+  int64_t tiles_skipped = 0;       // 8x8 tiles of drawn triangles found hidden
+  int64_t pyramid_cells_updated = 0;  // Z-pyramid cells recomputed
   double vertex_ms = 0.0;          // per-vertex transform and snapping
   double raster_ms = 0.0;          // assembly, clipping, setup, rasterization
   double total_ms = 0.0;           // the whole C++ render call

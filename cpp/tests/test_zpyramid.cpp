@@ -1,0 +1,84 @@
+// The Z-pyramid: cells are the maximum of their children after any sequence
+// of writes and updates, and queries bound the depth of their rectangle.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "check.h"
+#include "zbuffer/algorithms.h"
+#include "zbuffer/zpyramid.h"
+
+using namespace zbuffer;
+
+namespace {
+
+struct Lcg {
+  uint64_t state;
+  int64_t operator()(int64_t lo, int64_t hi) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return lo + int64_t((state >> 33) % uint64_t(hi - lo + 1));
+  }
+};
+
+// Every cell of every level equals the max of its children inside the image.
+bool consistent(const ZPyramid& p) {
+  for (int k = 1; k < p.levels(); ++k) {
+    const float* below = p.level(k - 1);
+    const float* cells = p.level(k);
+    for (int j = 0; j < p.height(k); ++j)
+      for (int i = 0; i < p.width(k); ++i) {
+        float m = -std::numeric_limits<float>::infinity();
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) {
+            const int x = 2 * i + dx, y = 2 * j + dy;
+            if (x < p.width(k - 1) && y < p.height(k - 1))
+              m = std::max(m, below[size_t(y) * p.width(k - 1) + x]);
+          }
+        if (cells[size_t(j) * p.width(k) + i] != m) return false;
+      }
+  }
+  return true;
+}
+
+void test_updates_keep_every_cell_the_max_of_its_children() {
+  for (int size : {1, 2, 3, 17, 64, 93}) {
+    const int w = size, h = size * 2 / 3 + 1;
+    std::vector<float> depth(size_t(w) * h, std::numeric_limits<float>::infinity());
+    ZPyramid p(depth.data(), w, h);
+    CHECK(consistent(p));
+    CHECK(p.width(p.levels() - 1) == 1 && p.height(p.levels() - 1) == 1);
+    Lcg next{uint64_t(size)};
+    for (int t = 0; t < 300; ++t) {
+      // Depth only decreases, as under the depth write.
+      const int x0 = int(next(0, w - 1)), y0 = int(next(0, h - 1));
+      const int x1 = std::min(w - 1, x0 + int(next(0, 9))), y1 = std::min(h - 1, y0 + int(next(0, 9)));
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+          float& d = depth[size_t(y) * w + x];
+          d = std::min(d, float(next(0, 1000)) / 1000.0f);
+        }
+      p.update(x0, y0, x1, y1);
+    }
+    CHECK(consistent(p));
+    // Queries bound the true maximum of their rectangle.
+    bool bounded = true;
+    for (int t = 0; t < 300; ++t) {
+      const int x0 = int(next(0, w - 1)), y0 = int(next(0, h - 1));
+      const int x1 = int(next(x0, w - 1)), y1 = int(next(y0, h - 1));
+      float m = -std::numeric_limits<float>::infinity();
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) m = std::max(m, depth[size_t(y) * w + x]);
+      bounded &= p.max_over(x0, y0, x1, y1) >= m;
+    }
+    CHECK(bounded);
+  }
+}
+
+}  // namespace
+
+int main() {
+  test_updates_keep_every_cell_the_max_of_its_children();
+  return check_report("test_zpyramid");
+}

@@ -1,0 +1,91 @@
+"""The hierarchical Z-buffer: the Z-pyramid, and occlusion culling that
+changes no bit of the output."""
+
+import numpy as np
+import pytest
+
+import zbuffer
+from zbuffer import scenes
+from helpers import assert_same_counters, assert_same_visibility
+
+HIERARCHICAL = [a for a in zbuffer.algorithms() if a.startswith("hiz")]
+
+
+N_HIDDEN, N_FRONT = 400, 30
+
+
+def occluded_scene(seed=0):
+    """A big wall listed first, then many small triangles well behind it, then
+    a few in front of it."""
+    wall_v, wall_f = scenes.grid((0.0, 0.0, 0.0), (3.0, 2.0), (6, 4))
+    wall_v = wall_v[:, [0, 2, 1]]  # the grid lies in xz; stand it up facing +z
+    wall_v[:, 2] = 1.0
+    rng = np.random.default_rng(seed)
+    behind = rng.uniform([-0.9, -0.5, -3.0], [0.9, 0.5, 0.3], (N_HIDDEN, 1, 3))
+    front = rng.uniform([-1.0, -0.6, 1.5], [1.0, 0.6, 2.0], (N_FRONT, 1, 3))
+    centres = np.concatenate([behind, front])
+    soup = (centres + rng.normal(0, 0.15, (len(centres), 3, 3))).reshape(-1, 3)
+    v = np.vstack([wall_v, soup])
+    f = np.vstack([wall_f, len(wall_v) + np.arange(len(soup)).reshape(-1, 3)])
+    return zbuffer.Mesh(v, f)
+
+
+@pytest.mark.parametrize("algo", HIERARCHICAL)
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_occluded_triangles_are_culled_and_no_bit_changes(algo, projection):
+    mesh = occluded_scene()
+    cam = zbuffer.Camera.look_at((0.2, 0.1, 6.0), (0, 0, 0), fov_y=40, projection=projection,
+                                 ortho_height=3.5, near=1.0, far=20.0)
+    res = zbuffer.render(mesh, algo=algo, camera=cam, width=160, height=120, shading="none")
+    ref = zbuffer.reference.render(mesh, camera=cam, width=160, height=120, shading="none")
+    plain = zbuffer.render(mesh, algo="zbuffer", camera=cam, width=160, height=120,
+                           shading="none")
+    assert_same_visibility(res, ref)
+    assert_same_counters(res.stats, ref.stats)
+    # The wall hides the triangles behind it: the triangle test culls
+    # (nearly) all of them and none of those in front; fewer pixels are
+    # tested than by the plain Z-buffer.
+    assert 0.9 * N_HIDDEN <= res.stats["culled_hidden"] <= N_HIDDEN
+    front_ids = np.arange(len(mesh.faces) - N_FRONT, len(mesh.faces))
+    assert np.isin(front_ids, res.triangle_id).sum() > N_FRONT // 2
+    assert res.stats["pixels_tested"] < plain.stats["pixels_tested"]
+    assert res.stats["pyramid_cells_updated"] > 0
+
+
+@pytest.mark.parametrize("algo", HIERARCHICAL)
+def test_ties_with_an_occluder_are_never_culled(algo):
+    # The same square twice, at the same depth: the copy (larger ids) ties
+    # everywhere and loses every tie; whether the strict test culls it or
+    # not, the smaller ids must win exactly as in the plain Z-buffer.
+    sq = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    mesh = zbuffer.Mesh(np.vstack([sq, sq]), [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
+    cam = zbuffer.Camera.look_at((0, 0, 4), (0, 0, 0), near=1, far=10)
+    res = zbuffer.render(mesh, algo=algo, camera=cam, width=64, height=64, shading="none")
+    ref = zbuffer.reference.render(mesh, camera=cam, width=64, height=64, shading="none")
+    assert_same_visibility(res, ref)
+    assert set(np.unique(res.triangle_id)) <= {-1, 0, 1}
+
+
+def test_pyramid_levels_hold_the_max_of_their_children():
+    mesh = scenes.default_scene()
+    res = zbuffer.render(mesh, width=101, height=77, shading="none")
+    levels = res.pyramid()
+    assert levels[0] is res.depth or np.array_equal(levels[0], res.depth)
+    assert levels[-1].shape == (1, 1)
+    for below, level in zip(levels, levels[1:]):
+        h, w = below.shape
+        assert level.shape == ((h + 1) // 2, (w + 1) // 2)
+        padded = np.full((2 * level.shape[0], 2 * level.shape[1]), -np.inf, np.float32)
+        padded[:h, :w] = below
+        expected = padded.reshape(level.shape[0], 2, level.shape[1], 2).max(axis=(1, 3))
+        np.testing.assert_array_equal(level, expected)
+    assert np.isinf(levels[-1][0, 0])  # the background is never written
+    for level in levels:
+        assert level.max() == res.depth.max()
+
+
+def test_pyramid_levels_reject_bad_input():
+    with pytest.raises(TypeError, match="depth must have dtype float32"):
+        zbuffer._core.pyramid_levels(np.zeros((4, 4)))
+    with pytest.raises(ValueError, match="depth must have shape"):
+        zbuffer._core.pyramid_levels(np.zeros(4, np.float32))
