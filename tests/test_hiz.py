@@ -11,7 +11,8 @@ from helpers import assert_same_counters, assert_same_visibility
 HIERARCHICAL = [a for a in zbuffer.algorithms() if a.startswith("hiz")]
 
 
-N_HIDDEN, N_FRONT = 400, 30
+N_HIDDEN, N_FRONT = 1500, 30
+BATCH = 512  # triangles drawn together; the pyramid lags by at most one batch
 
 
 def occluded_scene(seed=0):
@@ -42,10 +43,12 @@ def test_occluded_triangles_are_culled_and_no_bit_changes(algo, projection):
                            shading="none")
     assert_same_visibility(res, ref)
     assert_same_counters(res.stats, ref.stats)
-    # The wall hides the triangles behind it: the triangle test culls
-    # (nearly) all of them and none of those in front; fewer pixels are
-    # tested than by the plain Z-buffer.
-    assert 0.9 * N_HIDDEN <= res.stats["culled_hidden"] <= N_HIDDEN
+    # The wall hides the triangles behind it: once the wall's batch is drawn
+    # the triangle test culls most of them (not those sharing its batch, nor
+    # those whose box touches an 8x8 cell reaching past the wall's edge) and
+    # none of those in front; fewer pixels are tested than by the plain
+    # Z-buffer.
+    assert 0.5 * (N_HIDDEN - BATCH) <= res.stats["culled_hidden"] <= N_HIDDEN
     front_ids = np.arange(len(mesh.faces) - N_FRONT, len(mesh.faces))
     assert np.isin(front_ids, res.triangle_id).sum() > N_FRONT // 2
     assert res.stats["pixels_tested"] < plain.stats["pixels_tested"]

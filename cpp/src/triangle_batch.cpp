@@ -8,20 +8,29 @@
 #include "zbuffer/triangle_batch.h"
 
 #include <cstring>
+#include <limits>
 
 #include "simd.h"
 
 namespace zbuffer {
 
-TriangleBatch::TriangleBatch(DepthTarget& target, RenderStats& stats)
-    : target_(target), stats_(stats) {
+TriangleBatch::TriangleBatch(DepthTarget& target, RenderStats& stats, ZPyramid* pyramid,
+                             int capacity)
+    : target_(target), stats_(stats), pyramid_(pyramid),
+      capacity_(std::max(16, std::min(capacity, int(kCapacity)))) {
   large_.reserve(kCapacity);
+  if (pyramid_) {
+    tiles_wide_ = (target.width + (1 << kDirtyShift) - 1) >> kDirtyShift;
+    const int tiles_high = (target.height + (1 << kDirtyShift) - 1) >> kDirtyShift;
+    tile_dirty_.assign(size_t(tiles_wide_) * size_t(tiles_high), 0);
+    tile_cells_ = pyramid_->first_level() == kTileShift && pyramid_->levels() > kTileShift;
+  }
 }
 
 // Scalar Entry Points
 
 void TriangleBatch::add(const ScreenTriangle& t) {
-  if (n_small_ + kSlack > kCapacity || large_.size() >= size_t(kCapacity)) flush();
+  if (n_small_ + kSlack > capacity_ || large_.size() >= size_t(capacity_)) flush();
   const TriangleSetup s = setup_triangle(t, target_.width, target_.height);
   const int bw = s.x_max - s.x_min + 1, bh = s.y_max - s.y_min + 1;
   if (bw <= 0 || bh <= 0) return;  // no pixel centre in its box
@@ -89,6 +98,7 @@ void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Vie
 // Drawing
 
 void TriangleBatch::flush() {
+  if (pyramid_) cull_hidden();
   int64_t covered = 0, written = 0;
 #ifdef ZBUFFER_AVX512
   draw_narrow<1>(0, covered, written);
@@ -111,12 +121,185 @@ void TriangleBatch::flush() {
   stats_.pixels_tested += small_tested_;
   stats_.pixels_covered += covered;
   stats_.pixels_written += written;
-  for (const TriangleSetup& s : large_)
-    rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target_, stats_);
+  for (const TriangleSetup& s : large_) {
+    if (pyramid_)
+      draw_large_by_tiles(s);
+    else
+      rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target_, stats_);
+  }
   large_.clear();
+  if (pyramid_) update_pyramid();
   n_small_ = 0;
   small_tested_ = 0;
   for (int& g : group_size_) g = 0;
+}
+
+// Occlusion Culling
+
+inline void TriangleBatch::mark_tiles(int x0, int y0, int x1, int y1) {
+  dirty_lo_ = std::min(dirty_lo_, y0 >> kDirtyShift);
+  dirty_hi_ = std::max(dirty_hi_, y1 >> kDirtyShift);
+  for (int ty = y0 >> kDirtyShift; ty <= (y1 >> kDirtyShift); ++ty)
+    for (int tx = x0 >> kDirtyShift; tx <= (x1 >> kDirtyShift); ++tx)
+      tile_dirty_[size_t(ty) * tiles_wide_ + tx] = 1;
+}
+
+void TriangleBatch::cull_hidden() {
+  int64_t culled = 0;
+  for (int g = 0; g < kGroups; ++g) {
+    int kept = 0, n = 0;
+    const int count = group_size_[g];
+#ifdef ZBUFFER_AVX512
+    if (tile_cells_) {
+      // Sixteen triangles at a time: the at most 3 x 3 level-3 cells under
+      // each box, their maximum against the triangle's z_lo, and the tiles
+      // of the survivors marked for the pyramid update.
+      const float* cells = pyramid_->level(kTileShift);
+      const __m512i cells_wide = _mm512_set1_epi32(pyramid_->width(kTileShift));
+      const __m512i tiles_wide = _mm512_set1_epi32(tiles_wide_);
+      const __m512i one = _mm512_set1_epi32(1);
+      for (; n + 16 <= count; n += 16) {
+        const __m512i i = _mm512_cvtepu16_epi32(
+            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(&group_[g][n])));
+        const __m512i x0 = _mm512_i32gather_epi32(i, x0_, 4);
+        const __m512i y0 = _mm512_i32gather_epi32(i, y0_, 4);
+        const __m512i w = _mm512_i32gather_epi32(i, box_w_, 4);
+        const __m512i h = _mm512_i32gather_epi32(i, box_h_, 4);
+        const __m512 z_lo = _mm512_i32gather_ps(i, z_lo_, 4);
+        const __m512i tx0 = _mm512_srai_epi32(x0, kTileShift);
+        const __m512i ty0 = _mm512_srai_epi32(y0, kTileShift);
+        const __m512i tx1 = _mm512_srai_epi32(_mm512_sub_epi32(_mm512_add_epi32(x0, w), one), kTileShift);
+        const __m512i ty1 = _mm512_srai_epi32(_mm512_sub_epi32(_mm512_add_epi32(y0, h), one), kTileShift);
+        __m512 bound = _mm512_set1_ps(-std::numeric_limits<float>::infinity());
+        for (int dy = 0; dy < 3; ++dy)
+          for (int dx = 0; dx < 3; ++dx) {
+            const __m512i tx = _mm512_add_epi32(tx0, _mm512_set1_epi32(dx));
+            const __m512i ty = _mm512_add_epi32(ty0, _mm512_set1_epi32(dy));
+            const __mmask16 in = _mm512_cmple_epi32_mask(tx, tx1) & _mm512_cmple_epi32_mask(ty, ty1);
+            const __m512i cell = _mm512_add_epi32(_mm512_mullo_epi32(ty, cells_wide), tx);
+            bound = _mm512_max_ps(bound, _mm512_mask_i32gather_ps(bound, in, cell, cells, 4));
+          }
+        const __mmask16 hidden = _mm512_cmp_ps_mask(z_lo, bound, _CMP_GT_OQ);
+        const __mmask16 shown = __mmask16(~hidden);
+        if (hidden) {
+          culled += __builtin_popcount(hidden);
+          small_tested_ -= _mm512_mask_reduce_add_epi32(hidden, _mm512_mullo_epi32(w, h));
+        }
+        // Mark the (at most 2 x 2) 16 x 16 blocks under the survivors' boxes.
+        if (shown) {
+          const __m512i bx0 = _mm512_srai_epi32(x0, kDirtyShift);
+          const __m512i by0 = _mm512_srai_epi32(y0, kDirtyShift);
+          const __m512i bx1 = _mm512_srai_epi32(_mm512_sub_epi32(_mm512_add_epi32(x0, w), one), kDirtyShift);
+          const __m512i by1 = _mm512_srai_epi32(_mm512_sub_epi32(_mm512_add_epi32(y0, h), one), kDirtyShift);
+          dirty_lo_ = std::min(dirty_lo_, _mm512_mask_reduce_min_epi32(shown, by0));
+          dirty_hi_ = std::max(dirty_hi_, _mm512_mask_reduce_max_epi32(shown, by1));
+          for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+              const __m512i bx = _mm512_add_epi32(bx0, _mm512_set1_epi32(dx));
+              const __m512i by = _mm512_add_epi32(by0, _mm512_set1_epi32(dy));
+              const __mmask16 m =
+                  shown & _mm512_cmple_epi32_mask(bx, bx1) & _mm512_cmple_epi32_mask(by, by1);
+              _mm512_mask_i32scatter_epi32(tile_dirty_.data(), m,
+                                           _mm512_add_epi32(_mm512_mullo_epi32(by, tiles_wide), bx),
+                                           one, 4);
+            }
+        }
+        // Keep the survivors' indices, in order.
+        alignas(64) int32_t keep[16];
+        _mm512_store_si512(keep, _mm512_maskz_compress_epi32(shown, i));
+        for (int k = 0; k < __builtin_popcount(shown); ++k) group_[g][kept++] = uint16_t(keep[k]);
+      }
+    }
+#endif
+    for (; n < count; ++n) {
+      const int i = group_[g][n];
+      // Boxes under 16 pixels span at most 3 cells of 8 a side.
+      const int x1 = x0_[i] + box_w_[i] - 1, y1 = y0_[i] + box_h_[i] - 1;
+      const float bound = tile_cells_ ? pyramid_->max_over_at(kTileShift, x0_[i], y0_[i], x1, y1)
+                                      : pyramid_->max_over(x0_[i], y0_[i], x1, y1);
+      if (z_lo_[i] > bound) {
+        ++culled;
+        small_tested_ -= int64_t(box_w_[i]) * box_h_[i];
+        continue;
+      }
+      mark_tiles(x0_[i], y0_[i], x1, y1);
+      group_[g][kept++] = uint16_t(i);
+    }
+    group_size_[g] = kept;
+  }
+  size_t kept = 0;
+  for (const TriangleSetup& s : large_) {
+    if (s.z_lo > pyramid_->max_over(s.x_min, s.y_min, s.x_max, s.y_max)) {
+      ++culled;
+      continue;
+    }
+    large_[kept++] = s;
+  }
+  large_.resize(kept);
+  stats_.culled_hidden += culled;
+  stats_.rasterized -= culled;  // counted when added: they are not drawn after all
+}
+
+void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
+  const int tx0 = s.x_min >> kTileShift, tx1 = s.x_max >> kTileShift;
+  const int ty0 = s.y_min >> kTileShift, ty1 = s.y_max >> kTileShift;
+  if (!tile_cells_ || (tx0 == tx1 && ty0 == ty1)) {
+    rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target_, stats_);
+    mark_tiles(s.x_min, s.y_min, s.x_max, s.y_max);
+    return;
+  }
+  const float* tile_max = pyramid_->level(kTileShift);
+  const int tiles_wide = pyramid_->width(kTileShift);
+  for (int ty = ty0; ty <= ty1; ++ty)
+    for (int tx = tx0; tx <= tx1; ++tx) {
+      if (s.z_lo > tile_max[size_t(ty) * tiles_wide + tx]) {  // already nearer: skip
+        ++stats_.tiles_skipped;
+        continue;
+      }
+      const int x0 = std::max(s.x_min, tx << kTileShift);
+      const int x1 = std::min(s.x_max, ((tx + 1) << kTileShift) - 1);
+      const int y0 = std::max(s.y_min, ty << kTileShift);
+      const int y1 = std::min(s.y_max, ((ty + 1) << kTileShift) - 1);
+      rasterize_rect(s, x0, y0, x1, y1, target_, stats_);
+      mark_tiles(x0, y0, x1, y1);
+    }
+}
+
+void TriangleBatch::update_pyramid() {
+  // The level-3 cells under every 16 x 16 block drawn into since the last
+  // update, listed once; the pyramid recomputes them from the pixels and
+  // climbs from there.
+  dirty_list_.clear();
+  const int cells_wide = tile_cells_ ? pyramid_->width(kTileShift) : 0;
+  const int cells_high = tile_cells_ ? pyramid_->height(kTileShift) : 0;
+  const int block = 1 << kDirtyShift;
+  for (int by = std::max(dirty_lo_, 0); by <= dirty_hi_; ++by) {
+    int32_t* row = tile_dirty_.data() + size_t(by) * tiles_wide_;
+    for (int bx = 0; bx < tiles_wide_; ++bx) {
+#ifdef ZBUFFER_AVX512
+      // Most blocks are clean: skip them 16 at a time.
+      while (bx + 16 <= tiles_wide_ &&
+             !_mm512_test_epi32_mask(_mm512_loadu_si512(row + bx), _mm512_set1_epi32(-1)))
+        bx += 16;
+      if (bx >= tiles_wide_) break;
+#endif
+      if (!row[bx]) continue;
+      row[bx] = 0;
+      if (!tile_cells_) {  // a pyramid without level 3: update by rectangle
+        const int x0 = bx * block, y0 = by * block;
+        stats_.pyramid_cells_updated +=
+            pyramid_->update(x0, y0, std::min(x0 + block, target_.width) - 1,
+                             std::min(y0 + block, target_.height) - 1);
+        continue;
+      }
+      for (int j = 2 * by; j < std::min(2 * by + 2, cells_high); ++j)
+        for (int i = 2 * bx; i < std::min(2 * bx + 2, cells_wide); ++i)
+          dirty_list_.push_back(j * cells_wide + i);
+    }
+  }
+  dirty_lo_ = 1 << 30;
+  dirty_hi_ = -1;
+  if (tile_cells_) stats_.pyramid_cells_updated += pyramid_->update_cells(dirty_list_);
 }
 
 #ifdef ZBUFFER_AVX512
@@ -275,7 +458,7 @@ inline __m512 join(__m256 lo, __m256 hi) {
 
 void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                                  const ScreenVertices& sv, int64_t first, bool cull_backfaces) {
-  if (n_small_ + kSlack > kCapacity || large_.size() + 16 > size_t(kCapacity)) flush();
+  if (n_small_ + kSlack > capacity_ || large_.size() + 16 > size_t(capacity_)) flush();
 
   // Gather the three vertices of 16 faces.
   const int32_t* fp = mesh.faces + 3 * first;

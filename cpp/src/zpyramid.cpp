@@ -2,10 +2,14 @@
 #include "zbuffer/zpyramid.h"
 
 #include <algorithm>
+#include <limits>
+
+#include "simd.h"
 
 namespace zbuffer {
 
-ZPyramid::ZPyramid(const float* depth, int width, int height) : depth_(depth) {
+ZPyramid::ZPyramid(const float* depth, int width, int height, int first_level, bool cleared)
+    : depth_(depth), first_(std::max(1, first_level)) {
   int w = width, h = height;
   widths_.push_back(w);
   heights_.push_back(h);
@@ -14,40 +18,60 @@ ZPyramid::ZPyramid(const float* depth, int width, int height) : depth_(depth) {
     h = (h + 1) / 2;
     widths_.push_back(w);
     heights_.push_back(h);
-    cells_.emplace_back(size_t(w) * size_t(h));
   }
-  rebuild();
+  // A pyramid shorter than first_level keeps at least its top level.
+  first_ = std::min(first_, std::max(1, levels() - 1));
+  cells_.resize(size_t(levels()));
+  for (int k = first_; k < levels(); ++k)
+    cells_[k].assign(size_t(widths_[k]) * size_t(heights_[k]),
+                     std::numeric_limits<float>::infinity());
+  if (!cleared) rebuild();
 }
 
 inline bool ZPyramid::refresh(int k, int i, int j) {
-  const float* below = level(k - 1);
-  const int bw = widths_[k - 1], bh = heights_[k - 1];
-  const int x = 2 * i, y = 2 * j;
-  float m = below[size_t(y) * bw + x];
-  if (x + 1 < bw) m = std::max(m, below[size_t(y) * bw + x + 1]);
-  if (y + 1 < bh) {
-    m = std::max(m, below[size_t(y + 1) * bw + x]);
-    if (x + 1 < bw) m = std::max(m, below[size_t(y + 1) * bw + x + 1]);
-  }
-  float& cell = cells_[k - 1][size_t(j) * widths_[k] + i];
+  // The kept level below, and the block of its cells under (i, j).
+  const int below = k == first_ ? 0 : k - 1;
+  const int shift = k - below;
+  const float* cells = level(below);
+  const int bw = widths_[below], bh = heights_[below];
+  const int x0 = i << shift, y0 = j << shift;
+  const int x1 = std::min(bw, x0 + (1 << shift)), y1 = std::min(bh, y0 + (1 << shift));
+  float m = cells[size_t(y0) * bw + x0];
+#ifdef ZBUFFER_AVX512
+  if (shift == 3 && x1 - x0 == 8) {  // a whole row of 8 pixels per instruction
+    __m256 v = _mm256_set1_ps(m);
+    for (int y = y0; y < y1; ++y) v = _mm256_max_ps(v, _mm256_loadu_ps(cells + size_t(y) * bw + x0));
+    __m128 h = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    h = _mm_max_ps(h, _mm_movehl_ps(h, h));
+    h = _mm_max_ss(h, _mm_movehdup_ps(h));
+    m = _mm_cvtss_f32(h);
+  } else
+#endif
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) m = std::max(m, cells[size_t(y) * bw + x]);
+  float& cell = cells_[k][size_t(j) * widths_[k] + i];
   const bool changed = cell != m;
   cell = m;
   return changed;
 }
 
 void ZPyramid::rebuild() {
-  for (int k = 1; k < levels(); ++k)
+  if (levels() == 1) return;
+  for (int k = first_; k < levels(); ++k)
     for (int j = 0; j < heights_[k]; ++j)
       for (int i = 0; i < widths_[k]; ++i) refresh(k, i, j);
 }
 
 int64_t ZPyramid::update(int x0, int y0, int x1, int y1) {
   int64_t count = 0;
-  for (int k = 1; k < levels(); ++k) {
-    x0 >>= 1;
-    y0 >>= 1;
-    x1 >>= 1;
-    y1 >>= 1;
+  if (levels() == 1) return 0;
+  int shift = first_;  // the first kept level is computed from the pixels
+  for (int k = first_; k < levels(); ++k) {
+    x0 >>= shift;
+    y0 >>= shift;
+    x1 >>= shift;
+    y1 >>= shift;
+    shift = 1;
     // Recompute the cells over the changed region; carry up only the
     // bounding rectangle of the cells that actually changed.
     int cx0 = x1 + 1, cy0 = y1 + 1, cx1 = x0 - 1, cy1 = y0 - 1;
@@ -69,9 +93,37 @@ int64_t ZPyramid::update(int x0, int y0, int x1, int y1) {
   return count;
 }
 
+int64_t ZPyramid::update_cells(std::vector<int32_t>& cells) {
+  int64_t count = 0;
+  if (levels() == 1) return 0;
+  if (stamp_.size() < cells_[std::min(first_ + 1, levels() - 1)].size())
+    stamp_.assign(cells_[std::min(first_ + 1, levels() - 1)].size(), 0);
+  for (int k = first_; k < levels() && !cells.empty(); ++k) {
+    // Recompute this level's cells; the parents of those that changed,
+    // each listed once, are the next level's work.
+    ++round_;
+    next_.clear();
+    const int w = widths_[k];
+    const int parent_w = k + 1 < levels() ? widths_[k + 1] : 1;
+    for (const int32_t c : cells) {
+      const int i = c % w, j = c / w;
+      ++count;
+      if (!refresh(k, i, j) || k + 1 >= levels()) continue;
+      const int32_t parent = (j >> 1) * parent_w + (i >> 1);
+      if (stamp_[parent] != round_) {
+        stamp_[parent] = round_;
+        next_.push_back(parent);
+      }
+    }
+    cells.swap(next_);
+  }
+  cells.clear();
+  return count;
+}
+
 float ZPyramid::max_over(int x0, int y0, int x1, int y1) const {
   int k = 0;
-  while ((x1 >> k) - (x0 >> k) > 1 || (y1 >> k) - (y0 >> k) > 1) ++k;
+  while ((x1 >> k) - (x0 >> k) > 1 || (y1 >> k) - (y0 >> k) > 1) k = k == 0 ? first_ : k + 1;
   const float* cells = level(k);
   const int w = widths_[k];
   const int i0 = x0 >> k, i1 = x1 >> k, j0 = y0 >> k, j1 = y1 >> k;

@@ -22,20 +22,18 @@ struct Lcg {
   }
 };
 
-// Every cell of every level equals the max of its children inside the image.
+// Every cell of every kept level equals the max of the pixels of its block.
 bool consistent(const ZPyramid& p) {
-  for (int k = 1; k < p.levels(); ++k) {
-    const float* below = p.level(k - 1);
+  const float* depth = p.level(0);
+  const int w = p.width(0), h = p.height(0);
+  for (int k = p.first_level(); k < p.levels(); ++k) {
     const float* cells = p.level(k);
     for (int j = 0; j < p.height(k); ++j)
       for (int i = 0; i < p.width(k); ++i) {
         float m = -std::numeric_limits<float>::infinity();
-        for (int dy = 0; dy < 2; ++dy)
-          for (int dx = 0; dx < 2; ++dx) {
-            const int x = 2 * i + dx, y = 2 * j + dy;
-            if (x < p.width(k - 1) && y < p.height(k - 1))
-              m = std::max(m, below[size_t(y) * p.width(k - 1) + x]);
-          }
+        for (int y = j << k; y < std::min(h, (j + 1) << k); ++y)
+          for (int x = i << k; x < std::min(w, (i + 1) << k); ++x)
+            m = std::max(m, depth[size_t(y) * w + x]);
         if (cells[size_t(j) * p.width(k) + i] != m) return false;
       }
   }
@@ -43,10 +41,11 @@ bool consistent(const ZPyramid& p) {
 }
 
 void test_updates_keep_every_cell_the_max_of_its_children() {
+  for (int first : {1, 3})
   for (int size : {1, 2, 3, 17, 64, 93}) {
     const int w = size, h = size * 2 / 3 + 1;
     std::vector<float> depth(size_t(w) * h, std::numeric_limits<float>::infinity());
-    ZPyramid p(depth.data(), w, h);
+    ZPyramid p(depth.data(), w, h, first);
     CHECK(consistent(p));
     CHECK(p.width(p.levels() - 1) == 1 && p.height(p.levels() - 1) == 1);
     Lcg next{uint64_t(size)};

@@ -13,6 +13,7 @@
 #include "zbuffer/raster.h"
 #include "zbuffer/types.h"
 #include "zbuffer/vertex_stage.h"
+#include "zbuffer/zpyramid.h"
 
 namespace zbuffer {
 
@@ -33,7 +34,18 @@ class TriangleBatch {
  public:
   static constexpr int kCapacity = 512;
 
-  TriangleBatch(DepthTarget& target, RenderStats& stats);
+  // With a pyramid (over target.depth), the batch is a hierarchical Z-buffer:
+  // before drawing, it culls triangles the pyramid proves hidden (strictly:
+  // their nearest depth beyond the farthest depth under their box), skips
+  // hidden 8x8 tiles of large triangles, and afterwards brings the pyramid up
+  // to date over the tiles it drew into. The pyramid then lags by at most one
+  // batch, which only makes it cull less.
+  //
+  // `capacity` (16 .. kCapacity) is how many triangles a batch gathers before
+  // drawing them; a hierarchical Z-buffer wants small batches so that its
+  // pyramid lags little.
+  TriangleBatch(DepthTarget& target, RenderStats& stats, ZPyramid* pyramid = nullptr,
+                int capacity = kCapacity);
   TriangleBatch(const TriangleBatch&) = delete;
   TriangleBatch& operator=(const TriangleBatch&) = delete;
 
@@ -66,12 +78,26 @@ class TriangleBatch {
   void draw_narrow(int group, int64_t& covered, int64_t& written);
   template <int kRows>
   void draw_wide(int group, int64_t& covered, int64_t& written);
+  // Occlusion culling and pyramid upkeep (with a pyramid only).
+  void cull_hidden();
+  void draw_large_by_tiles(const TriangleSetup& s);
+  void mark_tiles(int x0, int y0, int x1, int y1);
+  void update_pyramid();
   // Vector assembly and setup of faces first .. first + 15 (AVX-512 builds).
   void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                     const ScreenVertices& sv, int64_t first, bool cull_backfaces);
 
   DepthTarget& target_;
   RenderStats& stats_;
+  ZPyramid* pyramid_;
+  int capacity_;
+  static constexpr int kTileShift = 3;   // 8 x 8 pixel tiles (pyramid level 3)
+  static constexpr int kDirtyShift = 4;  // dirt is tracked by 16 x 16 blocks
+  int tiles_wide_ = 0;                   // blocks of 16 x 16 pixels a row
+  int dirty_lo_ = 1 << 30, dirty_hi_ = -1;  // rows of blocks marked since the last update
+  bool tile_cells_ = false;             // the pyramid keeps 8x8 cells (level 3)
+  std::vector<int32_t> tile_dirty_;     // per 16 x 16 block: drawn into since the last update
+  std::vector<int32_t> dirty_list_;     // level-3 cells under them, at update time
 
   // Small boxes, structure of arrays. Edge values are exact, unbiased, and
   // taken at the centre of the box's first pixel; w0 = area - w1 - w2.

@@ -3,6 +3,7 @@
 // pixels under it, so that one lookup bounds the depth of a whole region.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -10,22 +11,30 @@ namespace zbuffer {
 
 // Design decision: level 0 is the depth buffer itself (not copied); level k
 // (k >= 1) is an owned float array of ceil(w / 2^k) x ceil(h / 2^k) cells,
-// each the maximum of its two-by-two children that lie inside the image.
-// Never-written pixels are +inf, so regions with holes never cull. Good: a
-// query costs at most four loads at the level where the rectangle spans two
-// cells a side, and updates climb only while values change. Bad: a third
-// again of the depth buffer's memory, and bounds are conservative (a query
-// reads whole cells, which may reach past the rectangle).
+// each the maximum of its two-by-two children that lie inside the image, i.e.
+// of the pixels of its 2^k x 2^k block. Never-written pixels are +inf, so
+// regions with holes never cull. Levels 1 .. first_level - 1 may be left
+// out: the first kept level is then computed straight from the pixels (an
+// algorithm that only asks about 8 x 8 tiles keeps levels 3 and up and does
+// a quarter of the upkeep). Good: a query costs at most four loads at the
+// level where the rectangle spans two cells a side, and updates climb only
+// while values change. Bad: up to a third again of the depth buffer's
+// memory, and bounds are conservative (a query reads whole cells, which may
+// reach past the rectangle).
 class ZPyramid {
  public:
   // A pyramid over the (width x height) depth buffer `depth`, built from its
-  // current contents.
-  ZPyramid(const float* depth, int width, int height);
+  // current contents (or, with `cleared`, knowing them to be all +inf),
+  // keeping levels 0 and first_level and up.
+  ZPyramid(const float* depth, int width, int height, int first_level = 1,
+           bool cleared = false);
 
   int levels() const { return int(widths_.size()); }  // including level 0
+  int first_level() const { return first_; }           // first kept level above 0
   int width(int level) const { return widths_[level]; }
   int height(int level) const { return heights_[level]; }
-  const float* level(int k) const { return k == 0 ? depth_ : cells_[k - 1].data(); }
+  // Cells of a kept level (0, or first_level() and up).
+  const float* level(int k) const { return k == 0 ? depth_ : cells_[k].data(); }
 
   // Recompute every cell from level 0 (after the depth buffer was rewritten).
   void rebuild();
@@ -36,19 +45,42 @@ class ZPyramid {
   // ancestors). Returns the number of cells recomputed.
   int64_t update(int x0, int y0, int x1, int y1);
 
+  // After depth writes inside the given cells of the first kept level
+  // (indices j * width(first_level()) + i): recompute them, then their
+  // ancestors level by level -- each ancestor once, however many of its
+  // descendants changed -- as long as anything changes. Returns the number
+  // of cells recomputed. `cells` is used as scratch.
+  int64_t update_cells(std::vector<int32_t>& cells);
+
   // An upper bound of the depth over pixels [x0, x1] x [y0, y1] (inside the
   // image): the maximum of the at most 2 x 2 cells covering the rectangle at
-  // the finest level where it spans no more than two cells a side.
+  // the finest kept level where it spans no more than two cells a side.
   float max_over(int x0, int y0, int x1, int y1) const;
 
+  // The same bound from the cells of kept level k (>= first_level) alone,
+  // for a rectangle spanning at most 3 cells a side there.
+  float max_over_at(int k, int x0, int y0, int x1, int y1) const {
+    const float* cells = level(k);
+    const int w = widths_[k];
+    const int i0 = x0 >> k, i1 = x1 >> k, j0 = y0 >> k, j1 = y1 >> k;
+    float m = cells[size_t(j0) * w + i0];
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) m = m < cells[size_t(j) * w + i] ? cells[size_t(j) * w + i] : m;
+    return m;
+  }
+
  private:
-  // Recompute cell (i, j) of level k >= 1 from level k - 1; returns true if
-  // its value changed.
+  // Recompute cell (i, j) of kept level k >= first_level from the kept
+  // level below; returns true if its value changed.
   bool refresh(int k, int i, int j);
 
   const float* depth_;
+  int first_;
+  std::vector<uint32_t> stamp_;  // per cell of the level being climbed: last round seen
+  uint32_t round_ = 0;
+  std::vector<int32_t> next_;
   std::vector<int> widths_, heights_;
-  std::vector<std::vector<float>> cells_;  // levels 1 .. levels() - 1
+  std::vector<std::vector<float>> cells_;  // by level; empty for 0 and skipped levels
 };
 
 }  // namespace zbuffer
