@@ -51,6 +51,28 @@ class RenderResult:
         """(H, W) bool: pixels where a triangle was drawn."""
         return self.triangle_id >= 0
 
+    def show(self, screenshot: Optional[str] = None, **options):
+        """Show image, depth (with a colour bar) and triangle ids side by side
+        in a pyvista window, or write them to the PNG ``screenshot``
+        (:func:`zbuffer.viz.show_result`)."""
+        from . import viz
+
+        return viz.show_result(self, screenshot=screenshot, **options)
+
+    def _repr_png_(self) -> bytes:
+        """The image as PNG (false-colour triangle ids with shading="none"),
+        so that a notebook cell returning a result shows it."""
+        from io import BytesIO
+
+        from PIL import Image
+
+        from .viz import id_colors
+
+        picture = self.image if self.image is not None else id_colors(self.triangle_id)
+        buffer = BytesIO()
+        Image.fromarray(picture).save(buffer, format="PNG")
+        return buffer.getvalue()
+
     def pyramid(self) -> List[np.ndarray]:
         """The Z-pyramid of ``depth``: a list of float32 arrays from ``depth``
         itself down to 1 x 1, each cell the farthest depth of its 2 x 2
