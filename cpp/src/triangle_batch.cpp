@@ -7,12 +7,42 @@
 // whichever path set it up.
 #include "zbuffer/triangle_batch.h"
 
+#include <chrono>
 #include <cstring>
 #include <limits>
 
 #include "simd.h"
 
 namespace zbuffer {
+
+namespace {
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+      .count();
+}
+}  // namespace
+
+void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderStats& stats,
+                          ZPyramid* pyramid, int capacity) {
+  const Viewport vp(target.width, target.height);
+
+  // Vertex stage: each vertex once, however many faces share it. The
+  // per-thread buffers are reused from frame to frame instead of being
+  // allocated, zeroed and faulted in anew (which cost more than the
+  // transform itself).
+  auto t0 = std::chrono::steady_clock::now();
+  thread_local ScreenVertices screen;
+  transform_vertices(input.mesh, input.mvp, vp, screen);
+  stats.vertex_ms += ms_since(t0);
+
+  // Assembly, setup, (culling,) rasterization: every face, in batches.
+  t0 = std::chrono::steady_clock::now();
+  TriangleBatch batch(target, stats, pyramid, capacity);
+  batch.add_faces(input.mesh, input.mvp, vp, screen, 0, input.mesh.n_faces,
+                  input.cull_backfaces);
+  batch.flush();
+  stats.raster_ms += ms_since(t0);
+}
 
 TriangleBatch::TriangleBatch(DepthTarget& target, RenderStats& stats, ZPyramid* pyramid,
                              int capacity)

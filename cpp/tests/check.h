@@ -9,6 +9,24 @@ inline int& check_failures() {
   return failures;
 }
 
+// A small deterministic generator: the tests need no <random> distributions
+// whose output differs between standard libraries.
+struct Lcg {
+  unsigned long long state;
+  unsigned long long bits() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return state;
+  }
+  // An integer in [lo, hi].
+  long long operator()(long long lo, long long hi) {
+    return lo + (long long)((bits() >> 33) % (unsigned long long)(hi - lo + 1));
+  }
+  // A double in [lo, hi).
+  double uniform(double lo, double hi) {
+    return lo + (hi - lo) * double(bits() >> 11) / double(1ull << 53);
+  }
+};
+
 #define CHECK(cond)                                                       \
   do {                                                                    \
     if (!(cond)) {                                                        \

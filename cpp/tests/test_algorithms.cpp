@@ -12,13 +12,6 @@ using namespace zbuffer;
 
 namespace {
 
-struct Lcg {
-  uint64_t state;
-  double operator()(double lo, double hi) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return lo + (hi - lo) * double(state >> 11) / double(1ull << 53);
-  }
-};
 
 void test_every_algorithm_equals_the_plain_zbuffer() {
   for (int scene = 0; scene < 6; ++scene) {
@@ -30,16 +23,16 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
     const int n_big = 4 + scene, n_small = 3000;
     for (int t = 0; t < n_big + n_small; ++t) {
       const bool big = t < n_big;
-      const double cx = next(-1.5, 1.5), cy = next(-1.5, 1.5);
-      const double cz = big ? next(-1.5, -1.0) : next(-4.0, -1.2);
-      const double r = big ? next(0.5, 1.5) : next(0.01, 0.2);
+      const double cx = next.uniform(-1.5, 1.5), cy = next.uniform(-1.5, 1.5);
+      const double cz = big ? next.uniform(-1.5, -1.0) : next.uniform(-4.0, -1.2);
+      const double r = big ? next.uniform(0.5, 1.5) : next.uniform(0.01, 0.2);
       // Occluders are counter-clockwise seen from the camera (front faces,
       // kept by back-face culling); the small ones are oriented at random.
       const double corner[3][2] = {{-1, -1}, {1, -1}, {0, 1}};
       for (int k = 0; k < 3; ++k) {
-        pos.push_back(cx + (big ? r * corner[k][0] : next(-r, r)));
-        pos.push_back(cy + (big ? r * corner[k][1] : next(-r, r)));
-        pos.push_back(cz + next(-0.1, 0.1));
+        pos.push_back(cx + (big ? r * corner[k][0] : next.uniform(-r, r)));
+        pos.push_back(cy + (big ? r * corner[k][1] : next.uniform(-r, r)));
+        pos.push_back(cz + next.uniform(-0.1, 0.1));
         faces.push_back(int32_t(faces.size()));
       }
     }

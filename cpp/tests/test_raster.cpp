@@ -28,15 +28,6 @@ struct Frame {
 
 ScreenVertex sv(int32_t x_fx, int32_t y_fx, double z) { return {x_fx, y_fx, 0u, z}; }
 
-// A small deterministic generator: the tests need no <random> distributions
-// whose output differs between standard libraries.
-struct Lcg {
-  uint64_t state;
-  int64_t operator()(int64_t lo, int64_t hi) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return lo + int64_t((state >> 33) % uint64_t(hi - lo + 1));
-  }
-};
 
 // A random screen triangle around (cx, cy) within r sub-pixels.
 ScreenTriangle random_triangle(Lcg& next, int64_t cx, int64_t cy, int64_t r, int32_t id,

@@ -14,13 +14,6 @@ using namespace zbuffer;
 
 namespace {
 
-struct Lcg {
-  uint64_t state;
-  int64_t operator()(int64_t lo, int64_t hi) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return lo + int64_t((state >> 33) % uint64_t(hi - lo + 1));
-  }
-};
 
 // Every cell of every kept level equals the max of the pixels of its block.
 bool consistent(const ZPyramid& p) {

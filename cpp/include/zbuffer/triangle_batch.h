@@ -127,4 +127,10 @@ class TriangleBatch {
   std::vector<TriangleSetup> large_;
 };
 
+// The pipeline the image-space algorithms share: the vertex stage over all
+// vertices, then every face through a TriangleBatch (with `pyramid`, a
+// hierarchical Z-buffer). Adds vertex_ms and raster_ms to stats.
+void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderStats& stats,
+                          ZPyramid* pyramid = nullptr, int capacity = TriangleBatch::kCapacity);
+
 }  // namespace zbuffer
