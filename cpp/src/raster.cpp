@@ -62,9 +62,6 @@ namespace {
 // an instruction. Lanes outside the rectangle are masked off, and masked
 // loads and stores never touch memory outside the row.
 
-using simd::write8;
-using simd::write16;
-
 // The common case: every edge value in the rectangle fits in int32, so 16
 // pixels share each instruction. A box at most 8 pixels wide is walked two
 // rows at a time (lanes 0-7 row y, lanes 8-15 row y + 1), a wider one 16
@@ -88,26 +85,19 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
   }
   const __m512i bias1 = _mm512_set1_epi32(int32_t(s.bias[1]));
   const __m512i bias2 = _mm512_set1_epi32(int32_t(s.bias[2]));
-  const __m512 z0 = _mm512_set1_ps(s.z0), a1 = _mm512_set1_ps(s.a1), a2 = _mm512_set1_ps(s.a2);
-  const __m512 z_lo = _mm512_set1_ps(s.z_lo), z_hi = _mm512_set1_ps(s.z_hi);
+  const simd::DepthPlane16 plane(s.z0, s.a1, s.a2, s.z_lo, s.z_hi);
   const __m512i id = _mm512_set1_epi32(s.id);
   const size_t pitch = size_t(target.width);
   int64_t covered = 0, written = 0;
 
-  // Coverage and depth of 16 lanes.
-  auto shade16 = [&](__m512i w0, __m512i w1, __m512i w2, __mmask16 in_rect, __m512& z) {
-    const __m512i any = _mm512_or_si512(_mm512_or_si512(w0, w1), w2);
-    const __mmask16 inside = _mm512_mask_cmpge_epi32_mask(in_rect, any, _mm512_setzero_si512());
-    const __m512 w1f = _mm512_cvtepi32_ps(_mm512_add_epi32(w1, bias1));
-    const __m512 w2f = _mm512_cvtepi32_ps(_mm512_add_epi32(w2, bias2));
-    z = _mm512_add_ps(z0, _mm512_add_ps(_mm512_mul_ps(w1f, a1), _mm512_mul_ps(w2f, a2)));
-    z = _mm512_min_ps(_mm512_max_ps(z, z_lo), z_hi);  // clamp (no NaN, no -0 here)
-    return inside;
+  // Coverage (of the biased edge values) and depth (of the unbiased ones).
+  auto cover_and_depth = [&](__m512i w0, __m512i w1, __m512i w2, __mmask16 in_rect, __m512& z) {
+    z = simd::depth16(plane, _mm512_add_epi32(w1, bias1), _mm512_add_epi32(w2, bias2));
+    return simd::covered16(in_rect, w0, w1, w2);
   };
 
   if (pairs) {
     const unsigned one_row = (1u << width) - 1;
-    const __m256i id8 = _mm512_castsi512_si256(id);
     // Rows y and y + 1, each only if it is <= y1. A missing row gets an
     // empty mask and the address of row y1, so nothing outside the image is
     // even addressed.
@@ -119,16 +109,15 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
           __mmask16((first ? one_row : 0u) | (second ? one_row << 8 : 0u));
       __m512 z;
       const __mmask16 inside =
-          shade16(_mm512_add_epi32(_mm512_set1_epi32(int32_t(row[0])), lane_w[0]),
-                  _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[1])), lane_w[1]),
-                  _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[2])), lane_w[2]), in_rect, z);
+          cover_and_depth(_mm512_add_epi32(_mm512_set1_epi32(int32_t(row[0])), lane_w[0]),
+                          _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[1])), lane_w[1]),
+                          _mm512_add_epi32(_mm512_set1_epi32(int32_t(row[2])), lane_w[2]),
+                          in_rect, z);
       const size_t r0 = size_t(first ? y : y1) * pitch, r1 = size_t(second ? y + 1 : y1) * pitch;
-      const __mmask8 win_lo = write8(__mmask8(inside), _mm512_castps512_ps256(z), id8,
-                                     depth_base + r0, id_base + r0);
-      const __mmask8 win_hi = write8(__mmask8(inside >> 8), _mm512_extractf32x8_ps(z, 1), id8,
-                                     depth_base + r1, id_base + r1);
+      const __mmask16 win = simd::write16_rows(inside, z, id, depth_base + r0, depth_base + r1,
+                                               id_base + r0, id_base + r1);
       covered += __builtin_popcount(inside);
-      written += __builtin_popcount(win_lo) + __builtin_popcount(win_hi);
+      written += __builtin_popcount(win);
       for (int k = 0; k < 3; ++k) row[k] += uint32_t(int32_t(2 * s.step_y[k]));
     };
     if (y1 - y0 < 4) {
@@ -153,8 +142,8 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
         const __mmask16 in_rect =
             width - x >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (width - x)) - 1);
         __m512 z;
-        const __mmask16 inside = shade16(w0, w1, w2, in_rect, z);
-        const __mmask16 win = write16(inside, z, id, depth_row + x, id_row + x);
+        const __mmask16 inside = cover_and_depth(w0, w1, w2, in_rect, z);
+        const __mmask16 win = simd::write16(inside, z, id, depth_row + x, id_row + x);
         covered += __builtin_popcount(inside);
         written += __builtin_popcount(win);
         w0 = _mm512_add_epi32(w0, step16[0]);
@@ -186,9 +175,8 @@ ZBUFFER_INLINE void rasterize_rect_i64(const TriangleSetup& s, int x0, int y0, i
   }
   const __m512i bias1 = _mm512_set1_epi64(s.bias[1]);
   const __m512i bias2 = _mm512_set1_epi64(s.bias[2]);
-  const __m256 z0 = _mm256_set1_ps(s.z0), a1 = _mm256_set1_ps(s.a1), a2 = _mm256_set1_ps(s.a2);
-  const __m256 z_lo = _mm256_set1_ps(s.z_lo), z_hi = _mm256_set1_ps(s.z_hi);
-  const __m256i id = _mm256_set1_epi32(s.id);
+  const simd::DepthPlane16 plane(s.z0, s.a1, s.a2, s.z_lo, s.z_hi);
+  const __m512i id = _mm512_set1_epi32(s.id);
   const size_t pitch = size_t(target.width);
   float* depth_row = target.depth + size_t(y0) * pitch + x0;
   int32_t* id_row = target.triangle_id + size_t(y0) * pitch + x0;
@@ -199,14 +187,12 @@ ZBUFFER_INLINE void rasterize_rect_i64(const TriangleSetup& s, int x0, int y0, i
     __m512i w2 = _mm512_add_epi64(_mm512_set1_epi64(row[2]), lane_w[2]);
     for (int x = 0; x < width; x += 8) {
       const __mmask8 in_rect = width - x >= 8 ? __mmask8(0xFF) : __mmask8((1u << (width - x)) - 1);
-      const __m512i any = _mm512_or_si512(_mm512_or_si512(w0, w1), w2);
-      const __mmask8 inside = _mm512_mask_cmpge_epi64_mask(in_rect, any, _mm512_setzero_si512());
+      const __mmask8 inside = simd::covered8(in_rect, w0, w1, w2);
       if (inside) {  // wide boxes have many empty chunks: worth a branch here
-        const __m256 w1f = _mm512_cvtepi64_ps(_mm512_add_epi64(w1, bias1));
-        const __m256 w2f = _mm512_cvtepi64_ps(_mm512_add_epi64(w2, bias2));
-        __m256 z = _mm256_add_ps(z0, _mm256_add_ps(_mm256_mul_ps(w1f, a1), _mm256_mul_ps(w2f, a2)));
-        z = _mm256_min_ps(_mm256_max_ps(z, z_lo), z_hi);
-        const __mmask8 win = write8(inside, z, id, depth_row + x, id_row + x);
+        const __m256 z = simd::depth8(plane, _mm512_add_epi64(w1, bias1), _mm512_add_epi64(w2, bias2));
+        // 8 lanes through the 16-lane write: the upper ones are masked off.
+        const __mmask16 win = simd::write16(__mmask16(inside), _mm512_castps256_ps512(z), id,
+                                            depth_row + x, id_row + x);
         covered += __builtin_popcount(inside);
         written += __builtin_popcount(win);
       }
@@ -255,15 +241,6 @@ ZBUFFER_INLINE void rasterize_rect_avx512(const TriangleSetup& s, int x0, int y0
 
 }  // namespace
 
-void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats) {
-  const TriangleSetup s = setup_triangle(t, target.width, target.height);
-  if (s.x_min > s.x_max || s.y_min > s.y_max) return;
-#ifdef ZBUFFER_AVX512
-  rasterize_rect_avx512(s, s.x_min, s.y_min, s.x_max, s.y_max, target, stats);
-#else
-  rasterize_rect_scalar(s, s.x_min, s.y_min, s.x_max, s.y_max, target, stats);
-#endif
-}
 
 const char* raster_backend() {
 #ifdef ZBUFFER_AVX512
@@ -280,6 +257,12 @@ void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
 #else
   rasterize_rect_scalar(s, x0, y0, x1, y1, target, stats);
 #endif
+}
+
+void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats) {
+  const TriangleSetup s = setup_triangle(t, target.width, target.height);
+  if (s.x_min <= s.x_max && s.y_min <= s.y_max)
+    rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target, stats);
 }
 
 }  // namespace zbuffer

@@ -37,6 +37,12 @@ inline uint8_t to_byte(double c) {
   return uint8_t(std::floor(std::min(1.0, std::max(0.0, c)) * 255.0 + 0.5));
 }
 
+// Ambient plus Lambert diffuse for the unit normal n (lit from its side only;
+// callers turn n towards the viewer first).
+inline double intensity(const ShadingInput& in, Vec3 n, Vec3 to_light) {
+  return in.ambient + in.diffuse * std::max(0.0, dot(n, to_light));
+}
+
 // What a face needs at every pixel it covers.
 // Design decision: computed lazily, the first time the face is seen, into
 // an uninitialised per-render array. Good: hidden faces cost nothing, and
@@ -85,12 +91,12 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary) {
       for (double& b : s.bary) b /= big;
   }
   const Vec3 to_light = -1.0 * load3(in.light_dir);
-  const double intensity = in.ambient + in.diffuse * std::max(0.0, dot(s.normal, to_light));
+  const double light = intensity(in, s.normal, to_light);
   for (int c = 0; c < 3; ++c) {
     const double albedo = in.color_source == ColorSource::kPerFace
                               ? in.colors[3 * int64_t(f) + c]
                               : in.uniform_color[c];
-    s.rgb[c] = to_byte(albedo * intensity);
+    s.rgb[c] = to_byte(albedo * light);
   }
   return s;
 }
@@ -120,8 +126,8 @@ void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
   std::vector<uint8_t> ready(size_t(in.mesh.n_faces), 0);
 
   auto lambert = [&](Vec3 n, const double albedo[3], uint8_t* out) {
-    const double intensity = in.ambient + in.diffuse * std::max(0.0, dot(n, to_light));
-    for (int c = 0; c < 3; ++c) out[c] = to_byte(albedo[c] * intensity);
+    const double light = intensity(in, n, to_light);
+    for (int c = 0; c < 3; ++c) out[c] = to_byte(albedo[c] * light);
   };
 
   auto prepare = [&](int32_t f) -> const FaceShade& {

@@ -1,5 +1,6 @@
 // Private to the core: which vector instructions this build uses, and the
-// vector form of the depth write shared by every vector loop.
+// vector form of the raster core (coverage, depth, depth write) that every
+// vector loop shares.
 //
 // A build with AVX-512 F/DQ/VL/BW (e.g. -march=native on a recent x86) gets
 // the vector loops; any other build gets the scalar ones. Both perform the
@@ -30,32 +31,88 @@ namespace zbuffer {
 namespace simd {
 
 #ifdef ZBUFFER_AVX512
-// The depth write (raster.h) for 8 pixels of a row: nearer, or equal with a
-// smaller id. Masked loads and stores touch only the lanes in `inside`.
-ZBUFFER_INLINE __mmask8 write8(__mmask8 inside, __m256 z, __m256i id, float* d_ptr,
-                               int32_t* id_ptr) {
-  const __m256 d = _mm256_mask_loadu_ps(_mm256_setzero_ps(), inside, d_ptr);
-  const __m256i ids = _mm256_mask_loadu_epi32(_mm256_setzero_si256(), inside, id_ptr);
-  const __mmask8 nearer = _mm256_mask_cmp_ps_mask(inside, z, d, _CMP_LT_OQ);
-  const __mmask8 tie =
-      _mm256_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ) & _mm256_cmplt_epi32_mask(id, ids);
-  const __mmask8 win = nearer | tie;
-  _mm256_mask_storeu_ps(d_ptr, win, z);
-  _mm256_mask_storeu_epi32(id_ptr, win, id);
-  return win;
+// The raster core (raster.h) in vector form: coverage, the depth formula and
+// the depth write, for 16 pixels at a time. Every vector loop goes through
+// these, so that the rules live in one place per instruction set.
+
+// Coverage: the lanes of `lanes` whose three biased edge values are all
+// >= 0 (the sign bit of their OR is clear).
+ZBUFFER_INLINE __mmask16 covered16(__mmask16 lanes, __m512i w0b, __m512i w1b, __m512i w2b) {
+  const __m512i any = _mm512_ternarylogic_epi32(w0b, w1b, w2b, 0xFE);  // a | b | c
+  return _mm512_mask_cmpge_epi32_mask(lanes, any, _mm512_setzero_si512());
 }
 
-// The same for 16 pixels of a row.
+// The same for 8 lanes of int64 edge values (triangles too big for int32).
+ZBUFFER_INLINE __mmask8 covered8(__mmask8 lanes, __m512i w0b, __m512i w1b, __m512i w2b) {
+  const __m512i any = _mm512_ternarylogic_epi64(w0b, w1b, w2b, 0xFE);  // a | b | c
+  return _mm512_mask_cmpge_epi64_mask(lanes, any, _mm512_setzero_si512());
+}
+
+// One triangle's depth plane (raster.h: TriangleSetup) in every lane.
+struct DepthPlane16 {
+  __m512 z0, a1, a2, lo, hi;
+  DepthPlane16(float z0_, float a1_, float a2_, float lo_, float hi_)
+      : z0(_mm512_set1_ps(z0_)), a1(_mm512_set1_ps(a1_)), a2(_mm512_set1_ps(a2_)),
+        lo(_mm512_set1_ps(lo_)), hi(_mm512_set1_ps(hi_)) {}
+};
+
+// The depth formula: z0 + (float(w1) * a1 + float(w2) * a2), clamped, for
+// exact unbiased int32 edge values w1, w2.
+ZBUFFER_INLINE __m512 depth16(const DepthPlane16& p, __m512i w1, __m512i w2) {
+  const __m512 z = _mm512_add_ps(p.z0, _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(w1), p.a1),
+                                                     _mm512_mul_ps(_mm512_cvtepi32_ps(w2), p.a2)));
+  return _mm512_min_ps(_mm512_max_ps(z, p.lo), p.hi);  // clamp (no NaN, no -0 here)
+}
+
+// The same for 8 lanes of int64 edge values (triangles too big for int32).
+ZBUFFER_INLINE __m256 depth8(const DepthPlane16& p, __m512i w1, __m512i w2) {
+  const __m256 z0 = _mm512_castps512_ps256(p.z0), a1 = _mm512_castps512_ps256(p.a1),
+               a2 = _mm512_castps512_ps256(p.a2);
+  const __m256 z = _mm256_add_ps(z0, _mm256_add_ps(_mm256_mul_ps(_mm512_cvtepi64_ps(w1), a1),
+                                                   _mm256_mul_ps(_mm512_cvtepi64_ps(w2), a2)));
+  return _mm256_min_ps(_mm256_max_ps(z, _mm512_castps512_ps256(p.lo)),
+                       _mm512_castps512_ps256(p.hi));
+}
+
+// The depth write's decision: of the lanes `inside`, those nearer than the
+// stored depth, or equal to it with a smaller id.
+ZBUFFER_INLINE __mmask16 wins16(__mmask16 inside, __m512 z, __m512i id, __m512 old_depth,
+                                __m512i old_ids) {
+  const __mmask16 nearer = _mm512_mask_cmp_ps_mask(inside, z, old_depth, _CMP_LT_OQ);
+  const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, old_depth, _CMP_EQ_OQ) &
+                        _mm512_cmplt_epi32_mask(id, old_ids);
+  return nearer | tie;
+}
+
+// The depth write for up to 16 pixels of a row. Masked loads and stores
+// touch only the lanes in `inside`.
 ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* d_ptr,
                                  int32_t* id_ptr) {
   const __m512 d = _mm512_mask_loadu_ps(_mm512_setzero_ps(), inside, d_ptr);
   const __m512i ids = _mm512_mask_loadu_epi32(_mm512_setzero_si512(), inside, id_ptr);
-  const __mmask16 nearer = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_LT_OQ);
-  const __mmask16 tie =
-      _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ) & _mm512_cmplt_epi32_mask(id, ids);
-  const __mmask16 win = nearer | tie;
+  const __mmask16 win = wins16(inside, z, id, d, ids);
   _mm512_mask_storeu_ps(d_ptr, win, z);
   _mm512_mask_storeu_epi32(id_ptr, win, id);
+  return win;
+}
+
+// The depth write for two rows of up to 8 pixels: lanes 0-7 at (d0, i0),
+// lanes 8-15 at (d1, i1).
+ZBUFFER_INLINE __mmask16 write16_rows(__mmask16 inside, __m512 z, __m512i id, float* d0,
+                                      float* d1, int32_t* i0, int32_t* i1) {
+  const __mmask8 lo = __mmask8(inside), hi = __mmask8(inside >> 8);
+  const __m512 d = _mm512_insertf32x8(
+      _mm512_castps256_ps512(_mm256_mask_loadu_ps(_mm256_setzero_ps(), lo, d0)),
+      _mm256_mask_loadu_ps(_mm256_setzero_ps(), hi, d1), 1);
+  const __m512i ids = _mm512_inserti64x4(
+      _mm512_castsi256_si512(_mm256_mask_loadu_epi32(_mm256_setzero_si256(), lo, i0)),
+      _mm256_mask_loadu_epi32(_mm256_setzero_si256(), hi, i1), 1);
+  const __mmask16 win = wins16(inside, z, id, d, ids);
+  const __m256i id8 = _mm512_castsi512_si256(id);
+  _mm256_mask_storeu_ps(d0, __mmask8(win), _mm512_castps512_ps256(z));
+  _mm256_mask_storeu_ps(d1, __mmask8(win >> 8), _mm512_extractf32x8_ps(z, 1));
+  _mm256_mask_storeu_epi32(i0, __mmask8(win), id8);
+  _mm256_mask_storeu_epi32(i1, __mmask8(win >> 8), id8);
   return win;
 }
 #endif

@@ -116,13 +116,15 @@ void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Vie
 #ifdef ZBUFFER_AVX512
   for (; f + 16 <= end; f += 16) add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces);
 #endif
-  for (; f < end; ++f) {
-    assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats_,
-                      [&](const ScreenTriangle& t) {
-                        ++stats_.rasterized;
-                        add(t);
-                      });
-  }
+  for (; f < end; ++f) add_face(mesh, mvp, vp, sv, f, cull_backfaces);
+}
+
+void TriangleBatch::add_face(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                             const ScreenVertices& sv, int64_t f, bool cull_backfaces) {
+  assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats_, [&](const ScreenTriangle& t) {
+    ++stats_.rasterized;
+    add(t);
+  });
 }
 
 // Drawing
@@ -358,11 +360,8 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
     const __m512i area_b0 = _mm512_set1_epi32(area_b0_[i]);
     const __m512i step1 = _mm512_set1_epi32(2 * sy1_[i]), step2 = _mm512_set1_epi32(2 * sy2_[i]);
     const __m512i bias1 = _mm512_set1_epi32(bias1_[i]), bias2 = _mm512_set1_epi32(bias2_[i]);
-    const __m512 z0 = _mm512_set1_ps(z0_[i]), a1 = _mm512_set1_ps(a1_[i]),
-                 a2 = _mm512_set1_ps(a2_[i]);
-    const __m512 z_lo = _mm512_set1_ps(z_lo_[i]), z_hi = _mm512_set1_ps(z_hi_[i]);
+    const simd::DepthPlane16 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
     const __m512i id = _mm512_set1_epi32(id_[i]);
-    const __m256i id8 = _mm512_castsi512_si256(id);
     const unsigned one_row = (1u << box_w_[i]) - 1;
     const int rows = box_h_[i];
     float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
@@ -371,35 +370,17 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
       const int r = 2 * p;
       const bool first = r < rows, second = r + 1 < rows;
       const __mmask16 in_box = __mmask16((first ? one_row : 0u) | (second ? one_row << 8 : 0u));
-      // Coverage: all biased edge values >= 0 (w0's bias is in area_b0).
+      // Coverage of the biased edge values (w0's bias is in area_b0), depth
+      // of the unbiased ones, and the depth write of both rows at once.
       const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
-      const __m512i any = _mm512_ternarylogic_epi32(
-          w0b, _mm512_sub_epi32(w1, bias1), _mm512_sub_epi32(w2, bias2), 0xFE);  // a | b | c
-      const __mmask16 inside = _mm512_mask_cmpge_epi32_mask(in_box, any, _mm512_setzero_si512());
-      // Depth: the one formula, 16 lanes, clamped (no NaN, no -0 here).
-      __m512 z = _mm512_add_ps(z0, _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(w1), a1),
-                                                 _mm512_mul_ps(_mm512_cvtepi32_ps(w2), a2)));
-      z = _mm512_min_ps(_mm512_max_ps(z, z_lo), z_hi);
-      // Depth write of both rows with one set of 16-lane compares.
+      const __mmask16 inside = simd::covered16(in_box, w0b, _mm512_sub_epi32(w1, bias1),
+                                               _mm512_sub_epi32(w2, bias2));
+      const __m512 z = simd::depth16(plane, w1, w2);
       float* const d0 = first ? depth + r * pitch : spare_depth_[(n + r) % kSpareRows];
       float* const d1 = second ? depth + (r + 1) * pitch : spare_depth_[(n + r + 1) % kSpareRows];
       int32_t* const i0 = first ? ids + r * pitch : spare_ids_[(n + r) % kSpareRows];
       int32_t* const i1 = second ? ids + (r + 1) * pitch : spare_ids_[(n + r + 1) % kSpareRows];
-      const __mmask8 lo = __mmask8(inside), hi = __mmask8(inside >> 8);
-      const __m512 old_depth = _mm512_insertf32x8(
-          _mm512_castps256_ps512(_mm256_mask_loadu_ps(_mm256_setzero_ps(), lo, d0)),
-          _mm256_mask_loadu_ps(_mm256_setzero_ps(), hi, d1), 1);
-      const __m512i old_ids = _mm512_inserti64x4(
-          _mm512_castsi256_si512(_mm256_mask_loadu_epi32(_mm256_setzero_si256(), lo, i0)),
-          _mm256_mask_loadu_epi32(_mm256_setzero_si256(), hi, i1), 1);
-      const __mmask16 nearer = _mm512_mask_cmp_ps_mask(inside, z, old_depth, _CMP_LT_OQ);
-      const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, old_depth, _CMP_EQ_OQ) &
-                            _mm512_cmplt_epi32_mask(id, old_ids);
-      const __mmask16 win = nearer | tie;
-      _mm256_mask_storeu_ps(d0, __mmask8(win), _mm512_castps512_ps256(z));
-      _mm256_mask_storeu_ps(d1, __mmask8(win >> 8), _mm512_extractf32x8_ps(z, 1));
-      _mm256_mask_storeu_epi32(i0, __mmask8(win), id8);
-      _mm256_mask_storeu_epi32(i1, __mmask8(win >> 8), id8);
+      const __mmask16 win = simd::write16_rows(inside, z, id, d0, d1, i0, i1);
       covered += __builtin_popcount(inside);
       written += __builtin_popcount(win);
       w1 = _mm512_add_epi32(w1, step1);
@@ -423,9 +404,7 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
     const __m512i area_b0 = _mm512_set1_epi32(area_b0_[i]);
     const __m512i step1 = _mm512_set1_epi32(sy1_[i]), step2 = _mm512_set1_epi32(sy2_[i]);
     const __m512i bias1 = _mm512_set1_epi32(bias1_[i]), bias2 = _mm512_set1_epi32(bias2_[i]);
-    const __m512 z0 = _mm512_set1_ps(z0_[i]), a1 = _mm512_set1_ps(a1_[i]),
-                 a2 = _mm512_set1_ps(a2_[i]);
-    const __m512 z_lo = _mm512_set1_ps(z_lo_[i]), z_hi = _mm512_set1_ps(z_hi_[i]);
+    const simd::DepthPlane16 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
     const __m512i id = _mm512_set1_epi32(id_[i]);
     const __mmask16 one_row = __mmask16((1u << box_w_[i]) - 1);
     const int rows = box_h_[i];
@@ -434,13 +413,10 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
     for (int r = 0; r < kRows; ++r) {
       const bool real = r < rows;
       const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
-      const __m512i any = _mm512_ternarylogic_epi32(
-          w0b, _mm512_sub_epi32(w1, bias1), _mm512_sub_epi32(w2, bias2), 0xFE);  // a | b | c
-      const __mmask16 inside =
-          _mm512_mask_cmpge_epi32_mask(real ? one_row : __mmask16(0), any, _mm512_setzero_si512());
-      __m512 z = _mm512_add_ps(z0, _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(w1), a1),
-                                                 _mm512_mul_ps(_mm512_cvtepi32_ps(w2), a2)));
-      z = _mm512_min_ps(_mm512_max_ps(z, z_lo), z_hi);
+      const __mmask16 inside = simd::covered16(real ? one_row : __mmask16(0), w0b,
+                                               _mm512_sub_epi32(w1, bias1),
+                                               _mm512_sub_epi32(w2, bias2));
+      const __m512 z = simd::depth16(plane, w1, w2);
       const __mmask16 win =
           simd::write16(inside, z, id, real ? depth + r * pitch : spare_depth_[(n + r) % kSpareRows],
                         real ? ids + r * pitch : spare_ids_[(n + r) % kSpareRows]);
@@ -693,14 +669,8 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
   }
 
   // Faces that need clipping: the scalar assembly.
-  for (unsigned m = clip; m; m &= m - 1) {
-    const int64_t f = first + __builtin_ctz(m);
-    assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats_,
-                      [&](const ScreenTriangle& t) {
-                        ++stats_.rasterized;
-                        add(t);
-                      });
-  }
+  for (unsigned m = clip; m; m &= m - 1)
+    add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces);
 }
 
 #else  // no AVX-512: the scalar entry points above do everything

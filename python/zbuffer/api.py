@@ -12,7 +12,8 @@ from .camera import Camera
 from .mesh import Mesh
 from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
-from .shading import DEFAULT_BACKGROUND, ShadingParams, color_source
+from .shading import (DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, ShadingParams,
+                      color_source)
 
 __all__ = ["render", "algorithms"]
 
@@ -47,7 +48,7 @@ def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
 def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
            width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], *,
            cull_backfaces: bool = False, shading: str = "flat", light_dir=None,
-           ambient: float = 0.2, diffuse: float = 0.8, color=None,
+           ambient: float = DEFAULT_AMBIENT, diffuse: float = DEFAULT_DIFFUSE, color=None,
            background=DEFAULT_BACKGROUND) -> RenderResult:
     """Render a mesh with one of the depth algorithms.
 

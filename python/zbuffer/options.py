@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Optional, Tuple
 
 import numpy as np
@@ -46,7 +45,7 @@ def prepare(mesh, camera: Optional[Camera], width, height, shading, light_dir,
         raise TypeError(f"camera must be a zbuffer.Camera or None, got {type(camera).__name__}")
     camera = camera.resolve(mesh)
     mvp = camera.mvp(width, height)
-    if not math.isfinite(float(mvp.sum())) and not np.isfinite(mvp).all():
+    if not np.isfinite(mvp).all():
         raise ValueError("the camera matrix has a NaN or infinite entry")
     params = resolve_shading(shading, camera, light_dir, ambient, diffuse, color, background)
     return mesh, camera, mvp, width, height, params

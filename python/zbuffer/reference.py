@@ -22,7 +22,7 @@ from .conventions import (GUARD_BAND_PX, HALF_PIXEL, MAX_CLIP_VERTICES, MIN_CLIP
                           SUBPIXEL_BITS, SUBPIXEL_SCALE)
 from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
-from .shading import DEFAULT_BACKGROUND, shade_numpy
+from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, shade_numpy
 
 __all__ = ["render", "vertex_stage", "rasterize", "ScreenTriangles"]
 
@@ -356,8 +356,9 @@ def rasterize(tris: ScreenTriangles, width: int, height: int
 
 def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
            height: int = DEFAULT_SIZE[1], *, cull_backfaces: bool = False,
-           shading: str = "flat", light_dir=None, ambient: float = 0.2, diffuse: float = 0.8,
-           color=None, background=DEFAULT_BACKGROUND) -> RenderResult:
+           shading: str = "flat", light_dir=None, ambient: float = DEFAULT_AMBIENT,
+           diffuse: float = DEFAULT_DIFFUSE, color=None, background=DEFAULT_BACKGROUND
+           ) -> RenderResult:
     """Render like :func:`zbuffer.render`, in pure numpy.
 
     Takes the same arguments (but no ``algo``) and returns a

@@ -17,6 +17,8 @@ __all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy"]
 
 SHADINGS = ("flat", "smooth", "none")
 DEFAULT_COLOR = (0.8, 0.8, 0.8)
+DEFAULT_AMBIENT = 0.2
+DEFAULT_DIFFUSE = 0.8
 DEFAULT_BACKGROUND = (255, 255, 255)
 
 
@@ -47,8 +49,8 @@ def _rgb_float(value, name: str) -> np.ndarray:
     return c.astype(np.float32)
 
 
-def resolve_shading(shading: str, camera, light_dir=None, ambient: float = 0.2,
-                    diffuse: float = 0.8, color=None, background=DEFAULT_BACKGROUND
+def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAULT_AMBIENT,
+                    diffuse: float = DEFAULT_DIFFUSE, color=None, background=DEFAULT_BACKGROUND
                     ) -> ShadingParams:
     """Check and normalise shading options. ``light_dir=None`` is a headlight:
     the light travels along the camera's viewing direction."""
@@ -56,8 +58,9 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = 0.2,
         raise ValueError(
             f"unknown shading {shading!r}; valid values are {', '.join(map(repr, SHADINGS))}"
         )
-    if shading == "none" and light_dir is None and color is None and ambient == 0.2 \
-            and diffuse == 0.8 and background is DEFAULT_BACKGROUND:
+    if shading == "none" and light_dir is None and color is None \
+            and ambient == DEFAULT_AMBIENT and diffuse == DEFAULT_DIFFUSE \
+            and background is DEFAULT_BACKGROUND:
         return _NO_SHADING  # visibility only, default options: nothing to check
     if light_dir is None:
         light = camera.forward()
@@ -85,8 +88,8 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = 0.2,
     )
 
 
-_NO_SHADING = ShadingParams(mode="none", light_dir=np.array([0.0, 0.0, -1.0]), ambient=0.2,
-                            diffuse=0.8, color=None,
+_NO_SHADING = ShadingParams(mode="none", light_dir=np.array([0.0, 0.0, -1.0]),
+                            ambient=DEFAULT_AMBIENT, diffuse=DEFAULT_DIFFUSE, color=None,
                             background=np.array(DEFAULT_BACKGROUND, np.uint8))
 
 
@@ -155,7 +158,7 @@ def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
     b0 = 1.0 - b1 - b2
 
     n = ng
-    if smooth:  # (b0 computed from b1, b2 above)
+    if smooth:
         vn = mesh.vertex_normals
         ns = (b0[:, None] * vn[idx[:, 0]] + b1[:, None] * vn[idx[:, 1]]
               + b2[:, None] * vn[idx[:, 2]])

@@ -170,16 +170,16 @@ def show_pyramid_stack(source: Union[RenderResult, Sequence[np.ndarray]],
     pv = _pyvista()
     pyramid = _levels(source)
     h, w = pyramid[0].shape
-    finite = np.concatenate([depth_for_display(l)[np.isfinite(depth_for_display(l))]
-                             for l in pyramid] + [np.zeros(0)])
+    shown = [depth_for_display(level) for level in pyramid]
+    finite = np.concatenate([d[np.isfinite(d)] for d in shown] + [np.zeros(0)])
     clim = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
     plotter = _plotter(pv, (1, 1), window_size, screenshot)
-    for k, level in enumerate(pyramid):
+    for k, level in enumerate(shown):
         lh, lw = level.shape
         scale = 2 ** k
         grid = pv.ImageData(dimensions=(lw + 1, lh + 1, 1), spacing=(scale, scale, 1),
                             origin=(0, h - lh * scale, k * spacing * max(w, h)))
-        grid.cell_data["depth"] = depth_for_display(level)[::-1].reshape(-1)
+        grid.cell_data["depth"] = level[::-1].reshape(-1)
         plotter.add_mesh(grid, scalars="depth", cmap="viridis_r", clim=clim, nan_color="black",
                          nan_opacity=0.08, opacity=1.0 if k == 0 else 0.85,
                          show_scalar_bar=k == 0, show_edges=lw <= 32)

@@ -73,6 +73,9 @@ class TriangleBatch {
   // The group of a box of `rows` rows, narrow or not.
   static int group_of(bool narrow, int rows) { return (narrow ? 0 : kWideGroups) + ((rows - 1) >> 1); }
 
+  // The scalar assembly of face f (vertex_stage.h), counted and added.
+  void add_face(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                const ScreenVertices& sv, int64_t f, bool cull_backfaces);
   void add_small(int group, const TriangleSetup& s);
   template <int kPasses>
   void draw_narrow(int group, int64_t& covered, int64_t& written);
