@@ -12,6 +12,10 @@ const std::vector<Algorithm>& algorithms() {
       {"zbuffer", "plain Z-buffer: every triangle, its whole pixel box", &render_zbuffer},
       {"hiz", "hierarchical Z-buffer: triangles and 8x8 tiles tested against a Z-pyramid",
        &render_hiz},
+      {"hiz_octree", "hierarchical Z-buffer over an object-space octree, front to back",
+       &render_hiz_octree},
+      {"hiz_bvh", "hierarchical Z-buffer over a bounding volume hierarchy, nearest child first",
+       &render_hiz_bvh},
   };
   return registry;
 }
@@ -33,12 +37,16 @@ std::string algorithm_names() {
   return names;
 }
 
-void render(const Algorithm& algorithm, const RenderInput& input,
-            DepthTarget& target, RenderStats& stats) {
-  const auto start = std::chrono::steady_clock::now();
+void clear_target(DepthTarget& target) {
   const size_t n = size_t(target.width) * size_t(target.height);
   std::fill_n(target.depth, n, std::numeric_limits<float>::infinity());
   std::fill_n(target.triangle_id, n, int32_t(-1));
+}
+
+void render(const Algorithm& algorithm, const RenderInput& input,
+            DepthTarget& target, RenderStats& stats) {
+  const auto start = std::chrono::steady_clock::now();
+  clear_target(target);
   stats.triangles_in += input.mesh.n_faces;
   algorithm.render(input, target, stats);
   const auto stop = std::chrono::steady_clock::now();

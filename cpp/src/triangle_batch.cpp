@@ -298,6 +298,7 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
 }
 
 void TriangleBatch::update_pyramid() {
+  const auto t0 = std::chrono::steady_clock::now();
   // The level-3 cells under every 16 x 16 block drawn into since the last
   // update, listed once; the pyramid recomputes them from the pixels and
   // climbs from there.
@@ -332,6 +333,7 @@ void TriangleBatch::update_pyramid() {
   dirty_lo_ = 1 << 30;
   dirty_hi_ = -1;
   if (tile_cells_) stats_.pyramid_cells_updated += pyramid_->update_cells(dirty_list_);
+  stats_.pyramid_ms += ms_since(t0);
 }
 
 #ifdef ZBUFFER_AVX512

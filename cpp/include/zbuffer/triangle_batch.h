@@ -61,6 +61,9 @@ class TriangleBatch {
   // the target.
   void flush();
 
+  // Triangles added and not drawn yet.
+  int pending() const { return n_small_ + int(large_.size()); }
+
  private:
   // Groups 0-7: narrow (< 8 px wide), 1-8 passes of 8 x 2 pixels.
   // Groups 8-15: wide (< 16 px wide), 2-16 passes of 16 x 1 pixels.
