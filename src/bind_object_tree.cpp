@@ -171,6 +171,9 @@ void bind_object_tree(py::module_& m) {
       py::arg("positions"), py::arg("faces"), py::arg("leaf_size") = zbuffer::BvhParams{}.leaf_size,
       "Build the BVH of `hiz_bvh` over (N, 3) float64 positions and (M, 3) int32 faces.");
   m.attr("MAX_OCTREE_DEPTH") = zbuffer::kMaxOctreeDepth;
+  m.attr("DEFAULT_OCTREE_LEAF_SIZE") = zbuffer::OctreeParams{}.leaf_size;
+  m.attr("DEFAULT_OCTREE_MAX_DEPTH") = zbuffer::OctreeParams{}.max_depth;
+  m.attr("DEFAULT_BVH_LEAF_SIZE") = zbuffer::BvhParams{}.leaf_size;
 }
 
 }  // namespace zbuffer_py

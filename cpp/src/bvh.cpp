@@ -47,9 +47,13 @@ class BvhBuilder {
         hi[a] = std::max(hi[a], c);
       }
     }
-    double scale[3];
-    for (int a = 0; a < 3; ++a)
-      scale[a] = hi[a] > lo[a] && std::isfinite(hi[a] - lo[a]) ? 1023.0 / (hi[a] - lo[a]) : 0.0;
+    // One scale for all three axes: Morton cells are cubes, so the nodes of
+    // a long scene are not stretched along its long axis (a node long in
+    // the viewing direction has its nearest depth far in front of most of
+    // its triangles, and culls late).
+    const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    const double scale_all = side > 0.0 && std::isfinite(side) ? 1023.0 / side : 0.0;
+    const double scale[3] = {scale_all, scale_all, scale_all};
     codes_.resize(size_t(n));
     faces_.resize(size_t(n));
     for (int64_t f = 0; f < n; ++f) {

@@ -204,6 +204,25 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
   return true;
 }
 
+// The farthest depth the pyramid holds over a node's rectangle: the maximum
+// of the cells covering it at the finest kept level where it spans at most
+// four cells a side (ZPyramid::max_over stops at two, which for the small
+// boxes of leaves reads up to four times the area).
+float farthest_under(const ZPyramid& pyramid, const ProjectedNode& r) {
+  if (pyramid.levels() <= pyramid.first_level())  // a tiny image: no coarse levels
+    return pyramid.max_over(r.x0, r.y0, r.x1, r.y1);
+  int k = pyramid.first_level();
+  while (k + 1 < pyramid.levels() &&
+         (((r.x1 >> k) - (r.x0 >> k)) > 3 || ((r.y1 >> k) - (r.y0 >> k)) > 3))
+    ++k;
+  const float* cells = pyramid.level(k);
+  const int w = pyramid.width(k);
+  float m = -std::numeric_limits<float>::infinity();
+  for (int j = r.y0 >> k; j <= (r.y1 >> k); ++j)
+    for (int i = r.x0 >> k; i <= (r.x1 >> k); ++i) m = std::max(m, cells[size_t(j) * w + i]);
+  return m;
+}
+
 }  // namespace
 
 // Traversal
@@ -243,7 +262,6 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   auto draw_cluster = [&](int32_t c) {
     if (frame.cluster_stamp[size_t(c)] == now) return;  // drawn already this frame
     frame.cluster_stamp[size_t(c)] = now;
-    const auto t0 = Clock::now();
     const TriangleCluster& cl = tree.clusters[size_t(c)];
     MeshView mesh;
     mesh.positions = tree.positions.data() + 3 * cl.vertex_begin;
@@ -268,14 +286,15 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
       mesh.n_faces = int64_t(kept_ids.size());
     }
     reached += mesh.n_faces;
-    if (mesh.n_faces > 0) {
-      transform_vertices(mesh, input.mvp, vp, screen);
-      const auto t1 = Clock::now();
-      stats.vertex_ms += ms_between(t0, t1);
-      batch.add_faces(mesh, input.mvp, vp, screen, 0, mesh.n_faces, input.cull_backfaces);
-      stats.raster_ms += ms_between(t1, Clock::now());
-    }
-    draw_ms += ms_between(t0, Clock::now());
+    if (mesh.n_faces == 0) return;
+    const auto t0 = Clock::now();
+    transform_vertices(mesh, input.mvp, vp, screen);
+    const auto t1 = Clock::now();
+    batch.add_faces(mesh, input.mvp, vp, screen, 0, mesh.n_faces, input.cull_backfaces);
+    const auto t2 = Clock::now();
+    stats.vertex_ms += ms_between(t0, t1);
+    stats.raster_ms += ms_between(t1, t2);
+    draw_ms += ms_between(t0, t2);
   };
   auto flush = [&] {
     const auto t0 = Clock::now();
@@ -311,7 +330,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     stack.pop_back();
     if (item.testable) {
       if (batch.pending() >= kFlushAt) flush();
-      if (item.z_near > pyramid.max_over(item.x0, item.y0, item.x1, item.y1)) {
+      if (item.z_near > farthest_under(pyramid, item)) {
         frame.node_fate[size_t(item.node)] = kNodeHidden;  // and its whole subtree
         ++stats.nodes_hidden;
         continue;

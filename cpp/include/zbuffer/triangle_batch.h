@@ -89,9 +89,10 @@ class TriangleBatch {
   void draw_large_by_tiles(const TriangleSetup& s);
   void mark_tiles(int x0, int y0, int x1, int y1);
   void update_pyramid();
-  // Vector assembly and setup of faces first .. first + 15 (AVX-512 builds).
+  // Vector assembly and setup of faces first .. first + count - 1, count
+  // <= 16 (AVX-512 builds).
   void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
-                    const ScreenVertices& sv, int64_t first, bool cull_backfaces);
+                    const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count);
 
   DepthTarget& target_;
   RenderStats& stats_;
