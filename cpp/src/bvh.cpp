@@ -31,35 +31,21 @@ class BvhBuilder {
  private:
   void make_codes() {
     const int64_t n = mesh_.n_faces;
-    // Centroids (times 3) and their bounds.
-    std::vector<double> centre(3 * size_t(n));
-    double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-                    std::numeric_limits<double>::infinity()};
-    double hi[3] = {-lo[0], -lo[1], -lo[2]};
-    for (int64_t f = 0; f < n; ++f) {
-      const int32_t* idx = mesh_.faces + 3 * f;
-      for (int a = 0; a < 3; ++a) {
-        const double c = mesh_.positions[3 * int64_t(idx[0]) + a] +
-                         mesh_.positions[3 * int64_t(idx[1]) + a] +
-                         mesh_.positions[3 * int64_t(idx[2]) + a];
-        centre[3 * size_t(f) + a] = c;
-        lo[a] = std::min(lo[a], c);
-        hi[a] = std::max(hi[a], c);
-      }
-    }
-    // One scale for all three axes: Morton cells are cubes, so the nodes of
-    // a long scene are not stretched along its long axis (a node long in
-    // the viewing direction has its nearest depth far in front of most of
-    // its triangles, and culls late).
-    const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-    const double scale_all = side > 0.0 && std::isfinite(side) ? 1023.0 / side : 0.0;
-    const double scale[3] = {scale_all, scale_all, scale_all};
+    // Centroids on the vertex grid (cubic cells, so that the nodes of a long
+    // scene are not stretched along it: a node long in the viewing direction
+    // has its nearest depth far in front of most of its triangles, and culls
+    // late).
+    thread_local VertexGrid grid;
+    grid.build(mesh_);
     codes_.resize(size_t(n));
     faces_.resize(size_t(n));
     for (int64_t f = 0; f < n; ++f) {
+      const int32_t* idx = mesh_.faces + 3 * f;
+      const uint32_t c0 = grid.cell[size_t(idx[0])], c1 = grid.cell[size_t(idx[1])],
+                     c2 = grid.cell[size_t(idx[2])];
       uint32_t q[3];
       for (int a = 0; a < 3; ++a)
-        q[a] = uint32_t(std::min(1023.0, std::max(0.0, (centre[3 * size_t(f) + a] - lo[a]) * scale[a])));
+        q[a] = (VertexGrid::axis(c0, a) + VertexGrid::axis(c1, a) + VertexGrid::axis(c2, a)) / 3;
       codes_[size_t(f)] = morton_30(q[0], q[1], q[2]);
       faces_[size_t(f)] = int32_t(f);
     }
@@ -96,18 +82,33 @@ class BvhBuilder {
   const BvhParams& params_;
   ObjectTree& tree_;
   ClusterBuilder clusters_;
-  std::vector<uint32_t> codes_;
-  std::vector<int32_t> faces_;
+  // Scratch, kept per thread from build to build (no page faults anew).
+  std::vector<uint32_t>& codes_ = scratch_codes();
+  std::vector<int32_t>& faces_ = scratch_faces();
+  static std::vector<uint32_t>& scratch_codes() {
+    thread_local std::vector<uint32_t> v;
+    return v;
+  }
+  static std::vector<int32_t>& scratch_faces() {
+    thread_local std::vector<int32_t> v;
+    return v;
+  }
 };
 
 }  // namespace
 
-ObjectTree build_bvh(const MeshView& mesh, const BvhParams& params) {
+void build_bvh(const MeshView& mesh, const BvhParams& params, ObjectTree& tree) {
   if (params.leaf_size < 1)
     throw std::invalid_argument("leaf_size must be >= 1, got " + std::to_string(params.leaf_size));
-  ObjectTree tree;
-  if (mesh.n_faces == 0) return tree;
+  tree.clear();
+  tree.shared = false;
+  if (mesh.n_faces == 0) return;
   BvhBuilder(mesh, params, tree).build();
+}
+
+ObjectTree build_bvh(const MeshView& mesh, const BvhParams& params) {
+  ObjectTree tree;
+  build_bvh(mesh, params, tree);
   return tree;
 }
 

@@ -11,10 +11,12 @@ namespace zbuffer {
 
 void render_hiz_octree(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
   const auto t0 = std::chrono::steady_clock::now();
-  const ObjectTree tree = build_octree(input.mesh, OctreeParams{});
+  // Rebuilt every frame into the same memory: this thread's last tree.
+  thread_local ObjectTree tree;
+  build_octree(input.mesh, OctreeParams{}, tree);
   stats.build_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  TreeFrame frame;
+  thread_local TreeFrame frame;
   render_object_tree(tree, input, target, stats, frame);
 }
 

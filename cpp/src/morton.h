@@ -4,8 +4,12 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
+
+#include "zbuffer/types.h"
 
 namespace zbuffer {
 
@@ -28,7 +32,8 @@ inline uint32_t morton_30(uint32_t x, uint32_t y, uint32_t z) {
 // passes of up to 12 bits (LSD radix sort). Both vectors are permuted.
 // Design decision: LSD radix rather than a comparison sort. Good: linear in
 // the number of faces (a few ns per face and pass), which keeps building a
-// tree per frame affordable. Bad: a scratch copy of both arrays.
+// tree per frame affordable. Bad: a scratch copy of both arrays, kept per
+// thread so that the next sort does not fault its pages in again.
 template <class Key, class Value>
 void radix_sort(std::vector<Key>& key, std::vector<Value>& value, int key_bits) {
   const size_t n = key.size();
@@ -36,8 +41,10 @@ void radix_sort(std::vector<Key>& key, std::vector<Value>& value, int key_bits) 
   const int passes = (key_bits + 11) / 12;
   const int bits = (key_bits + passes - 1) / passes;
   const Key mask = (Key(1) << bits) - 1;
-  std::vector<Key> key_tmp(n);
-  std::vector<Value> value_tmp(n);
+  thread_local std::vector<Key> key_tmp;
+  thread_local std::vector<Value> value_tmp;
+  key_tmp.resize(n);
+  value_tmp.resize(n);
   std::vector<size_t> count(size_t(1) << bits);
   for (int pass = 0; pass < passes; ++pass) {
     const int shift = pass * bits;
@@ -59,4 +66,41 @@ void radix_sort(std::vector<Key>& key, std::vector<Value>& value, int key_bits) 
   }
 }
 
+// Every vertex of a mesh quantized to a grid of 1024^3 cubic cells over the
+// vertices' bounding cube: cell x | y << 10 | z << 20 per vertex.
+// Design decision: quantize each vertex once rather than each corner of
+// each face. Good: a face's cell box is then three integer loads and
+// min/max (a mesh has about half as many vertices as faces, and each vertex
+// is shared by six). Bad: 4 bytes per vertex of scratch.
+struct VertexGrid {
+  static constexpr int kBits = 10;
+  static constexpr uint32_t kMask = (1u << kBits) - 1;
+  std::vector<uint32_t> cell;
+
+  void build(const MeshView& mesh) {
+    const int64_t n = mesh.n_vertices;
+    double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                    std::numeric_limits<double>::infinity()};
+    double hi[3] = {-lo[0], -lo[1], -lo[2]};
+    for (int64_t v = 0; v < n; ++v)
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], mesh.positions[3 * v + a]);
+        hi[a] = std::max(hi[a], mesh.positions[3 * v + a]);
+      }
+    const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    const double scale = side > 0.0 && std::isfinite(side) ? double(kMask + 1) / side : 0.0;
+    cell.resize(size_t(n));
+    for (int64_t v = 0; v < n; ++v) {
+      uint32_t packed = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double q = std::floor((mesh.positions[3 * v + a] - lo[a]) * scale);
+        packed |= uint32_t(std::min(double(kMask), std::max(0.0, q))) << (kBits * a);
+      }
+      cell[size_t(v)] = packed;
+    }
+  }
+  static uint32_t axis(uint32_t packed, int a) { return (packed >> (kBits * a)) & kMask; }
+};
+
 }  // namespace zbuffer
+

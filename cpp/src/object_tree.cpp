@@ -23,23 +23,44 @@ double ms_between(Clock::time_point a, Clock::time_point b) {
 }  // namespace
 
 int64_t ObjectTree::memory_bytes() const {
-  return int64_t(nodes.capacity() * sizeof(TreeNode) +
-                 clusters.capacity() * sizeof(TriangleCluster) +
-                 positions.capacity() * sizeof(double) + faces.capacity() * sizeof(int32_t) +
-                 ids.capacity() * sizeof(int32_t) + source.capacity() * sizeof(int32_t) +
-                 cluster_of_id.capacity() * sizeof(int32_t));
+  return int64_t(nodes.size() * sizeof(TreeNode) + clusters.size() * sizeof(TriangleCluster) +
+                 positions.size() * sizeof(double) + faces.size() * sizeof(int32_t) +
+                 ids.size() * sizeof(int32_t) + source.size() * sizeof(int32_t) +
+                 cluster_of_id.size() * sizeof(int32_t));
+}
+
+void ObjectTree::clear() {
+  nodes.clear();
+  clusters.clear();
+  positions.clear();
+  faces.clear();
+  ids.clear();
+  source.clear();
+  cluster_of_id.clear();
+  n_input_faces = 0;
 }
 
 // Cluster Construction
 
+namespace {
+std::vector<int32_t>& scratch(int k) {
+  thread_local std::vector<int32_t> v[3];
+  return v[k];
+}
+}  // namespace
+
 ClusterBuilder::ClusterBuilder(const MeshView& mesh, ObjectTree& tree)
-    : mesh_(mesh), tree_(tree),
-      vertex_mark_(size_t(mesh.n_vertices), -1), vertex_local_(size_t(mesh.n_vertices)) {
+    : mesh_(mesh), tree_(tree), vertex_mark_(scratch(0)), vertex_local_(scratch(1)),
+      face_mark_(scratch(2)) {
+  vertex_mark_.assign(size_t(mesh.n_vertices), -1);
+  vertex_local_.resize(size_t(mesh.n_vertices));
   tree_.n_input_faces = mesh.n_faces;
   if (tree_.shared) face_mark_.assign(size_t(mesh.n_faces), -1);
   tree_.faces.reserve(3 * size_t(mesh.n_faces));
   tree_.ids.reserve(size_t(mesh.n_faces));
-  tree_.positions.reserve(3 * size_t(mesh.n_vertices) + 3 * size_t(mesh.n_vertices) / 4);
+  // Room for every face's three vertices (no cluster can copy more), so
+  // that the copies never move; only the pages written are ever mapped.
+  tree_.positions.reserve(9 * size_t(mesh.n_faces) * (tree_.shared ? 2 : 1));
 }
 
 void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {

@@ -51,37 +51,26 @@ class OctreeBuilder {
   void make_keys() {
     const int64_t n = mesh_.n_faces;
     const int depth = params_.max_depth;
-    const uint32_t cells = 1u << depth;
-    // The root cube: the bounds of the faces' vertices, widened to a cube.
-    double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-                    std::numeric_limits<double>::infinity()};
-    double hi[3] = {-lo[0], -lo[1], -lo[2]};
-    for (int64_t r = 0; r < 3 * n; ++r) {
-      const double* p = mesh_.positions + 3 * int64_t(mesh_.faces[r]);
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min(lo[a], p[a]);
-        hi[a] = std::max(hi[a], p[a]);
-      }
-    }
-    const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-    const double scale = side > 0.0 && std::isfinite(side) ? double(cells) / side : 0.0;
-    auto cell = [&](double v, int a) {
-      const double q = std::floor((v - lo[a]) * scale);
-      return uint32_t(std::min(double(cells - 1), std::max(0.0, q)));
-    };
+    // Cells of the finest level: the vertex grid's 1024 a side, coarsened.
+    thread_local VertexGrid grid;
+    grid.build(mesh_);
+    const int coarsen = VertexGrid::kBits - depth;
 
     const bool greene = params_.rule == OctreeRule::kGreene;
+    keys_.clear();
+    faces_.clear();
     keys_.reserve(size_t(n) * (greene ? 2 : 1));
     faces_.reserve(keys_.capacity());
     for (int64_t f = 0; f < n; ++f) {
       const int32_t* idx = mesh_.faces + 3 * f;
+      const uint32_t c0 = grid.cell[size_t(idx[0])], c1 = grid.cell[size_t(idx[1])],
+                     c2 = grid.cell[size_t(idx[2])];
       uint32_t q_lo[3], q_hi[3];
       for (int a = 0; a < 3; ++a) {
-        const double v0 = mesh_.positions[3 * int64_t(idx[0]) + a];
-        const double v1 = mesh_.positions[3 * int64_t(idx[1]) + a];
-        const double v2 = mesh_.positions[3 * int64_t(idx[2]) + a];
-        q_lo[a] = cell(std::min({v0, v1, v2}), a);
-        q_hi[a] = cell(std::max({v0, v1, v2}), a);
+        const uint32_t v0 = VertexGrid::axis(c0, a), v1 = VertexGrid::axis(c1, a),
+                       v2 = VertexGrid::axis(c2, a);
+        q_lo[a] = std::min({v0, v1, v2}) >> coarsen;
+        q_hi[a] = std::max({v0, v1, v2}) >> coarsen;
       }
       if (!greene) {
         // The smallest enclosing cell: the level where the box's corner
@@ -150,25 +139,36 @@ class OctreeBuilder {
   const OctreeParams& params_;
   ObjectTree& tree_;
   ClusterBuilder clusters_;
-  std::vector<uint64_t> keys_;
-  std::vector<int32_t> faces_;
+  // Scratch, kept per thread from build to build (no page faults anew).
+  std::vector<uint64_t>& keys_ = scratch_keys();
+  std::vector<int32_t>& faces_ = scratch_faces();
+  static std::vector<uint64_t>& scratch_keys() {
+    thread_local std::vector<uint64_t> v;
+    return v;
+  }
+  static std::vector<int32_t>& scratch_faces() {
+    thread_local std::vector<int32_t> v;
+    return v;
+  }
 };
 
 }  // namespace
 
-ObjectTree build_octree(const MeshView& mesh, const OctreeParams& params) {
+void build_octree(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree) {
   if (params.leaf_size < 1)
     throw std::invalid_argument("leaf_size must be >= 1, got " + std::to_string(params.leaf_size));
   if (params.max_depth < 1 || params.max_depth > kMaxOctreeDepth)
     throw std::invalid_argument("max_depth must be in 1 .. " + std::to_string(kMaxOctreeDepth) +
                                 ", got " + std::to_string(params.max_depth));
-  ObjectTree tree;
+  tree.clear();
   tree.shared = params.rule == OctreeRule::kGreene;
-  if (mesh.n_faces == 0) {
-    tree.n_input_faces = 0;
-    return tree;
-  }
+  if (mesh.n_faces == 0) return;
   OctreeBuilder(mesh, params, tree).build();
+}
+
+ObjectTree build_octree(const MeshView& mesh, const OctreeParams& params) {
+  ObjectTree tree;
+  build_octree(mesh, params, tree);
   return tree;
 }
 

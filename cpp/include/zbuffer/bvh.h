@@ -24,5 +24,7 @@ struct BvhParams {
 // Good: linear time after one radix sort, the same machinery as the octree.
 // Bad: boxes are looser than SAH's where triangles are long and thin.
 ObjectTree build_bvh(const MeshView& mesh, const BvhParams& params);
+// The same into `tree`, reusing its memory (a tree rebuilt every frame).
+void build_bvh(const MeshView& mesh, const BvhParams& params, ObjectTree& tree);
 
 }  // namespace zbuffer

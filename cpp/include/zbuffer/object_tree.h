@@ -61,6 +61,9 @@ struct ObjectTree {
 
   // Bytes held by the tree.
   int64_t memory_bytes() const;
+
+  // Empty the tree, keeping its memory for the next build.
+  void clear();
 };
 
 // Builds the clusters and node bounds of a tree whose structure is decided.
@@ -79,8 +82,11 @@ class ClusterBuilder {
  private:
   const MeshView& mesh_;
   ObjectTree& tree_;
-  std::vector<int32_t> vertex_mark_, vertex_local_;  // per input vertex
-  std::vector<int32_t> face_mark_;                   // per input face (shared trees)
+  // Per input vertex and (shared trees) per input face: scratch kept per
+  // thread from build to build.
+  std::vector<int32_t>& vertex_mark_;
+  std::vector<int32_t>& vertex_local_;
+  std::vector<int32_t>& face_mark_;
 };
 
 // Bounds of node `i` from its cluster and its children (children first).

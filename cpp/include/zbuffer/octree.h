@@ -48,5 +48,7 @@ constexpr int kMaxOctreeDepth = 10;  // cells are addressed by 30-bit Morton cod
 // depth limit of 10 (1024 cells a side), and the nodes of a cell's subtree
 // must all be built at once.
 ObjectTree build_octree(const MeshView& mesh, const OctreeParams& params);
+// The same into `tree`, reusing its memory (a tree rebuilt every frame).
+void build_octree(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree);
 
 }  // namespace zbuffer
