@@ -62,3 +62,18 @@ def assert_same_counters(stats, ref_stats):
 ALGORITHMS = zbuffer.algorithms()
 # The algorithms that cull whole nodes of an object-space tree.
 TREE_ALGORITHMS = [a for a in ALGORITHMS if a in ("hiz_octree", "hiz_bvh")]
+
+
+def can_render_offscreen() -> bool:
+    """True if pyvista is installed and can render a picture offscreen here."""
+    try:
+        import pyvista as pv
+
+        plotter = pv.Plotter(off_screen=True, window_size=(32, 32))
+        plotter.add_mesh(pv.Sphere())
+        image = plotter.screenshot(None)
+        plotter.close()
+        return image is not None and image.size > 0
+    except Exception:  # no pyvista, or no OpenGL context at all
+        return False
+

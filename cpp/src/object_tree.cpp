@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include "zbuffer/algorithms.h"
 #include "zbuffer/triangle_batch.h"
@@ -327,15 +328,33 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
 
   // Temporal coherence: what was visible last frame first, so that the
   // pyramid the traversal starts from is already close to the final one.
+  constexpr int kFlushAt = 256;  // see the traversal below
   if (temporal && frame.has_visible) {
-    for (int32_t c : frame.visible_clusters) draw_cluster(c);
+    // Nearest first, as the traversal would meet them, with the pyramid
+    // brought up to date as they go; those hidden or outside by now are
+    // left to the traversal.
+    thread_local std::vector<std::pair<ProjectedNode, int32_t>> order;
+    order.clear();
+    for (int32_t c : frame.visible_clusters) {
+      const int32_t i = tree.clusters[size_t(c)].node;
+      ProjectedNode p;
+      if (project_node(tree.nodes[size_t(i)], i, input.mvp, vp, p)) order.emplace_back(p, c);
+    }
+    std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) {
+      return a.first.z_near < b.first.z_near;
+    });
+    for (const auto& [p, c] : order) {
+      if (batch.pending() >= kFlushAt) flush();
+      if (p.testable && p.z_near > farthest_under(pyramid, p)) continue;
+      draw_cluster(c);
+    }
     flush();
   }
 
   // Front to back, depth first: children are pushed farthest first, so the
   // nearest is visited next. Before a node is tested, the batch is flushed
-  // if it holds enough triangles to be worth bringing the pyramid up to date.
-  constexpr int kFlushAt = 256;
+  // if it holds enough triangles (kFlushAt) to be worth bringing the pyramid
+  // up to date.
   std::vector<ProjectedNode> stack;
   ProjectedNode root;
   if (!tree.nodes.empty()) {
@@ -385,16 +404,26 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   stats.culled_in_nodes += tree.n_input_faces - reached;
 
   // Temporal coherence: record the clusters with a pixel in this frame.
+  // Every other row is enough: the set only decides what is drawn first
+  // next frame (anything missed is found by the traversal), and a cluster
+  // seen in one row of its projection is seen in the next.
   if (temporal) {
     frame.visible_clusters.clear();
-    const size_t pixels = size_t(target.width) * size_t(target.height);
-    for (size_t p = 0; p < pixels; ++p) {
-      const int32_t id = target.triangle_id[p];
-      if (id < 0) continue;
-      const int32_t c = tree.cluster_of_id[size_t(id)];
-      if (frame.visible_stamp[size_t(c)] == now) continue;
-      frame.visible_stamp[size_t(c)] = now;
-      frame.visible_clusters.push_back(c);
+    const int32_t* cluster_of_id = tree.cluster_of_id.data();
+    uint32_t* seen = frame.visible_stamp.data();
+    std::vector<int32_t>& visible = frame.visible_clusters;
+    for (int y = 0; y < target.height; y += 2) {
+      const int32_t* row = target.triangle_id + size_t(y) * size_t(target.width);
+      int32_t last = -1;  // neighbouring pixels mostly show the same triangle
+      for (int x = 0; x < target.width; ++x) {
+        const int32_t id = row[x];
+        if (id == last || id < 0) continue;
+        last = id;
+        const int32_t c = cluster_of_id[id];
+        if (seen[c] == now) continue;
+        seen[c] = now;
+        visible.push_back(c);
+      }
     }
     frame.has_visible = true;
   } else {
