@@ -21,7 +21,8 @@ void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stat
   // but cost more upkeep: 128 instead of 512 made single unoccluded meshes
   // ~10% slower.
   ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true);
-  render_faces_batched(input, target, stats, &pyramid, TriangleBatch::kCapacity);
+  render_faces_batched(input, target, stats, &pyramid, TriangleBatch::kCapacity,
+                       /*lazy_upkeep=*/true);
 }
 
 }  // namespace zbuffer
