@@ -1,0 +1,208 @@
+"""zbuffer against the tools people use instead, in one run: Open3D's
+RaycastingScene (a BVH ray caster) on the same meshes, camera and pixels.
+
+    python benchmarks/bench_peers.py                 # -> benchmarks/results/peers.{json,md}
+    python benchmarks/bench_peers.py --grid 10 80    # values of N for the spot grid
+    python benchmarks/bench_peers.py --quick         # smoke mode (skips what is not installed)
+
+Open3D is optional (``pip install open3d``; on Debian it needs libusb-1.0-0).
+Each peer casts one ray per pixel centre of our camera (the same pixel
+centres zbuffer samples), and its depth map is compared with ours: pixels
+where one sees the mesh and the other does not, and the relative difference
+of the distance along the ray where both do. Times: median of --runs frames;
+Open3D's build is the scene construction plus its first cast (it builds its
+BVH lazily), on its default thread count (2 here) and, for the frames, on
+one thread too. Nothing here asserts a speed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import zbuffer
+from bench_hiz import grid_camera, spot
+from bench_render import HERE, MODELS, machine
+
+
+def pixel_rays(result: zbuffer.RenderResult):
+    """(H, W, 6) float32 rays through every pixel centre of a render's camera:
+    origins on the near plane, unit directions."""
+    h, w = result.depth.shape
+    inv = np.linalg.inv(result.mvp)
+    x = (np.arange(w) + 0.5) / w * 2 - 1
+    y = 1 - (np.arange(h) + 0.5) / h * 2
+    xx, yy = np.meshgrid(x, y)
+    def unproject(z):
+        clip = np.stack([xx, yy, np.full_like(xx, z), np.ones_like(xx)], -1) @ inv.T
+        return clip[..., :3] / clip[..., 3:]
+    near, far = unproject(-1.0), unproject(1.0)
+    d = far - near
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    return np.concatenate([near, d], -1).astype(np.float32), near
+
+
+def our_distance(result: zbuffer.RenderResult, origins: np.ndarray) -> np.ndarray:
+    """Distance from each ray origin to the surface point zbuffer found (inf
+    where nothing was drawn)."""
+    h, w = result.depth.shape
+    inv = np.linalg.inv(result.mvp)
+    x = (np.arange(w) + 0.5) / w * 2 - 1
+    y = 1 - (np.arange(h) + 0.5) / h * 2
+    xx, yy = np.meshgrid(x, y)
+    z = np.where(np.isfinite(result.depth), result.depth.astype(np.float64) * 2 - 1, 0.0)
+    clip = np.stack([xx, yy, z, np.ones_like(xx)], -1) @ inv.T
+    points = clip[..., :3] / clip[..., 3:]
+    dist = np.linalg.norm(points - origins, axis=-1)
+    return np.where(np.isfinite(result.depth), dist, np.inf)
+
+
+def agreement(ours: np.ndarray, theirs: np.ndarray) -> dict:
+    a, b = np.isfinite(ours), np.isfinite(theirs)
+    both = a & b
+    rel = np.abs(ours[both] - theirs[both]) / np.maximum(theirs[both], 1e-12)
+    return {"pixels": int(a.size), "coverage_mismatch": int((a != b).sum()),
+            "depth_rel_median": float(np.median(rel)) if both.any() else None,
+            "depth_rel_p99": float(np.percentile(rel, 99)) if both.any() else None}
+
+
+def bench_open3d(mesh, result, runs):
+    import open3d as o3d
+
+    rays_np, origins = pixel_rays(result)
+    t0 = time.perf_counter()
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),
+                        o3d.core.Tensor(mesh.faces.astype(np.uint32)))
+    rays = o3d.core.Tensor(rays_np)
+    hit = scene.cast_rays(rays)  # the BVH is built here
+    build_ms = (time.perf_counter() - t0) * 1e3
+    out = {"build_ms": build_ms}
+    for label, threads in (("auto", 0), ("1", 1)):
+        times = []
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            hit = scene.cast_rays(rays, nthreads=threads)
+            times.append((time.perf_counter() - t0) * 1e3)
+        out[f"frame_ms_threads_{label}"] = statistics.median(times)
+    theirs = hit["t_hit"].numpy().astype(np.float64)
+    out["agreement"] = agreement(our_distance(result, origins), theirs)
+    return out
+
+
+def bench_ours(mesh, camera, size, runs):
+    out = {}
+    render = lambda algo: zbuffer.render(mesh, algo=algo, camera=camera, width=size, height=size,
+                                         shading="none")
+    render("zbuffer")
+    times = [render("zbuffer").stats["render_ms"] for _ in range(runs)]
+    out["zbuffer_ms"] = statistics.median(times)
+    scene = zbuffer.Scene(mesh)
+    t0 = time.perf_counter()
+    scene.build("hiz_octree")
+    out["hiz_octree_build_ms"] = (time.perf_counter() - t0) * 1e3
+    scene.render(camera, algo="hiz_octree", width=size, height=size, shading="none")
+    times = [scene.render(camera, algo="hiz_octree", width=size, height=size,
+                          shading="none").stats["render_ms"] for _ in range(runs)]
+    out["hiz_octree_built_once_ms"] = statistics.median(times)
+    return out, render("zbuffer")
+
+
+def markdown(report) -> str:
+    m = report["machine"]
+    lines = [
+        "# zbuffer and Open3D ray casting, same meshes, camera and pixels",
+        "",
+        f"- date: {report['date']}",
+        f"- machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}",
+        f"- commit: {m['commit']}; Open3D {report.get('open3d', 'not installed')}",
+        f"- command: `{report['command']}`",
+        f"- {report['size']}x{report['size']} pixels, one ray per pixel centre; median of "
+        f"{report['runs']} frames. Open3D build = scene + first cast (BVH built lazily); "
+        "its frames on its default threads (auto = 2 here) and on one thread; ours on one.",
+        "",
+        "| scene | triangles | projection | Open3D build ms | Open3D frame ms (auto / 1 thread) "
+        "| zbuffer ms | hiz_octree build ms | hiz_octree built once ms "
+        "| Open3D 1 thread / hiz_octree | Open3D build / ours | coverage mismatch | "
+        "rel. distance diff (median / p99) |",
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    for c in report["cases"]:
+        o = c.get("open3d")
+        if o is None:
+            continue
+        a = o["agreement"]
+        lines.append(
+            f"| {c['scene']} | {c['triangles']:,} | {c['projection']} | {o['build_ms']:.0f} | "
+            f"{o['frame_ms_threads_auto']:.1f} / {o['frame_ms_threads_1']:.1f} | "
+            f"{c['zbuffer_ms']:.1f} | {c['hiz_octree_build_ms']:.0f} | "
+            f"{c['hiz_octree_built_once_ms']:.1f} | "
+            f"{o['frame_ms_threads_1'] / c['hiz_octree_built_once_ms']:.1f}x | "
+            f"{o['build_ms'] / c['hiz_octree_build_ms']:.1f}x | "
+            f"{a['coverage_mismatch']:,} of {a['pixels']:,} | "
+            f"{a['depth_rel_median']:.1e} / {a['depth_rel_p99']:.1e} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smoke mode: tiny grid, 2 runs")
+    parser.add_argument("--grid", type=int, nargs="*", default=None, help="values of N (default 10 80)")
+    parser.add_argument("--runs", type=int, default=None, help="frames per case (default 5)")
+    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    args = parser.parse_args(argv)
+    runs = args.runs or (2 if args.quick else 5)
+    size = 128 if args.quick else 1024
+    try:
+        import open3d
+
+        version = open3d.__version__
+    except Exception as err:  # not installed, or a system library missing
+        print(f"Open3D unavailable ({err}): nothing to compare with", flush=True)
+        version = None
+    report = {"date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+              "machine": machine(), "size": size, "runs": runs,
+              "command": " ".join(["python benchmarks/bench_peers.py", *(argv or sys.argv[1:])]),
+              "cases": []}
+    if version:
+        report["open3d"] = version
+    base, label = spot(args.quick)
+    scenes = [(f"5x5x{n} {label}", zbuffer.scenes.instance_grid(base, (5, 5, n)))
+              for n in (args.grid or ([1] if args.quick else [10, 80]))]
+    for name in ([] if args.quick else ["bunny_69k.obj", "armadillo_86k.obj"]):
+        if (MODELS / name).is_file():
+            scenes.append((name, zbuffer.load(MODELS / name)))
+    for name, mesh in scenes:
+        for projection in ("perspective", "orthographic"):
+            if "x" in name.split()[0]:
+                camera = grid_camera(mesh, projection)
+            else:
+                camera = zbuffer.Camera.fit(mesh, aspect=1.0, projection=projection).resolve(mesh)
+            ours, result = bench_ours(mesh, camera, size, runs)
+            case = {"scene": name, "triangles": len(mesh.faces), "projection": projection, **ours}
+            if version:
+                case["open3d"] = bench_open3d(mesh, result, runs)
+                o = case["open3d"]
+                print(f"{name:28s} {projection:12s} open3d build {o['build_ms']:8.0f} ms, frame "
+                      f"{o['frame_ms_threads_auto']:7.1f} / {o['frame_ms_threads_1']:7.1f} ms | "
+                      f"zbuffer {ours['zbuffer_ms']:7.1f} ms, hiz_octree build "
+                      f"{ours['hiz_octree_build_ms']:6.0f} ms, frame {ours['hiz_octree_built_once_ms']:6.1f} ms"
+                      f" | mismatch {o['agreement']['coverage_mismatch']}", flush=True)
+            report["cases"].append(case)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "peers.json").write_text(json.dumps(report, indent=2) + "\n")
+    (out / "peers.md").write_text(markdown(report))
+    print(f"wrote {out / 'peers.json'} and {out / 'peers.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
