@@ -20,7 +20,8 @@ import numpy as np
 from .result import RenderResult
 
 __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms",
-           "show_tree", "tree_grid", "frustum_grid", "id_colors", "depth_for_display"]
+           "show_tree", "tree_grid", "frustum_grid", "id_colors", "depth_for_display",
+           "load_benchmark", "plot_grid_times", "plot_grid_culling"]
 
 
 def _pyvista():
@@ -349,4 +350,66 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
                      + ("" if level is None else f", depth {level}"), font_size=10)
     plotter.reset_camera()
     return _finish(plotter, screenshot)
+
+
+# Recorded Benchmarks (matplotlib; the figures of notebook 04)
+
+def load_benchmark(path) -> dict:
+    """A benchmark report written by ``benchmarks/bench_*.py`` (its JSON)."""
+    import json
+
+    with open(path) as fh:
+        return json.load(fh)
+
+
+def plot_grid_times(report: dict):
+    """Frame time against N on the spot grid (``bench_hiz.py``), one panel per
+    projection, one line per algorithm and mode, log-log. Returns the
+    matplotlib Figure."""
+    import matplotlib.pyplot as plt
+
+    projections = sorted({c["projection"] for c in report["grid"]}, reverse=True)
+    fig, axes = plt.subplots(1, len(projections), figsize=(6 * len(projections), 4.2),
+                             squeeze=False)
+    for ax, projection in zip(axes[0], projections):
+        cases = [c for c in report["grid"] if c["projection"] == projection]
+        for key in sorted({(c["algo"], c["mode"]) for c in cases}):
+            rows = sorted((c for c in cases if (c["algo"], c["mode"]) == key), key=lambda c: c["N"])
+            ax.plot([c["N"] for c in rows], [c["ms_median"] for c in rows], marker="o",
+                    linestyle="--" if key[1] == "built once" else "-",
+                    label=f"{key[0]} ({key[1]})")
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        ax.set_xlabel("N (5 x 5 x N copies)")
+        ax.set_ylabel("ms per frame (median)")
+        ax.set_title(f"{projection}, {report['size']}x{report['size']}")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_grid_culling(report: dict, n: Optional[int] = None):
+    """Where the triangles went at one N of the spot grid: drawn, culled by
+    the triangle test, never reached (in culled nodes), per algorithm and
+    projection, as stacked bars (fractions of the input). Returns the Figure."""
+    import matplotlib.pyplot as plt
+
+    n = n if n is not None else max(c["N"] for c in report["grid"])
+    cases = [c for c in report["grid"] if c["N"] == n and c["mode"] == "per frame"]
+    labels = [f"{c['algo']}\n{c['projection'][:5]}" for c in cases]
+    total = np.array([c["triangles"] for c in cases], float)
+    parts = [("rasterized", "drawn"), ("culled_hidden", "culled by the triangle test"),
+             ("culled_in_nodes", "in culled nodes")]
+    fig, ax = plt.subplots(figsize=(1.2 * len(cases) + 2, 4))
+    bottom = np.zeros(len(cases))
+    for key, label in parts:
+        share = np.array([c[key] for c in cases], float) / total
+        ax.bar(labels, share, bottom=bottom, label=label)
+        bottom += share
+    ax.set_ylabel(f"share of {int(total[0]):,} triangles")
+    ax.set_title(f"spot grid N={n}: what happened to the triangles")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
 
