@@ -12,6 +12,9 @@ const std::vector<Algorithm>& algorithms() {
       {"zbuffer", "plain Z-buffer: every triangle, its whole pixel box", &render_zbuffer},
       {"hiz", "hierarchical Z-buffer: triangles and 8x8 tiles tested against a Z-pyramid",
        &render_hiz},
+      {"scanline",
+       "scanline Z-buffer: sorted polygon and edge tables, active lists, one row of depth",
+       &render_scanline},
   };
   return registry;
 }
@@ -41,6 +44,9 @@ void render(const Algorithm& algorithm, const RenderInput& input,
   std::fill_n(target.triangle_id, n, int32_t(-1));
   stats.triangles_in += input.mesh.n_faces;
   algorithm.render(input, target, stats);
+  // Algorithms that keep less (or more) than the W x H depth buffer say so.
+  if (stats.depth_storage_bytes == 0)
+    stats.depth_storage_bytes = int64_t(n) * int64_t(sizeof(float));
   const auto stop = std::chrono::steady_clock::now();
   stats.total_ms += std::chrono::duration<double, std::milli>(stop - start).count();
 }

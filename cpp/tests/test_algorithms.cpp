@@ -60,6 +60,19 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
       CHECK(ids == ref_ids);
       CHECK(stats.rasterized + stats.culled_hidden == ref_stats.rasterized);
       if (std::string(algo.name) == "hiz") CHECK(stats.culled_hidden > 0);
+      if (std::string(algo.name) == "scanline") {
+        // Spans are exact: every pixel tested is covered, and the pixels
+        // covered are the plain Z-buffer's (which tests whole boxes).
+        CHECK(stats.pixels_tested == stats.pixels_covered);
+        CHECK(stats.pixels_covered == ref_stats.pixels_covered);
+        CHECK(stats.polygons_inserted > 0 && stats.polygons_inserted <= stats.rasterized);
+        CHECK(stats.edges_inserted >= 2 * stats.polygons_inserted);
+        CHECK(stats.scanline_rows == h && stats.active_polygons_max > 0);
+        CHECK(stats.active_polygons_sum <= stats.active_polygons_max * h);
+        CHECK(stats.depth_storage_bytes == int64_t(w) * int64_t(sizeof(float)));
+      } else {
+        CHECK(stats.depth_storage_bytes >= int64_t(w) * h * int64_t(sizeof(float)));
+      }
     }
   }
 }

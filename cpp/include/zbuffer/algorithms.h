@@ -40,5 +40,6 @@ void render(const Algorithm& algorithm, const RenderInput& input,
 // The Algorithms
 void render_zbuffer(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stats);
+void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 
 }  // namespace zbuffer

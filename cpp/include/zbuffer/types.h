@@ -67,6 +67,19 @@ struct RenderStats {
   int64_t pixels_written = 0;      // ...that won the depth test
   int64_t tiles_skipped = 0;       // 8x8 tiles of drawn triangles found hidden
   int64_t pyramid_cells_updated = 0;  // Z-pyramid cells recomputed
+  // The scanline algorithm's tables and lists (zero for the others). Means
+  // of the active lists are their sums over scanline_rows rows.
+  int64_t polygons_inserted = 0;   // entries of the polygon table
+  int64_t edges_inserted = 0;      // entries of the edge table
+  int64_t scanline_rows = 0;       // rows walked
+  int64_t active_polygons_max = 0;
+  int64_t active_polygons_sum = 0;
+  int64_t active_edges_max = 0;
+  int64_t active_edges_sum = 0;
+  int64_t spans_drawn = 0;         // non-empty spans handed to the raster core
+  // Bytes of depth values the algorithm keeps while it works (the full
+  // W x H buffer for image-space algorithms, one row for the scanline).
+  int64_t depth_storage_bytes = 0;
   double vertex_ms = 0.0;          // per-vertex transform and snapping
   double raster_ms = 0.0;          // assembly, clipping, setup, rasterization
   double total_ms = 0.0;           // the whole C++ render call
