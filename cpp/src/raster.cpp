@@ -281,12 +281,10 @@ ZBUFFER_INLINE void rasterize_span_avx512(const TriangleSetup& s, int y, int x0,
     rasterize_rect_i64(s, x0, 0, x1, 0, w, row, stats);
     return;
   }
-  const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   __m512i wv[3], step16[3];
   for (int k = 0; k < 3; ++k) {
-    const __m512i sx = _mm512_set1_epi32(int32_t(s.step_x[k]));
-    wv[k] = _mm512_add_epi32(_mm512_set1_epi32(int32_t(w[k])), _mm512_mullo_epi32(lane, sx));
-    step16[k] = _mm512_slli_epi32(sx, 4);
+    wv[k] = simd::row16(int32_t(w[k]), int32_t(s.step_x[k]));
+    step16[k] = _mm512_set1_epi32(int32_t(16 * s.step_x[k]));
   }
   const simd::DepthPlane16 plane(s.z0, s.a1, s.a2, s.z_lo, s.z_hi);
   const __m512i id = _mm512_set1_epi32(s.id);
@@ -296,10 +294,9 @@ ZBUFFER_INLINE void rasterize_span_avx512(const TriangleSetup& s, int y, int x0,
   for (int x = 0; x < width; x += 16) {
     const __mmask16 in_span =
         width - x >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (width - x)) - 1);
-    const __mmask16 inside = simd::covered16(in_span, wv[0], wv[1], wv[2]);
-    const __m512 z =
-        simd::depth16(plane, _mm512_add_epi32(wv[1], bias1), _mm512_add_epi32(wv[2], bias2));
-    const __mmask16 win = simd::write16(inside, z, id, depth_row + x0 + x, id_row + x0 + x);
+    __mmask16 win;
+    const __mmask16 inside = simd::span16(in_span, wv[0], wv[1], wv[2], bias1, bias2, plane, id,
+                                          depth_row + x0 + x, id_row + x0 + x, win);
     covered += __builtin_popcount(inside);
     written += __builtin_popcount(win);
     for (int k = 0; k < 3; ++k) wv[k] = _mm512_add_epi32(wv[k], step16[k]);

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <limits>
 
+#include "simd.h"
 #include "zbuffer/algorithms.h"
 
 namespace zbuffer {
@@ -18,22 +20,34 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
       .count();
 }
 
-// floor(n / d) for d > 0 (C++ division truncates towards zero).
-inline int64_t floor_div(int64_t n, int64_t d) {
-  const int64_t q = n / d;
-  return q - ((n % d != 0) & (n < 0));
+// n = q * d + r with 0 <= r < d, for d > 0 and |n|, d < 2^53. The double
+// quotient is within one of the true one; integer arithmetic corrects it
+// (an int64 division costs several times as much).
+inline void floor_divmod(int64_t n, int64_t d, int64_t& q, int64_t& r) {
+  q = int64_t(std::floor(double(n) / double(d)));
+  r = n - q * d;
+  while (r < 0) {
+    --q;
+    r += d;
+  }
+  while (r >= d) {
+    ++q;
+    r -= d;
+  }
 }
 
-// Stable counting sort of `n` items by row: fills start[0 .. height] with
-// bucket offsets and returns each item's position in the sorted order.
+// Stable counting sort by row: fills start[0 .. height] with bucket offsets
+// and position[i] with item i's place in the sorted order.
 void bucket_by_row(const std::vector<int32_t>& row, int height, std::vector<int32_t>& start,
                    std::vector<int32_t>& position) {
-  start.assign(size_t(height) + 1, 0);
-  for (int32_t y : row) ++start[size_t(y) + 1];
-  for (int y = 0; y < height; ++y) start[size_t(y) + 1] += start[size_t(y)];
+  start.assign(size_t(height) + 2, 0);
+  for (int32_t y : row) ++start[size_t(y) + 2];
+  for (int y = 0; y < height; ++y) start[size_t(y) + 2] += start[size_t(y) + 1];
+  // start[y + 1] is now where bucket y begins; hand out places from it.
   position.resize(row.size());
-  std::vector<int32_t> next(start.begin(), start.end() - 1);
-  for (size_t i = 0; i < row.size(); ++i) position[i] = next[size_t(row[i])]++;
+  for (size_t i = 0; i < row.size(); ++i) position[i] = start[size_t(row[i]) + 1]++;
+  // ... which leaves start[y + 1] at the end of bucket y: start[y] .. start[y + 1].
+  start.pop_back();
 }
 
 }  // namespace
@@ -42,6 +56,7 @@ void ScanlineTables::reset(int width, int height) {
   width_ = width;
   height_ = height;
   polys_.clear();
+  large_.clear();
   poly_row_.clear();
   edges_.clear();
   edge_row_.clear();
@@ -52,50 +67,41 @@ void ScanlineTables::reset(int width, int height) {
 void ScanlineTables::add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb,
                               int32_t poly, RenderStats& stats) {
   // Rows whose centres lie on the edge's closed y range, within the box.
-  // On such a row the edge and the triangle's other edges spanning the row
-  // give the span exactly; an edge not spanning the row could only cut it
-  // where the row leaves the closed triangle, which its spanning edges
-  // already do (the edge value of a non-spanning edge is > 0 on the span).
+  // On such a row the edges spanning it give the span exactly; an edge not
+  // spanning the row is > 0 all along the span (a zero would be a point of
+  // the closed triangle on that edge, at a y outside its range), so its
+  // constraint holds without being applied.
   const int64_t first = std::max<int64_t>(first_pixel_at_or_after(std::min(ya, yb)), s.y_min);
   const int64_t last = std::min<int64_t>(last_pixel_at_or_before(std::max(ya, yb)), s.y_max);
   if (first > last) return;
-  ScanEdge e;
-  e.poly = poly;
+  if (s.step_x[k] == 0 && s.bias[k] == 0) return;  // see below
+  // Filled in place: a struct built on the stack and copied in whole
+  // stalls on store forwarding.
+  ScanEdge& e = edges_.emplace_back();
   e.last_row = int32_t(last);
   if (s.step_x[k] == 0) {
     // Horizontal, and exactly on a row of pixel centres: a top edge (bias 0)
-    // admits the whole row, a bottom edge (bias 1, edge value 0 there)
-    // none of it. Only the latter needs an entry: a left bound beyond any
+    // admits the whole row, a bottom edge (bias 1, edge value 0 there) none
+    // of it. Only the latter needs an entry: a left bound beyond any
     // column, for this one row.
-    if (s.bias[k] == 0) return;
-    e.lower = true;
-    e.q = int64_t(1) << 40;
-    e.r = e.dq = e.dr = 0;
+    e.slot = 2 * poly;
+    e.q = int32_t(1) << 30;
+    e.dq = 0;
+    e.r = e.dr = 0;
     e.div = 1;
   } else {
-    // Biased edge value at the centre of pixel (0, first).
-    const int64_t w0 = s.w_origin[k] + (0 - int64_t(s.x_min)) * s.step_x[k] +
-                       (first - s.y_min) * s.step_y[k];
-    int64_t n, dn;
-    e.lower = s.step_x[k] > 0;
-    if (e.lower) {
-      // w0 + step_x * x >= 0  <=>  x >= ceil(-w0 / step_x)
-      //                       =    floor((-w0 + step_x - 1) / step_x)
-      e.div = s.step_x[k];
-      n = -w0 + e.div - 1;
-      dn = -s.step_y[k];
-    } else {
-      // w0 - div * x >= 0  <=>  x <= floor(w0 / div)
-      e.div = -s.step_x[k];
-      n = w0;
-      dn = s.step_y[k];
-    }
-    e.q = floor_div(n, e.div);
-    e.r = n - e.q * e.div;
-    e.dq = floor_div(dn, e.div);
-    e.dr = dn - e.dq * e.div;
+    // q = floor(N / div) with N = -wb0 + div - 1, wb0 the biased edge value
+    // at the centre of pixel (0, first); N changes by -step_y a row.
+    const int64_t wb0 = s.w_origin[k] + (0 - int64_t(s.x_min)) * s.step_x[k] +
+                        (first - s.y_min) * s.step_y[k];
+    e.slot = 2 * poly + (s.step_x[k] > 0 ? 0 : 1);
+    e.div = std::abs(s.step_x[k]);
+    int64_t q, dq;
+    floor_divmod(-wb0 + e.div - 1, e.div, q, e.r);
+    floor_divmod(-s.step_y[k], e.div, dq, e.dr);
+    e.q = int32_t(q);  // in the edge's x range: fits
+    e.dq = int32_t(dq);  // |dq| <= |dx| + 1 < 2^25
   }
-  edges_.push_back(e);
   edge_row_.push_back(int32_t(first));
   ++stats.edges_inserted;
 }
@@ -106,11 +112,99 @@ void ScanlineTables::add_triangle(const ScreenTriangle& t, RenderStats& stats) {
   const TriangleSetup s = setup_triangle(t, width_, height_);
   if (s.x_min > s.x_max || s.y_min > s.y_max) return;  // no pixel centre of the image
   const int32_t poly = int32_t(polys_.size());
-  polys_.push_back(s);
+  ScanPolygon& p = polys_.emplace_back();  // in place, as the edges
+  p.x_min = s.x_min;
+  p.x_max = s.x_max;
+  p.y_min = s.y_min;
+  p.y_max = s.y_max;
+  // The int32 form if every edge value in the box (an affine function:
+  // extremes at the corners) fits with room to spare.
+  constexpr int64_t kLimit = int64_t(1) << 30;
+  bool fits = true;
+  for (int k = 0; k < 3; ++k) {
+    const int64_t dx = int64_t(s.x_max - s.x_min) * s.step_x[k];
+    const int64_t dy = int64_t(s.y_max - s.y_min) * s.step_y[k];
+    for (int64_t c : {s.w_origin[k], s.w_origin[k] + dx, s.w_origin[k] + dy,
+                      s.w_origin[k] + dx + dy})
+      fits &= c < kLimit && c > -kLimit;
+    fits &= s.step_x[k] < kLimit && s.step_x[k] > -kLimit && s.step_y[k] < kLimit &&
+            s.step_y[k] > -kLimit;
+    p.w[k] = int32_t(s.w_origin[k]);
+    p.step_x[k] = int32_t(s.step_x[k]);
+    p.step_y[k] = int32_t(s.step_y[k]);
+  }
+  p.bias1 = int32_t(s.bias[1]);
+  p.bias2 = int32_t(s.bias[2]);
+  p.z0 = s.z0;
+  p.a1 = s.a1;
+  p.a2 = s.a2;
+  p.z_lo = s.z_lo;
+  p.z_hi = s.z_hi;
+  p.id = s.id;
+  p.large = -1;
+#ifndef ZBUFFER_AVX512
+  fits = false;  // the scalar build draws every span from the full setup
+#endif
+  if (!fits) {
+    p.large = int32_t(large_.size());
+    large_.push_back(s);
+  }
   poly_row_.push_back(s.y_min);
   ++stats.polygons_inserted;
   for (int k = 0; k < 3; ++k)
     add_edge(s, k, t.v[(k + 1) % 3].y_fx, t.v[(k + 2) % 3].y_fx, poly, stats);
+}
+
+// Spans
+
+// Pixels [lo, hi] of row y of polygon p (none if lo > hi), into the row
+// buffer: the raster core's span, with the edge values at (lo, y) stepped
+// from the box's first pixel in exact (wrapping) int32 arithmetic.
+inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int hi,
+                                      Counts& counts) {
+  if (p.large >= 0) {  // rare: a triangle too big for int32 edge values
+    if (lo <= hi) {
+      RenderStats s;
+      rasterize_span(large_[size_t(p.large)], y, lo, hi, depth_row_.data(), id_row_.data(), s);
+      counts.tested += s.pixels_tested;
+      counts.covered += s.pixels_covered;
+      counts.written += s.pixels_written;
+    }
+    return;
+  }
+#ifdef ZBUFFER_AVX512
+  // No branch on an empty span: it runs with an empty mask at a valid
+  // address (the polygon's first column).
+  int width = hi - lo + 1;
+  lo = width > 0 ? lo : p.x_min;
+  width = width > 0 ? width : 0;
+  const uint32_t dx = uint32_t(lo - p.x_min), dy = uint32_t(y - p.y_min);
+  __m512i w[3];
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t v = uint32_t(p.w[k]) + dx * uint32_t(p.step_x[k]) + dy * uint32_t(p.step_y[k]);
+    w[k] = simd::row16(int32_t(v), p.step_x[k]);
+  }
+  const simd::DepthPlane16 plane(p.z0, p.a1, p.a2, p.z_lo, p.z_hi);
+  const __m512i id = _mm512_set1_epi32(p.id);
+  const __m512i bias1 = _mm512_set1_epi32(p.bias1), bias2 = _mm512_set1_epi32(p.bias2);
+  float* d = depth_row_.data() + lo;
+  int32_t* ids = id_row_.data() + lo;
+  __mmask16 win;
+  __mmask16 inside = simd::span16(__mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width, 16)))),
+                                  w[0], w[1], w[2], bias1, bias2, plane, id, d, ids, win);
+  int64_t covered = __builtin_popcount(inside), written = __builtin_popcount(win);
+  for (int x = 16; x < width; x += 16) {  // spans longer than 16 pixels
+    for (int k = 0; k < 3; ++k)
+      w[k] = _mm512_add_epi32(w[k], _mm512_set1_epi32(int32_t(16u * uint32_t(p.step_x[k]))));
+    const __mmask16 in_span = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width - x, 16))));
+    inside = simd::span16(in_span, w[0], w[1], w[2], bias1, bias2, plane, id, d + x, ids + x, win);
+    covered += __builtin_popcount(inside);
+    written += __builtin_popcount(win);
+  }
+  counts.tested += width;
+  counts.covered += covered;
+  counts.written += written;
+#endif
 }
 
 // The Row Walk
@@ -119,29 +213,28 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   const int width = target.width, height = target.height;
 
   // Sorted Polygon Table and Edge Table
-  std::vector<int32_t> position;
-  bucket_by_row(poly_row_, height, poly_start_, position);
+  bucket_by_row(poly_row_, height, poly_start_, position_);
   poly_table_.resize(polys_.size());
-  for (size_t i = 0; i < polys_.size(); ++i) poly_table_[size_t(position[i])] = int32_t(i);
-  bucket_by_row(edge_row_, height, edge_start_, position);
+  for (size_t i = 0; i < polys_.size(); ++i) poly_table_[size_t(position_[i])] = int32_t(i);
+  bucket_by_row(edge_row_, height, edge_start_, position_);
   edge_table_.resize(edges_.size());
-  for (size_t i = 0; i < edges_.size(); ++i) edge_table_[size_t(position[i])] = edges_[i];
+  for (size_t i = 0; i < edges_.size(); ++i) edge_table_[size_t(position_[i])] = edges_[i];
 
-  span_lo_.resize(polys_.size());
-  span_hi_.resize(polys_.size());
+  bounds_.resize(2 * polys_.size());
   active_polys_.clear();
   active_edges_.clear();
   depth_row_.assign(size_t(width), std::numeric_limits<float>::infinity());
   id_row_.assign(size_t(width), -1);
   stats.depth_storage_bytes = int64_t(width) * int64_t(sizeof(float));
+  Counts counts;
 
   for (int y = 0; y < height; ++y) {
     // Polygons and edges entering at this row
     for (int32_t i = poly_start_[size_t(y)]; i < poly_start_[size_t(y) + 1]; ++i) {
       const int32_t p = poly_table_[size_t(i)];
       active_polys_.push_back(p);
-      span_lo_[size_t(p)] = polys_[size_t(p)].x_min;
-      span_hi_[size_t(p)] = polys_[size_t(p)].x_max;
+      bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
+      bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
     }
     active_edges_.insert(active_edges_.end(), edge_table_.begin() + edge_start_[size_t(y)],
                          edge_table_.begin() + edge_start_[size_t(y) + 1]);
@@ -152,41 +245,52 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     stats.active_edges_max = std::max(stats.active_edges_max, int64_t(active_edges_.size()));
     if (active_polys_.empty()) continue;
 
-    // Active edges: narrow their polygons' spans, step to the next row,
-    // drop those that end here
+    // Active edges: tighten their polygons' spans, step to the next row,
+    // drop those that end here. Branch-free: left and right edges, and
+    // edges ending or not, are mixed at random.
+    // (Field by field: copying the struct whole after changing two fields
+    // stalled on store forwarding and cost a third of the row walk.)
     size_t kept = 0;
+    ScanEdge* const edges = active_edges_.data();
     for (size_t i = 0; i < active_edges_.size(); ++i) {
-      ScanEdge e = active_edges_[i];
-      if (e.lower) {
-        if (e.q > span_lo_[size_t(e.poly)])
-          span_lo_[size_t(e.poly)] = int32_t(std::min<int64_t>(e.q, width));
-      } else {
-        if (e.q < span_hi_[size_t(e.poly)])
-          span_hi_[size_t(e.poly)] = int32_t(std::max<int64_t>(e.q, -1));
-      }
-      if (e.last_row == y) continue;
-      e.step();
-      active_edges_[kept++] = e;
+      const int64_t div = edges[i].div, dr = edges[i].dr;
+      const int32_t q = edges[i].q, dq = edges[i].dq;
+      const int32_t slot = edges[i].slot, last_row = edges[i].last_row;
+      int32_t& b = bounds_[size_t(slot)];
+      b = std::max(b, q);
+      // ScanEdge::step(), written out
+      int64_t r = edges[i].r + dr;
+      const bool carry = r >= div;
+      r -= carry ? div : 0;
+      ScanEdge& out = edges[kept];
+      out.r = r;
+      out.div = div;
+      out.dr = dr;
+      out.q = q + dq + int32_t(carry);
+      out.dq = dq;
+      out.slot = slot;
+      out.last_row = last_row;
+      kept += last_row != y;
     }
     active_edges_.resize(kept);
 
-    // Active polygons: draw their spans into the row, drop those that end here
+    // Active polygons: draw their spans into the row, drop those that end
+    // here (branch-free, likewise)
     int touched_lo = width, touched_hi = -1;
     kept = 0;
     for (size_t i = 0; i < active_polys_.size(); ++i) {
       const int32_t p = active_polys_[i];
-      const TriangleSetup& s = polys_[size_t(p)];
-      const int lo = span_lo_[size_t(p)], hi = span_hi_[size_t(p)];
-      if (lo <= hi) {
-        rasterize_span(s, y, lo, hi, depth_row_.data(), id_row_.data(), stats);
-        ++stats.spans_drawn;
-        touched_lo = std::min(touched_lo, lo);
-        touched_hi = std::max(touched_hi, hi);
-      }
-      if (s.y_max == y) continue;
-      span_lo_[size_t(p)] = s.x_min;
-      span_hi_[size_t(p)] = s.x_max;
-      active_polys_[kept++] = p;
+      const ScanPolygon& poly = polys_[size_t(p)];
+      const int lo = bounds_[2 * size_t(p)], hi = -bounds_[2 * size_t(p) + 1];
+      draw_span(poly, y, lo, hi, counts);
+      const bool drawn = lo <= hi;
+      stats.spans_drawn += drawn;
+      touched_lo = std::min(touched_lo, drawn ? lo : width);
+      touched_hi = std::max(touched_hi, drawn ? hi : -1);
+      bounds_[2 * size_t(p)] = poly.x_min;
+      bounds_[2 * size_t(p) + 1] = -poly.x_max;
+      active_polys_[kept] = p;
+      kept += poly.y_max != y;
     }
     active_polys_.resize(kept);
 
@@ -200,6 +304,9 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
       std::fill_n(id_row_.data() + touched_lo, n, int32_t(-1));
     }
   }
+  stats.pixels_tested += counts.tested;
+  stats.pixels_covered += counts.covered;
+  stats.pixels_written += counts.written;
 }
 
 // The Algorithm

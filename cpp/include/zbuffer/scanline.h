@@ -28,33 +28,56 @@ namespace zbuffer {
 // Edge k of a triangle admits the pixels where its biased edge value is
 // >= 0 (raster.h). Along a row the value is affine in x with slope step_x,
 // so the edge bounds the row's span from one side: x >= x_first when
-// step_x > 0 (a "lower" edge, on the left), x <= x_last when step_x < 0.
-// The bound on row y is floor(N(y) / div) for an integer N(y) that changes
-// by a constant from row to row; the DDA keeps N = q * div + r with
-// 0 <= r < div and steps q and r.
+// step_x > 0 (a left edge), x <= x_last when step_x < 0 (a right edge).
+// With div = |step_x| and wb0 the biased value at the centre of pixel
+// (0, y), both bounds are one formula,
+//     q = ceil(-wb0 / div) = floor(N / div),  N = -wb0 + div - 1,
+// a left edge admitting x >= q and a right edge x <= -q; from one row to
+// the next N changes by the constant -step_y. The DDA keeps
+// N = q * div + r with 0 <= r < div and steps q and r: exact integers only.
 //
-// Design decision: one entry per edge, holding its own DDA state and the
-// index of its polygon. Good: entering, stepping and leaving are local to
-// the entry; the bound is exact on every row (integer arithmetic only).
-// Bad: 48 bytes an edge with int64 fields, because a nearly horizontal edge
-// can have bounds far outside the image (its q stays exact rather than
-// clamped).
+// Design decision: one entry per edge, holding its DDA state and the slot
+// of its polygon's span bound it tightens (bounds[2 p] = first pixel,
+// bounds[2 p + 1] = minus the last pixel, each tightened by max). Good:
+// entering, stepping and leaving are local to the entry, and left and right
+// edges are applied by the same branch-free code. Bad: 40 bytes an edge,
+// since remainders of edges spanning more than 2^23 sub-pixel rows need
+// int64 (q itself fits int32 on every row where the edge is active: the
+// bound lies within the edge's x range there).
 struct ScanEdge {
-  int64_t q, r;    // bound on the current row, and the remainder
-  int64_t div;     // > 0
-  int64_t dq, dr;  // change of N from one row to the next, as dq * div + dr
-  int32_t poly;    // index of its polygon in the polygon store
+  int64_t r;         // remainder, 0 <= r < div
+  int64_t div;       // |step_x| > 0
+  int64_t dr;        // N changes by dq * div + dr from one row to the next
+  int32_t q, dq;     // bound on the current row, and its change
+  int32_t slot;      // index into the span bounds: 2 * polygon (+ 1 if right)
   int32_t last_row;  // leaves the active list after this row
-  bool lower;      // bounds the span from the left (x >= q) or right (x <= q)
 
   // The next row: N += dq * div + dr.
   void step() {
-    q += dq;
     r += dr;
     const bool carry = r >= div;
     r -= carry ? div : 0;
-    q += carry;
+    q += dq + int32_t(carry);
   }
+};
+
+// A triangle in the polygon store: what the row walk needs to draw its span
+// on any row.
+//
+// Design decision: the raster setup (raster.h: TriangleSetup) cut down to
+// int32 edge values at the box's first pixel with int32 steps, when every
+// edge value in the box fits (nearly always); the full setup, kept apart,
+// otherwise. Good: 88 bytes instead of 136, and a span needs no int64
+// arithmetic. Bad: two forms of one triangle; the int32 one is only a
+// faster evaluation of the same exact integers.
+struct ScanPolygon {
+  int32_t x_min, x_max, y_min, y_max;  // pixel box, inside the image
+  int32_t w[3];                        // biased edge values at (x_min, y_min)
+  int32_t step_x[3], step_y[3];
+  int32_t bias1, bias2;
+  float z0, a1, a2, z_lo, z_hi;
+  int32_t id;
+  int32_t large;  // index into the full setups, or -1 for the int32 form
 };
 
 // The tables and active lists of one frame. Reused from frame to frame (the
@@ -76,20 +99,26 @@ class ScanlineTables {
  private:
   void add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb, int32_t poly,
                 RenderStats& stats);
+  struct Counts {
+    int64_t tested = 0, covered = 0, written = 0;
+  };
+  void draw_span(const ScanPolygon& p, int y, int lo, int hi, Counts& counts);
 
   int width_ = 0, height_ = 0;
 
   // Polygon store and sorted polygon table.
-  // Design decision: the store keeps each triangle's raster setup in the
-  // order triangles arrive; the polygon table is a list of store indices
-  // sorted by starting row (a counting sort: one bucket per row, found by
-  // poly_start_[y] .. poly_start_[y + 1]). Good: O(n + H) to build, a row's
-  // entering polygons are one contiguous run, and edges can name their
-  // polygon before the sort. Bad: one indirection per polygon entering.
-  std::vector<TriangleSetup> polys_;
-  std::vector<int32_t> poly_row_;      // starting row of each stored polygon
-  std::vector<int32_t> poly_table_;    // store indices, sorted by starting row
-  std::vector<int32_t> poly_start_;    // (height + 1) bucket offsets
+  // Design decision: the store keeps the triangles in the order they
+  // arrive; the polygon table is a list of store indices sorted by starting
+  // row (a counting sort: one bucket per row, poly_start_[y] ..
+  // poly_start_[y + 1]). Good: O(n + H) to build, a row's entering
+  // polygons are one contiguous run, edges can name their polygon before
+  // the sort, and meshes in a spatial order keep neighbours near each other
+  // in the store. Bad: one indirection per polygon entering.
+  std::vector<ScanPolygon> polys_;
+  std::vector<TriangleSetup> large_;  // full setups of triangles too big for int32
+  std::vector<int32_t> poly_row_;     // starting row of each stored polygon
+  std::vector<int32_t> poly_table_;   // store indices, sorted by starting row
+  std::vector<int32_t> poly_start_;   // (height + 1) bucket offsets
 
   // Edge table.
   // Design decision: edges are collected unsorted, each initialised for its
@@ -97,23 +126,24 @@ class ScanlineTables {
   // polygon table). Good: an edge enters the active list as a copy, ready to
   // step. Bad: the edge table holds every edge of the frame at once
   // (O(triangles) memory, as the polygon table; only depth is O(width)).
-  std::vector<ScanEdge> edges_;        // unsorted
-  std::vector<ScanEdge> edge_table_;   // sorted by starting row
-  std::vector<int32_t> edge_row_;      // starting row of each unsorted edge
-  std::vector<int32_t> edge_start_;    // (height + 1) bucket offsets
+  std::vector<ScanEdge> edges_;       // unsorted
+  std::vector<ScanEdge> edge_table_;  // sorted by starting row
+  std::vector<int32_t> edge_row_;     // starting row of each unsorted edge
+  std::vector<int32_t> edge_start_;   // (height + 1) bucket offsets
+  std::vector<int32_t> position_;     // scratch of the counting sorts
 
   // Active polygon list and active edge list.
   // Design decision: plain arrays compacted in place once per row (entries
   // whose last row was the current one are dropped while the row is
-  // processed); the span of each active polygon lives in span_lo_/span_hi_,
-  // indexed by store index, narrowed by its active edges. Good: no
-  // allocation while walking, entries stay contiguous for the row loop, and
-  // neither list needs to be kept sorted by x because each span is drawn
-  // through the depth write, which is order-free. Bad: the span arrays are
-  // as long as the polygon store.
+  // processed, without a branch); the span of each active polygon lives in
+  // bounds_, indexed by store index, narrowed by its active edges. Good: no
+  // allocation while walking, entries stay contiguous, and neither list
+  // needs to be kept sorted by x because each span is drawn through the
+  // depth write, which is order-free. Bad: the bounds are as long as the
+  // polygon store.
   std::vector<int32_t> active_polys_;
   std::vector<ScanEdge> active_edges_;
-  std::vector<int32_t> span_lo_, span_hi_;
+  std::vector<int32_t> bounds_;
 
   // The depth buffer of one row, and the id row written with it.
   // Design decision: O(width) depth storage; after each row its drawn range
