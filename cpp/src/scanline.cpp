@@ -20,6 +20,14 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
       .count();
 }
 
+inline void prefetch(const void* p) {
+#if defined(__GNUC__)
+  __builtin_prefetch(p);
+#else
+  (void)p;
+#endif
+}
+
 // n = q * d + r with 0 <= r < d, for d > 0 and |n|, d < 2^53. The double
 // quotient is within one of the true one; integer arithmetic corrects it
 // (an int64 division costs several times as much).
@@ -74,36 +82,55 @@ void ScanlineTables::add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t
   const int64_t first = std::max<int64_t>(first_pixel_at_or_after(std::min(ya, yb)), s.y_min);
   const int64_t last = std::min<int64_t>(last_pixel_at_or_before(std::max(ya, yb)), s.y_max);
   if (first > last) return;
-  if (s.step_x[k] == 0 && s.bias[k] == 0) return;  // see below
-  // Filled in place: a struct built on the stack and copied in whole
-  // stalls on store forwarding.
-  ScanEdge& e = edges_.emplace_back();
+  // A horizontal edge exactly on a row of pixel centres: a top edge (bias
+  // 0) admits the whole row, a bottom edge (bias 1, edge value 0 there)
+  // none of it. Only the latter needs an entry.
+  if (s.step_x[k] == 0 && s.bias[k] == 0) return;
+  EdgeEntry& e = edges_.emplace_back();
+  e.poly = poly;
   e.last_row = int32_t(last);
-  if (s.step_x[k] == 0) {
-    // Horizontal, and exactly on a row of pixel centres: a top edge (bias 0)
-    // admits the whole row, a bottom edge (bias 1, edge value 0 there) none
-    // of it. Only the latter needs an entry: a left bound beyond any
-    // column, for this one row.
-    e.slot = 2 * poly;
+  e.k = s.step_x[k] == 0 ? EdgeEntry::kKillRow : k;
+  edge_row_.push_back(int32_t(first));
+  ++stats.edges_inserted;
+}
+
+// The DDA of an edge entering the active list at row y (its first row).
+ScanEdge ScanlineTables::start_edge(const EdgeEntry& entry, int y) const {
+  ScanEdge e;
+  e.last_row = entry.last_row;
+  if (entry.k == EdgeEntry::kKillRow) {
+    // A left bound beyond any column, for this one row.
+    e.slot = 2 * entry.poly;
     e.q = int32_t(1) << 30;
     e.dq = 0;
     e.r = e.dr = 0;
     e.div = 1;
-  } else {
-    // q = floor(N / div) with N = -wb0 + div - 1, wb0 the biased edge value
-    // at the centre of pixel (0, first); N changes by -step_y a row.
-    const int64_t wb0 = s.w_origin[k] + (0 - int64_t(s.x_min)) * s.step_x[k] +
-                        (first - s.y_min) * s.step_y[k];
-    e.slot = 2 * poly + (s.step_x[k] > 0 ? 0 : 1);
-    e.div = std::abs(s.step_x[k]);
-    int64_t q, dq;
-    floor_divmod(-wb0 + e.div - 1, e.div, q, e.r);
-    floor_divmod(-s.step_y[k], e.div, dq, e.dr);
-    e.q = int32_t(q);  // in the edge's x range: fits
-    e.dq = int32_t(dq);  // |dq| <= |dx| + 1 < 2^25
+    return e;
   }
-  edge_row_.push_back(int32_t(first));
-  ++stats.edges_inserted;
+  const ScanPolygon& p = polys_[size_t(entry.poly)];
+  const int k = entry.k;
+  int64_t w, sx, sy;
+  if (p.large >= 0) {
+    const TriangleSetup& s = large_[size_t(p.large)];
+    w = s.w_origin[k];
+    sx = s.step_x[k];
+    sy = s.step_y[k];
+  } else {
+    w = p.w[k];
+    sx = p.step_x[k];
+    sy = p.step_y[k];
+  }
+  // q = floor(N / div) with N = -wb0 + div - 1, wb0 the biased edge value
+  // at the centre of pixel (0, y); N changes by -step_y a row.
+  const int64_t wb0 = w + (0 - int64_t(p.x_min)) * sx + (int64_t(y) - p.y_min) * sy;
+  e.slot = 2 * entry.poly + (sx > 0 ? 0 : 1);
+  e.div = sx > 0 ? sx : -sx;
+  int64_t q, dq;
+  floor_divmod(-wb0 + e.div - 1, e.div, q, e.r);
+  floor_divmod(-sy, e.div, dq, e.dr);
+  e.q = int32_t(q);    // in the edge's x range on its active rows: fits
+  e.dq = int32_t(dq);  // |dq| <= |dx| + 1 < 2^25
+  return e;
 }
 
 // Polygon Table Entries
@@ -236,8 +263,16 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
       bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
       bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
     }
-    active_edges_.insert(active_edges_.end(), edge_table_.begin() + edge_start_[size_t(y)],
-                         edge_table_.begin() + edge_start_[size_t(y) + 1]);
+    for (int32_t i = edge_start_[size_t(y)]; i < edge_start_[size_t(y) + 1]; ++i)
+      active_edges_.push_back(start_edge(edge_table_[size_t(i)], y));
+    // The polygons entering two rows down, into cache meanwhile: the store
+    // is in arrival order, so they are scattered over it.
+    if (y + 2 < height)
+      for (int32_t i = poly_start_[size_t(y) + 2]; i < poly_start_[size_t(y) + 3]; ++i) {
+        const char* rec = reinterpret_cast<const char*>(&polys_[size_t(poly_table_[size_t(i)])]);
+        prefetch(rec);
+        prefetch(rec + sizeof(ScanPolygon) - 1);
+      }
     ++stats.scanline_rows;
     stats.active_polygons_sum += int64_t(active_polys_.size());
     stats.active_edges_sum += int64_t(active_edges_.size());

@@ -61,6 +61,22 @@ struct ScanEdge {
   }
 };
 
+// An entry of the edge table: which edge of which polygon, and until which
+// row it stays active.
+//
+// Design decision: 8 bytes naming the edge; its DDA state (ScanEdge) is
+// computed when it enters the active edge list, from its polygon's record,
+// which is in cache then (the polygon entered on the same row or earlier).
+// Good: the table that holds every edge of the frame is small, so filling
+// and sorting it moves little memory. Bad: the division that starts the
+// DDA happens during the row walk rather than before it.
+struct EdgeEntry {
+  int32_t poly;      // index in the polygon store
+  int32_t last_row;  // active through this row
+  int32_t k;         // edge k of the triangle, or kKillRow
+  static constexpr int32_t kKillRow = 3;  // a bottom edge exactly on a row of centres
+};
+
 // A triangle in the polygon store: what the row walk needs to draw its span
 // on any row.
 //
@@ -99,6 +115,7 @@ class ScanlineTables {
  private:
   void add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb, int32_t poly,
                 RenderStats& stats);
+  ScanEdge start_edge(const EdgeEntry& entry, int y) const;
   struct Counts {
     int64_t tested = 0, covered = 0, written = 0;
   };
@@ -121,13 +138,13 @@ class ScanlineTables {
   std::vector<int32_t> poly_start_;   // (height + 1) bucket offsets
 
   // Edge table.
-  // Design decision: edges are collected unsorted, each initialised for its
-  // starting row, then counting-sorted into buckets by that row (like the
-  // polygon table). Good: an edge enters the active list as a copy, ready to
-  // step. Bad: the edge table holds every edge of the frame at once
-  // (O(triangles) memory, as the polygon table; only depth is O(width)).
-  std::vector<ScanEdge> edges_;       // unsorted
-  std::vector<ScanEdge> edge_table_;  // sorted by starting row
+  // Design decision: edges are collected unsorted, then counting-sorted
+  // into buckets by starting row (like the polygon table). Good: O(n + H),
+  // and a row's entering edges are one contiguous run. Bad: the edge table
+  // holds every edge of the frame at once (O(triangles) memory, as the
+  // polygon table; only depth is O(width)).
+  std::vector<EdgeEntry> edges_;       // unsorted
+  std::vector<EdgeEntry> edge_table_;  // sorted by starting row
   std::vector<int32_t> edge_row_;     // starting row of each unsorted edge
   std::vector<int32_t> edge_start_;   // (height + 1) bucket offsets
   std::vector<int32_t> position_;     // scratch of the counting sorts
