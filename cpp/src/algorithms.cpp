@@ -14,7 +14,7 @@ const std::vector<Algorithm>& algorithms() {
        &render_hiz},
       {"scanline",
        "scanline Z-buffer: sorted polygon and edge tables, active lists, one row of depth",
-       &render_scanline},
+       &render_scanline, /*polygons=*/true},
   };
   return registry;
 }

@@ -335,6 +335,22 @@ void rasterize_span(const TriangleSetup& s, int y, int x0, int x1, float* depth_
 #endif
 }
 
+void rasterize_span_covered(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
+                            int32_t* id_row, RenderStats& stats) {
+  int64_t w[3];
+  rect_origin(s, x0, y, w);
+  int64_t w1 = w[1] + s.bias[1], w2 = w[2] + s.bias[2];  // exact, unbiased
+  int64_t written = 0;
+  for (int x = x0; x <= x1; ++x) {
+    written += depth_write(depth_row, id_row, size_t(x), depth_at(s, w1, w2), s.id);
+    w1 += s.step_x[1];
+    w2 += s.step_x[2];
+  }
+  stats.pixels_tested += int64_t(x1 - x0 + 1);
+  stats.pixels_covered += int64_t(x1 - x0 + 1);
+  stats.pixels_written += written;
+}
+
 void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats) {
   const TriangleSetup s = setup_triangle(t, target.width, target.height);
   if (s.x_min <= s.x_max && s.y_min <= s.y_max)

@@ -68,6 +68,10 @@ void ScanlineTables::reset(int width, int height) {
   poly_row_.clear();
   edges_.clear();
   edge_row_.clear();
+  gpolys_.clear();
+  gpoly_row_.clear();
+  gedges_.clear();
+  gedge_row_.clear();
 }
 
 // Edge Table Entries
@@ -182,6 +186,86 @@ void ScanlineTables::add_triangle(const ScreenTriangle& t, RenderStats& stats) {
     add_edge(s, k, t.v[(k + 1) % 3].y_fx, t.v[(k + 2) % 3].y_fx, poly, stats);
 }
 
+// General Polygons
+
+void ScanlineTables::add_polygon(const ScreenVertex* v, int n, int64_t area, int32_t id,
+                                 RenderStats& stats) {
+  // Rows: centres on the half-open range [min y, max y), the rows where an
+  // edge can cross (docs/rasterization.md).
+  int64_t y_lo = v[0].y_fx, y_hi = v[0].y_fx;
+  double z_min = v[0].z, z_max = v[0].z;
+  for (int i = 1; i < n; ++i) {
+    y_lo = std::min<int64_t>(y_lo, v[i].y_fx);
+    y_hi = std::max<int64_t>(y_hi, v[i].y_fx);
+    z_min = std::min(z_min, v[i].z);
+    z_max = std::max(z_max, v[i].z);
+  }
+  const int64_t first = std::max<int64_t>(first_pixel_at_or_after(y_lo), 0);
+  const int64_t last = std::min<int64_t>(first_pixel_at_or_after(y_hi) - 1, height_ - 1);
+  if (first > last) return;
+
+  // Depth plane: the fan triangle (v0, v_k, v_k+1) of the largest area with
+  // the polygon's orientation (the first such k on a tie), oriented to
+  // area > 0 as assembly orients triangles; z clamped to the polygon's range.
+  const int64_t x0 = v[0].x_fx, y0 = v[0].y_fx;
+  int best = 1;
+  int64_t best_area = 0;
+  for (int k = 1; k + 1 < n; ++k) {
+    const int64_t a = (int64_t(v[k].x_fx) - x0) * (int64_t(v[k + 1].y_fx) - y0) -
+                      (int64_t(v[k].y_fx) - y0) * (int64_t(v[k + 1].x_fx) - x0);
+    const int64_t oriented = area > 0 ? a : -a;
+    if (oriented > best_area) {
+      best_area = oriented;
+      best = k;
+    }
+  }
+  ScreenTriangle t;
+  t.v[0] = v[0];
+  t.v[1] = area > 0 ? v[best] : v[best + 1];
+  t.v[2] = area > 0 ? v[best + 1] : v[best];
+  t.area = best_area;
+  t.id = id;
+  const int32_t poly = int32_t(gpolys_.size());
+  ScanGeneralPolygon& g = gpolys_.emplace_back();
+  g.plane = setup_triangle(t, width_, height_);
+  g.plane.z_lo = float(z_min);
+  g.plane.z_hi = float(z_max);
+  g.last_row = int32_t(last);
+  gpoly_row_.push_back(int32_t(first));
+  ++stats.polygons_inserted;
+
+  // Edge Table: every non-horizontal edge, from its upper end t to its lower
+  // end u, on the rows with centres in [y_t, y_u). Its crossing on row y is
+  // the first pixel whose centre is at or right of the edge:
+  //   x_first = ceil(C / D),  C = (x_u - x_t)(py - y_t) - (y_u - y_t)(128 - x_t),
+  //   D = 256 (y_u - y_t),    py = 256 y + 128;
+  // q = floor(N / D) with N = C + D - 1, and N grows by 256 (x_u - x_t) a row.
+  for (int i = 0; i < n; ++i) {
+    const ScreenVertex& a = v[i];
+    const ScreenVertex& b = v[i + 1 < n ? i + 1 : 0];
+    if (a.y_fx == b.y_fx) continue;  // horizontal: crosses no row
+    const ScreenVertex& top = a.y_fx < b.y_fx ? a : b;
+    const ScreenVertex& bottom = a.y_fx < b.y_fx ? b : a;
+    const int64_t e_first = std::max<int64_t>(first_pixel_at_or_after(top.y_fx), 0);
+    const int64_t e_last =
+        std::min<int64_t>(first_pixel_at_or_after(bottom.y_fx) - 1, height_ - 1);
+    if (e_first > e_last) continue;
+    const int64_t dx = int64_t(bottom.x_fx) - top.x_fx, dy = int64_t(bottom.y_fx) - top.y_fx;
+    const int64_t c = dx * (pixel_centre_fx(e_first) - top.y_fx) - dy * (kHalfPixel - top.x_fx);
+    ScanEdge& e = gedges_.emplace_back();
+    e.div = dy * kSubpixelScale;
+    int64_t q, dq;
+    floor_divmod(c + e.div - 1, e.div, q, e.r);
+    floor_divmod(dx * kSubpixelScale, e.div, dq, e.dr);
+    e.q = int32_t(q);    // within the edge's x range on its rows: fits
+    e.dq = int32_t(dq);  // |dq| <= |dx| + 1 < 2^25
+    e.slot = poly;
+    e.last_row = int32_t(e_last);
+    gedge_row_.push_back(int32_t(e_first));
+    ++stats.edges_inserted;
+  }
+}
+
 // Spans
 
 // Pixels [lo, hi] of row y of polygon p (none if lo > hi), into the row
@@ -247,6 +331,15 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   edge_table_.resize(edges_.size());
   for (size_t i = 0; i < edges_.size(); ++i) edge_table_[size_t(position_[i])] = edges_[i];
 
+  bucket_by_row(gpoly_row_, height, gpoly_start_, position_);
+  gpoly_table_.resize(gpolys_.size());
+  for (size_t i = 0; i < gpolys_.size(); ++i) gpoly_table_[size_t(position_[i])] = int32_t(i);
+  bucket_by_row(gedge_row_, height, gedge_start_, position_);
+  gedge_table_.resize(gedges_.size());
+  for (size_t i = 0; i < gedges_.size(); ++i) gedge_table_[size_t(position_[i])] = gedges_[i];
+  active_gpolys_.clear();
+  active_gedges_.clear();
+
   bounds_.resize(2 * polys_.size());
   active_polys_.clear();
   active_edges_.clear();
@@ -273,12 +366,56 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
         prefetch(rec);
         prefetch(rec + sizeof(ScanPolygon) - 1);
       }
+    for (int32_t i = gpoly_start_[size_t(y)]; i < gpoly_start_[size_t(y) + 1]; ++i)
+      active_gpolys_.push_back(gpoly_table_[size_t(i)]);
+    active_gedges_.insert(active_gedges_.end(), gedge_table_.begin() + gedge_start_[size_t(y)],
+                          gedge_table_.begin() + gedge_start_[size_t(y) + 1]);
     ++stats.scanline_rows;
-    stats.active_polygons_sum += int64_t(active_polys_.size());
-    stats.active_edges_sum += int64_t(active_edges_.size());
-    stats.active_polygons_max = std::max(stats.active_polygons_max, int64_t(active_polys_.size()));
-    stats.active_edges_max = std::max(stats.active_edges_max, int64_t(active_edges_.size()));
-    if (active_polys_.empty()) continue;
+    const int64_t n_polys = int64_t(active_polys_.size() + active_gpolys_.size());
+    const int64_t n_edges = int64_t(active_edges_.size() + active_gedges_.size());
+    stats.active_polygons_sum += n_polys;
+    stats.active_edges_sum += n_edges;
+    stats.active_polygons_max = std::max(stats.active_polygons_max, n_polys);
+    stats.active_edges_max = std::max(stats.active_edges_max, n_edges);
+    if (n_polys == 0) continue;
+    int touched_lo = width, touched_hi = -1;
+
+    // General polygons: the crossings of their active edges, sorted by
+    // polygon then x and paired (even-odd): each pair [x_a, x_b) is a span
+    if (!active_gpolys_.empty()) {
+      crossings_.clear();
+      size_t kept_edges = 0;
+      for (size_t i = 0; i < active_gedges_.size(); ++i) {
+        ScanEdge e = active_gedges_[i];
+        crossings_.push_back((uint64_t(uint32_t(e.slot)) << 32) |
+                             uint64_t(uint32_t(e.q) ^ 0x80000000u));  // x + 2^31
+        if (e.last_row == y) continue;
+        e.step();
+        active_gedges_[kept_edges++] = e;
+      }
+      active_gedges_.resize(kept_edges);
+      std::sort(crossings_.begin(), crossings_.end());
+      for (size_t i = 0; i + 1 < crossings_.size(); i += 2) {
+        const TriangleSetup& plane = gpolys_[size_t(crossings_[i] >> 32)].plane;
+        const int64_t x_a = int64_t(uint32_t(crossings_[i])) - (int64_t(1) << 31);
+        const int64_t x_b = int64_t(uint32_t(crossings_[i + 1])) - (int64_t(1) << 31);
+        const int lo = int(std::max<int64_t>(x_a, 0));
+        const int hi = int(std::min<int64_t>(x_b - 1, width - 1));
+        if (lo > hi) continue;
+        RenderStats s;
+        rasterize_span_covered(plane, y, lo, hi, depth_row_.data(), id_row_.data(), s);
+        counts.tested += s.pixels_tested;
+        counts.covered += s.pixels_covered;
+        counts.written += s.pixels_written;
+        ++stats.spans_drawn;
+        touched_lo = std::min(touched_lo, lo);
+        touched_hi = std::max(touched_hi, hi);
+      }
+      size_t kept_polys = 0;
+      for (int32_t g : active_gpolys_)
+        if (gpolys_[size_t(g)].last_row != y) active_gpolys_[kept_polys++] = g;
+      active_gpolys_.resize(kept_polys);
+    }
 
     // Active edges: tighten their polygons' spans, step to the next row,
     // drop those that end here. Branch-free: left and right edges, and
@@ -311,7 +448,6 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
 
     // Active polygons: draw their spans into the row, drop those that end
     // here (branch-free, likewise)
-    int touched_lo = width, touched_hi = -1;
     kept = 0;
     for (size_t i = 0; i < active_polys_.size(); ++i) {
       const int32_t p = active_polys_[i];
@@ -359,12 +495,58 @@ void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats&
   t0 = std::chrono::steady_clock::now();
   thread_local ScanlineTables tables;
   tables.reset(target.width, target.height);
-  for (int64_t f = 0; f < input.mesh.n_faces; ++f)
-    assemble_triangle(input.mesh, input.mvp, vp, screen, f, input.cull_backfaces, stats,
-                      [&](const ScreenTriangle& t) {
-                        ++stats.rasterized;
-                        tables.add_triangle(t, stats);
-                      });
+  auto add_faces = [&](int64_t begin, int64_t end) {
+    for (int64_t f = begin; f < end; ++f)
+      assemble_triangle(input.mesh, input.mvp, vp, screen, f, input.cull_backfaces, stats,
+                        [&](const ScreenTriangle& t) {
+                          ++stats.rasterized;
+                          tables.add_triangle(t, stats);
+                        });
+  };
+  const PolygonView& polys = input.polygons;
+  if (polys.n_polygons == 0) {
+    add_faces(0, input.mesh.n_faces);
+  } else {
+    // Polygons (docs/rasterization.md, "Polygons"). Each decision about a
+    // polygon counts all its size - 2 triangles, so that the triangle
+    // counters add up as for any algorithm.
+    std::vector<ScreenVertex> v;
+    int64_t face = 0;  // the polygon's first triangle
+    for (int64_t p = 0; p < polys.n_polygons; ++p) {
+      const int32_t* idx = polys.indices + polys.offsets[p];
+      const int n = int(polys.offsets[p + 1] - polys.offsets[p]);
+      const int64_t triangles = n - 2, next_face = face + triangles;
+      uint32_t any_out = 0, all_out = ~0u;
+      for (int i = 0; i < n; ++i) {
+        any_out |= screen.outcode[size_t(idx[i])];
+        all_out &= screen.outcode[size_t(idx[i])];
+      }
+      if (any_out & kOutInvalid) {
+        stats.culled_invalid += triangles;
+      } else if (all_out & kOutView) {
+        stats.culled_frustum += triangles;
+      } else if ((any_out & kOutClip) || n > kMaxScanPolygonCorners) {
+        add_faces(face, next_face);  // clipped: drawn as its triangles
+      } else {
+        v.resize(size_t(n));
+        for (int i = 0; i < n; ++i) v[size_t(i)] = screen[idx[i]];
+        // Twice the signed area, as the fan (v0, v_k, v_k+1) sums it: exact.
+        int64_t area = 0;
+        for (int k = 1; k + 1 < n; ++k)
+          area += (int64_t(v[size_t(k)].x_fx) - v[0].x_fx) * (int64_t(v[size_t(k) + 1].y_fx) - v[0].y_fx) -
+                  (int64_t(v[size_t(k)].y_fx) - v[0].y_fx) * (int64_t(v[size_t(k) + 1].x_fx) - v[0].x_fx);
+        if (area == 0) {
+          stats.culled_degenerate += triangles;
+        } else if (area > 0 && input.cull_backfaces) {
+          stats.culled_backface += triangles;
+        } else {
+          stats.rasterized += triangles;
+          tables.add_polygon(v.data(), n, area, input.mesh.id(face), stats);
+        }
+      }
+      face = next_face;
+    }
+  }
   tables.render(target, stats);
   stats.raster_ms += ms_since(t0);
 }

@@ -22,6 +22,7 @@ struct Algorithm {
   const char* name;     // the name users pass as algo=
   const char* summary;  // one line for help texts
   AlgorithmFn render;
+  bool polygons = false;  // draws RenderInput::polygons natively
 };
 
 // All algorithms, in the order they are presented to users.

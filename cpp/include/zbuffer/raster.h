@@ -143,6 +143,13 @@ void rasterize_span(const TriangleSetup& s, int y, int x0, int x1, float* depth_
 void rasterize_span_scalar(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
                            int32_t* id_row, RenderStats& stats);
 
+// Draw every pixel [x0, x1] of row y (coverage decided by the caller: the
+// scanline's even-odd rule for polygons) with the depth plane of s: the
+// depth formula of s's exact edge values at each pixel centre, which may lie
+// outside s's triangle, then the depth write. Scalar: polygons are rare.
+void rasterize_span_covered(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
+                            int32_t* id_row, RenderStats& stats);
+
 // Set up and rasterize a whole triangle (its box). Algorithms that draw many
 // triangles use a TriangleBatch (triangle_batch.h), which is faster.
 void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats);

@@ -96,6 +96,27 @@ struct ScanPolygon {
   int32_t large;  // index into the full setups, or -1 for the int32 form
 };
 
+// A polygon face drawn natively (docs/rasterization.md, "Polygons"): its
+// coverage is the even-odd rule over its snapped edges, its depth the plane
+// of one of its fan triangles.
+//
+// Design decision: a general polygon keeps its full edge list in the edge
+// table, and on each row the crossings of its active edges are sorted and
+// paired (even-odd), rather than bounded by one left and one right edge as
+// a triangle is. Good: concave polygons, n-gons and self-intersecting
+// outlines are drawn by their written definition, not by edge pairs (which
+// hold only for convex polygons). Bad: a sort of the crossings per row; the
+// cheaper left/right bounds stay for triangles, which are nearly all faces
+// of a typical mesh.
+struct ScanGeneralPolygon {
+  TriangleSetup plane;  // depth plane (a fan triangle), z range and id of the polygon
+  int32_t last_row;
+};
+
+// Polygons with more corners than this are drawn as their triangles (their
+// exact signed area could overflow int64 beyond).
+constexpr int kMaxScanPolygonCorners = 4096;
+
 // The tables and active lists of one frame. Reused from frame to frame (the
 // vectors keep their memory), one per thread.
 class ScanlineTables {
@@ -107,6 +128,11 @@ class ScanlineTables {
   // and its edges in the edge table. Counts what it inserts. A triangle
   // whose box holds no pixel centre of the image is not inserted.
   void add_triangle(const ScreenTriangle& t, RenderStats& stats);
+
+  // Insert one polygon face (n >= 3 snapped vertices, none needing
+  // clipping) with twice its signed area `area` (!= 0), drawn with id `id`
+  // (docs/rasterization.md, "Polygons").
+  void add_polygon(const ScreenVertex* v, int n, int64_t area, int32_t id, RenderStats& stats);
 
   // Sort the tables by starting row, walk the rows and draw into target
   // (already cleared to +inf and -1).
@@ -161,6 +187,17 @@ class ScanlineTables {
   std::vector<int32_t> active_polys_;
   std::vector<ScanEdge> active_edges_;
   std::vector<int32_t> bounds_;
+
+  // General polygons: their store, sorted table and edge table (full DDA
+  // entries: polygon meshes are small), the active lists, and the sorted
+  // crossings of the current row, keyed (polygon << 32) | (x + 2^31).
+  std::vector<ScanGeneralPolygon> gpolys_;
+  std::vector<int32_t> gpoly_row_, gpoly_table_, gpoly_start_;
+  std::vector<ScanEdge> gedges_, gedge_table_;
+  std::vector<int32_t> gedge_row_, gedge_start_;
+  std::vector<int32_t> active_gpolys_;
+  std::vector<ScanEdge> active_gedges_;
+  std::vector<uint64_t> crossings_;
 
   // The depth buffer of one row, and the id row written with it.
   // Design decision: O(width) depth storage; after each row its drawn range

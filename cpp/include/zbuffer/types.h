@@ -37,9 +37,21 @@ struct DepthTarget {
   int height = 0;
 };
 
+// Polygon faces, for the algorithms that draw polygons natively (the
+// scanline; see Algorithm::polygons). Polygon p has the vertices
+// indices[offsets[p] .. offsets[p + 1]) (at least 3), and its triangulation
+// is the next size - 2 faces of the MeshView, in polygon order: the first
+// polygon's triangles first. Other algorithms draw those faces.
+struct PolygonView {
+  const int64_t* offsets = nullptr;  // (n_polygons + 1,), offsets[0] == 0
+  const int32_t* indices = nullptr;  // (offsets[n_polygons],) vertex indices
+  int64_t n_polygons = 0;            // 0: no polygons, draw the faces
+};
+
 // Everything an algorithm needs to render one frame.
 struct RenderInput {
   MeshView mesh;
+  PolygonView polygons;         // optional: the faces grouped into polygons
   double mvp[16] = {};        // row-major model-view-projection matrix
   bool cull_backfaces = false;  // drop triangles wound clockwise in NDC
 };
