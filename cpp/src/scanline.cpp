@@ -98,9 +98,10 @@ void ScanlineTables::add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t
   ++stats.edges_inserted;
 }
 
-// The DDA of an edge entering the active list at row y (its first row).
-ScanEdge ScanlineTables::start_edge(const EdgeEntry& entry, int y) const {
-  ScanEdge e;
+// The DDA of an edge entering the active list at row y (its first row),
+// written into e field by field (a returned struct copied whole into the
+// list stalled on store forwarding).
+void ScanlineTables::start_edge(const EdgeEntry& entry, int y, ScanEdge& e) const {
   e.last_row = entry.last_row;
   if (entry.k == EdgeEntry::kKillRow) {
     // A left bound beyond any column, for this one row.
@@ -109,7 +110,7 @@ ScanEdge ScanlineTables::start_edge(const EdgeEntry& entry, int y) const {
     e.dq = 0;
     e.r = e.dr = 0;
     e.div = 1;
-    return e;
+    return;
   }
   const ScanPolygon& p = polys_[size_t(entry.poly)];
   const int k = entry.k;
@@ -134,7 +135,6 @@ ScanEdge ScanlineTables::start_edge(const EdgeEntry& entry, int y) const {
   floor_divmod(-sy, e.div, dq, e.dr);
   e.q = int32_t(q);    // in the edge's x range on its active rows: fits
   e.dq = int32_t(dq);  // |dq| <= |dx| + 1 < 2^25
-  return e;
 }
 
 // Polygon Table Entries
@@ -357,7 +357,7 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
       bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
     }
     for (int32_t i = edge_start_[size_t(y)]; i < edge_start_[size_t(y) + 1]; ++i)
-      active_edges_.push_back(start_edge(edge_table_[size_t(i)], y));
+      start_edge(edge_table_[size_t(i)], y, active_edges_.emplace_back());
     // The polygons entering two rows down, into cache meanwhile: the store
     // is in arrival order, so they are scattered over it.
     if (y + 2 < height)

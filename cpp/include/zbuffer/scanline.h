@@ -141,7 +141,7 @@ class ScanlineTables {
  private:
   void add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb, int32_t poly,
                 RenderStats& stats);
-  ScanEdge start_edge(const EdgeEntry& entry, int y) const;
+  void start_edge(const EdgeEntry& entry, int y, ScanEdge& e) const;
   struct Counts {
     int64_t tested = 0, covered = 0, written = 0;
   };
