@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "array_checks.h"
+#include "render_common.h"
 #include "zbuffer/algorithms.h"
 #include "zbuffer/conventions.h"
 #include "zbuffer/mesh_checks.h"
@@ -22,96 +23,6 @@
 namespace zbuffer_py {
 
 namespace {
-
-void check_image_size(int width, int height) {
-  if (width <= 0 || height <= 0)
-    throw py::value_error("width and height must be positive, got " +
-                          std::to_string(width) + "x" + std::to_string(height));
-  if (width > zbuffer::kMaxImageSide || height > zbuffer::kMaxImageSide ||
-      int64_t(width) * height > zbuffer::kMaxImagePixels)
-    throw py::value_error("image " + std::to_string(width) + "x" + std::to_string(height) +
-                          " is too large: at most " + std::to_string(zbuffer::kMaxImageSide) +
-                          " pixels a side and " + std::to_string(zbuffer::kMaxImagePixels) +
-                          " pixels in all");
-}
-
-// Checks the mesh arrays and returns a view of them (GIL held).
-zbuffer::MeshView mesh_view(const py::array_t<double>& positions,
-                            const py::array_t<int32_t>& faces) {
-  zbuffer::MeshView mesh;
-  mesh.positions = positions.data();
-  mesh.n_vertices = positions.shape(0);
-  mesh.faces = faces.data();
-  mesh.n_faces = faces.shape(0);
-  if (mesh.n_vertices > std::numeric_limits<int32_t>::max())
-    throw py::value_error("too many vertices: at most 2**31 - 1");
-  if (mesh.n_faces > std::numeric_limits<int32_t>::max())
-    throw py::value_error("too many faces: at most 2**31 - 1");
-  const int64_t bad = zbuffer::find_bad_face_index(mesh);
-  if (bad >= 0)
-    throw py::value_error("face " + std::to_string(bad / 3) + " has vertex index " +
-                          std::to_string(mesh.faces[bad]) + ", outside [0, " +
-                          std::to_string(mesh.n_vertices) + ")");
-  const int64_t nonfinite = zbuffer::find_nonfinite_vertex(mesh);
-  if (nonfinite >= 0)
-    throw py::value_error("vertex " + std::to_string(nonfinite) +
-                          " has a NaN or infinite coordinate");
-  return mesh;
-}
-
-py::dict stats_dict(const zbuffer::RenderStats& s) {
-  py::dict d;
-  d["triangles_in"] = s.triangles_in;
-  d["culled_invalid"] = s.culled_invalid;
-  d["culled_frustum"] = s.culled_frustum;
-  d["clipped"] = s.clipped;
-  d["clipped_away"] = s.clipped_away;
-  d["clip_pieces"] = s.clip_pieces;
-  d["culled_backface"] = s.culled_backface;
-  d["culled_degenerate"] = s.culled_degenerate;
-  d["culled_hidden"] = s.culled_hidden;
-  d["rasterized"] = s.rasterized;
-  d["pixels_tested"] = s.pixels_tested;
-  d["pixels_covered"] = s.pixels_covered;
-  d["pixels_written"] = s.pixels_written;
-  d["tiles_skipped"] = s.tiles_skipped;
-  d["pyramid_cells_updated"] = s.pyramid_cells_updated;
-  d["polygons_inserted"] = s.polygons_inserted;
-  d["edges_inserted"] = s.edges_inserted;
-  d["scanline_rows"] = s.scanline_rows;
-  d["active_polygons_max"] = s.active_polygons_max;
-  d["active_polygons_mean"] =
-      s.scanline_rows ? double(s.active_polygons_sum) / double(s.scanline_rows) : 0.0;
-  d["active_edges_max"] = s.active_edges_max;
-  d["active_edges_mean"] =
-      s.scanline_rows ? double(s.active_edges_sum) / double(s.scanline_rows) : 0.0;
-  d["spans_drawn"] = s.spans_drawn;
-  d["depth_storage_bytes"] = s.depth_storage_bytes;
-  d["vertex_ms"] = s.vertex_ms;
-  d["raster_ms"] = s.raster_ms;
-  d["render_ms"] = s.total_ms;  // the C++ call; Python adds total_ms
-  return d;
-}
-
-// The depth and id planes, as two C-contiguous (H, W) arrays in one block.
-// Their start addresses differ by 2 KiB modulo 4 KiB: at widths that are a
-// multiple of 1024 pixels every row of both planes would otherwise fall in
-// the same L1 cache set, and a triangle's rows would evict each other.
-std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height) {
-  const size_t n = size_t(width) * size_t(height);
-  py::array_t<uint8_t> block(py::ssize_t(2 * 4 * n + 4096 + 64));
-  uint8_t* base = block.mutable_data();
-  const size_t depth_at = (64 - reinterpret_cast<uintptr_t>(base) % 64) % 64;
-  const uintptr_t depth_addr = reinterpret_cast<uintptr_t>(base) + depth_at;
-  const uintptr_t ids_min = depth_addr + 4 * n;
-  const uintptr_t want = (depth_addr + 2048) % 4096;
-  const uintptr_t ids_addr = ids_min + (want - ids_min % 4096 + 4096) % 4096;
-  const std::vector<py::ssize_t> shape = {height, width};
-  const std::vector<py::ssize_t> strides = {py::ssize_t(4) * width, 4};
-  py::array_t<float> depth(shape, strides, reinterpret_cast<float*>(depth_addr), block);
-  py::array_t<int32_t> ids(shape, strides, reinterpret_cast<int32_t*>(ids_addr), block);
-  return {depth, ids};
-}
 
 // Checks polygon faces (GIL held): offsets from 0 to the number of indices,
 // at least 3 corners each, indices in range, and as many triangles in the
@@ -157,7 +68,6 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   check_image_size(width, height);
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
   auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
-  auto mvp = require_array<double>(mvp_obj, "mvp", {4, 4});
 
   zbuffer::RenderInput input;
   input.mesh = mesh_view(positions, faces);
@@ -182,11 +92,7 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
     polygon_indices = require_array<int32_t>(polygon_indices_obj, "polygon_indices", {-1});
     input.polygons = polygon_view(polygon_offsets, polygon_indices, input.mesh);
   }
-  for (int k = 0; k < 16; ++k) {
-    input.mvp[k] = mvp.data()[k];
-    if (!std::isfinite(input.mvp[k]))
-      throw py::value_error("the camera matrix has a NaN or infinite entry");
-  }
+  read_mvp(mvp_obj, input.mvp);
   input.cull_backfaces = cull_backfaces;
 
   // Outputs are the user's arrays: written in place, handed over uncopied.

@@ -9,6 +9,7 @@
 namespace py = pybind11;
 
 namespace zbuffer_py {
+void bind_object_tree(py::module_& m);
 void bind_render(py::module_& m);
 void bind_shading(py::module_& m);
 }  // namespace zbuffer_py
@@ -23,5 +24,6 @@ PYBIND11_MODULE(_core, m) {
   m.attr("MAX_CLIP_VERTICES") = zbuffer::kMaxClipVertices;
   m.attr("RASTER_BACKEND") = zbuffer::raster_backend();
   zbuffer_py::bind_render(m);
+  zbuffer_py::bind_object_tree(m);
   zbuffer_py::bind_shading(m);
 }

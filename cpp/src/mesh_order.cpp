@@ -1,24 +1,12 @@
-// Z-order of face centroids, by a two-pass radix sort of 30-bit keys.
+// Z-order of face centroids, by a radix sort of 30-bit Morton keys.
 #include "zbuffer/mesh_order.h"
 
 #include <algorithm>
 #include <vector>
 
+#include "morton.h"
+
 namespace zbuffer {
-
-namespace {
-
-// Spread the low 10 bits of v so that bit i lands on bit 3 i.
-uint32_t spread_bits(uint32_t v) {
-  v &= 0x3FF;
-  v = (v | (v << 16)) & 0x030000FF;
-  v = (v | (v << 8)) & 0x0300F00F;
-  v = (v | (v << 4)) & 0x030C30C3;
-  v = (v | (v << 2)) & 0x09249249;
-  return v;
-}
-
-}  // namespace
 
 void spatial_order(const MeshView& mesh, int32_t* order) {
   const int64_t n = mesh.n_faces;
@@ -41,39 +29,19 @@ void spatial_order(const MeshView& mesh, int32_t* order) {
   double scale[3];
   for (int k = 0; k < 3; ++k) scale[k] = hi[k] > lo[k] ? 1023.0 / (hi[k] - lo[k]) : 0.0;
 
-  const size_t faces = size_t(n);
-  std::vector<uint32_t> key(faces), key_tmp(faces);
-  std::vector<int32_t> tmp(faces);
+  std::vector<uint32_t> key(static_cast<size_t>(n));
+  std::vector<int32_t> faces(static_cast<size_t>(n));
   for (int64_t f = 0; f < n; ++f) {
-    uint32_t code = 0;
+    uint32_t cell[3];
     for (int k = 0; k < 3; ++k) {
       const double q = (double(centre[3 * f + k]) - lo[k]) * scale[k];
-      const uint32_t cell = uint32_t(std::min(1023.0, std::max(0.0, q)));
-      code |= spread_bits(cell) << k;
+      cell[k] = uint32_t(std::min(1023.0, std::max(0.0, q)));
     }
-    key[f] = code;
-    order[f] = int32_t(f);
+    key[size_t(f)] = morton_30(cell[0], cell[1], cell[2]);
+    faces[size_t(f)] = int32_t(f);
   }
-
-  // Stable LSD radix sort on 2 x 15 bits.
-  std::vector<int64_t> count(1 << 15);
-  for (int shift = 0; shift < 30; shift += 15) {
-    std::fill(count.begin(), count.end(), 0);
-    for (int64_t f = 0; f < n; ++f) ++count[(key[f] >> shift) & 0x7FFF];
-    int64_t sum = 0;
-    for (auto& c : count) {
-      const int64_t here = c;
-      c = sum;
-      sum += here;
-    }
-    for (int64_t f = 0; f < n; ++f) {
-      const int64_t dst = count[(key[f] >> shift) & 0x7FFF]++;
-      key_tmp[dst] = key[f];
-      tmp[dst] = order[f];
-    }
-    key.swap(key_tmp);
-    std::copy(tmp.begin(), tmp.end(), order);
-  }
+  radix_sort(key, faces, 30);  // stable: ties keep the input order
+  std::copy(faces.begin(), faces.end(), order);
 }
 
 }  // namespace zbuffer

@@ -114,7 +114,13 @@ void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Vie
                               bool cull_backfaces) {
   int64_t f = begin;
 #ifdef ZBUFFER_AVX512
-  for (; f + 16 <= end; f += 16) add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces);
+  for (; f + 16 <= end; f += 16) add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, 16);
+  // The last few faces through the same vector path, with lanes masked off
+  // (small clusters of object-space trees end in such a remainder).
+  if (f < end && mesh.n_vertices > 0) {
+    add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, int(end - f));
+    f = end;
+  }
 #endif
   for (; f < end; ++f) add_face(mesh, mvp, vp, sv, f, cull_backfaces);
 }
@@ -298,6 +304,7 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
 }
 
 void TriangleBatch::update_pyramid() {
+  const auto t0 = std::chrono::steady_clock::now();
   // The level-3 cells under every 16 x 16 block drawn into since the last
   // update, listed once; the pyramid recomputes them from the pixels and
   // climbs from there.
@@ -332,6 +339,7 @@ void TriangleBatch::update_pyramid() {
   dirty_lo_ = 1 << 30;
   dirty_hi_ = -1;
   if (tile_cells_) stats_.pyramid_cells_updated += pyramid_->update_cells(dirty_list_);
+  stats_.pyramid_ms += ms_since(t0);
 }
 
 #ifdef ZBUFFER_AVX512
@@ -463,13 +471,19 @@ inline __m512 join(__m256 lo, __m256 hi) {
 }  // namespace
 
 void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
-                                 const ScreenVertices& sv, int64_t first, bool cull_backfaces) {
+                                 const ScreenVertices& sv, int64_t first, bool cull_backfaces,
+                                 int count) {
   if (n_small_ + kSlack > capacity_ || large_.size() + 16 > size_t(capacity_)) flush();
 
-  // Gather the three vertices of 16 faces.
+  // Gather the three vertices of `count` faces; lanes past them load index 0
+  // (a valid vertex) and are masked off below.
+  const __mmask16 live = __mmask16((1u << count) - 1);
+  const int ints = 3 * count;
+  auto first_lanes = [](int n) { return __mmask16(n >= 16 ? 0xFFFF : n <= 0 ? 0 : (1u << n) - 1); };
   const int32_t* fp = mesh.faces + 3 * first;
-  const __m512i a = _mm512_loadu_si512(fp), b = _mm512_loadu_si512(fp + 16),
-                c = _mm512_loadu_si512(fp + 32);
+  const __m512i a = _mm512_maskz_loadu_epi32(first_lanes(ints), fp),
+                b = _mm512_maskz_loadu_epi32(first_lanes(ints - 16), fp + 16),
+                c = _mm512_maskz_loadu_epi32(first_lanes(ints - 32), fp + 32);
   __m512i idx[3], x[3], y[3];
   __m512d z_lo[3], z_hi[3];
   __m512i oc[3];
@@ -487,12 +501,13 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
   // Culling and clipping decisions, as assemble_triangle makes them.
   const __m512i any_out = _mm512_ternarylogic_epi32(oc[0], oc[1], oc[2], 0xFE);  // a | b | c
   const __m512i all_out = _mm512_ternarylogic_epi32(oc[0], oc[1], oc[2], 0x80);  // a & b & c
-  const __mmask16 invalid = _mm512_test_epi32_mask(any_out, _mm512_set1_epi32(int(kOutInvalid)));
+  const __mmask16 invalid =
+      live & _mm512_test_epi32_mask(any_out, _mm512_set1_epi32(int(kOutInvalid)));
   const __mmask16 outside =
-      _mm512_test_epi32_mask(all_out, _mm512_set1_epi32(int(kOutView))) & ~invalid;
+      live & _mm512_test_epi32_mask(all_out, _mm512_set1_epi32(int(kOutView))) & ~invalid;
   const __mmask16 clip =
-      _mm512_test_epi32_mask(any_out, _mm512_set1_epi32(int(kOutClip))) & ~invalid & ~outside;
-  const __mmask16 simple = __mmask16(~(invalid | outside | clip));
+      live & _mm512_test_epi32_mask(any_out, _mm512_set1_epi32(int(kOutClip))) & ~invalid & ~outside;
+  const __mmask16 simple = live & __mmask16(~(invalid | outside | clip));
   stats_.culled_invalid += __builtin_popcount(invalid);
   stats_.culled_frustum += __builtin_popcount(outside);
 
@@ -628,7 +643,7 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     put_f(z_lo_, join(lol, loh));
     put_f(z_hi_, join(hil, hih));
     const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
-    put(id_, mesh.face_ids ? _mm512_loadu_si512(mesh.face_ids + first)
+    put(id_, mesh.face_ids ? _mm512_maskz_loadu_epi32(live, mesh.face_ids + first)
                            : _mm512_add_epi32(_mm512_set1_epi32(int32_t(first)), lane));
     small_tested_ += _mm512_mask_reduce_add_epi32(m, _mm512_mullo_epi32(box_w, box_h));
     // Groups: narrow ones from 0, wide ones from kWideGroups, by row pairs.
@@ -681,7 +696,7 @@ template <int kRows>
 void TriangleBatch::draw_wide(int, int64_t&, int64_t&) {}
 
 void TriangleBatch::add_16_faces(const MeshView&, const double*, const Viewport&,
-                                 const ScreenVertices&, int64_t, bool) {}
+                                 const ScreenVertices&, int64_t, bool, int) {}
 
 #endif
 

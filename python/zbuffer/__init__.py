@@ -14,6 +14,7 @@ from .api import algorithms, render
 from .camera import Camera
 from .mesh import Mesh, as_mesh, load
 from .result import RenderResult
+from .scene import Scene
 
 __version__ = "0.1.0"
 
@@ -21,6 +22,7 @@ __all__ = [
     "Camera",
     "Mesh",
     "RenderResult",
+    "Scene",
     "algorithms",
     "as_mesh",
     "load",

@@ -102,10 +102,7 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         Arguments of the wrong type.
     """
     start = time.perf_counter()
-    if algo not in _ALGORITHMS:
-        raise ValueError(
-            f"unknown algorithm {algo!r}; valid names are {', '.join(map(repr, _ALGORITHMS))}"
-        )
+    check_algorithm(algo)
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
     faces, face_ids = mesh.faces_for_render()
@@ -117,6 +114,20 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     depth, triangle_id, stats = _core.render(
         mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces), face_ids,
         offsets, indices)
+    return finish(mesh, camera, mvp, params, algo, depth, triangle_id, stats, start)
+
+
+def check_algorithm(algo) -> None:
+    """ValueError unless ``algo`` names a registered algorithm."""
+    if algo not in _ALGORITHMS:
+        raise ValueError(
+            f"unknown algorithm {algo!r}; valid names are {', '.join(map(repr, _ALGORITHMS))}"
+        )
+
+
+def finish(mesh: Mesh, camera: Camera, mvp: np.ndarray, params: ShadingParams, algo: str,
+           depth: np.ndarray, triangle_id: np.ndarray, stats: dict, start: float) -> RenderResult:
+    """Shade (unless shading is "none"), time, and wrap up a render."""
     image = None
     shade_ms = 0.0
     if params.mode != "none":

@@ -15,7 +15,7 @@ from .mesh import Mesh
 __all__ = [
     "box", "uv_sphere", "torus", "grid", "combine", "default_scene", "default_camera",
     "overlapping_boxes", "interpenetrating_triangles", "coplanar_faces", "fan",
-    "random_soup", "tessellated_square",
+    "random_soup", "tessellated_square", "instance_grid",
 ]
 
 Part = Tuple[np.ndarray, np.ndarray]
@@ -196,3 +196,35 @@ def tessellated_square(n: int = 8, jitter: float = 0.0, seed: int = 0) -> Mesh:
             a, b, c, d = i * m + j, (i + 1) * m + j, (i + 1) * m + j + 1, i * m + j + 1
             faces += [[a, b, c], [a, c, d]] if (i + j) % 2 else [[a, b, d], [b, c, d]]
     return Mesh(v, np.array(faces), name=f"tessellated_square({n})")
+
+
+def instance_grid(mesh, counts=(5, 5, 10), spacing: float = 1.1) -> Mesh:
+    """Copies of a mesh on a regular grid: ``counts[0] x counts[1] x counts[2]``
+    copies along x, y and z, ``spacing`` times the mesh's extent along each
+    axis apart (1.0: bounding boxes touching), centred on the z axis, the
+    first layer in front (largest z) and the others behind it. The occlusion benchmark of the hierarchical algorithms (a
+    camera on +z looking down the long axis sees the front layer and little
+    else). Faces are numbered copy by copy."""
+    from .mesh import as_mesh
+
+    mesh = as_mesh(mesh)
+    counts = tuple(int(c) for c in counts)
+    if len(counts) != 3 or min(counts) < 1:
+        raise ValueError(f"counts must be three positive integers, got {counts}")
+    n_copies = counts[0] * counts[1] * counts[2]
+    if n_copies * len(mesh.faces) > 2**31 - 1 or n_copies * len(mesh.vertices) > 2**31 - 1:
+        raise ValueError(f"{n_copies} copies of {len(mesh.faces)} faces exceed 2**31 - 1")
+    v = mesh.vertices
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    extent = hi - lo
+    step = spacing * np.where(extent > 0, extent, 1.0)
+    centre = (lo + hi) / 2
+    ix, iy, iz = np.meshgrid(*(np.arange(c) for c in counts), indexing="ij")
+    offsets = np.stack([(ix - (counts[0] - 1) / 2) * step[0],
+                        (iy - (counts[1] - 1) / 2) * step[1], -iz * step[2]], -1).reshape(-1, 3)
+    offsets -= centre
+    verts = (v[None, :, :] + offsets[:, None, :]).reshape(-1, 3)
+    faces = (mesh.faces[None, :, :].astype(np.int64)
+             + (np.arange(n_copies) * len(v))[:, None, None]).reshape(-1, 3)
+    return Mesh(verts, faces.astype(np.int32), name=f"{counts[0]}x{counts[1]}x{counts[2]} grid")
+

@@ -7,6 +7,7 @@ machines without a display (VTK renders offscreen through EGL with Mesa).
 >>> res = zbuffer.render(mesh, algo="hiz")
 >>> zbuffer.viz.show_result(res, screenshot="result.png")     # image | depth | ids
 >>> zbuffer.viz.show_pyramid(res, screenshot="pyramid.png")   # every level, one colour scale
+>>> zbuffer.viz.show_tree(scene, "hiz_octree", result=res)    # octree boxes by fate, frustum
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 from .result import RenderResult
 
 __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms",
-           "id_colors", "depth_for_display"]
+           "show_tree", "tree_grid", "frustum_grid", "id_colors", "depth_for_display"]
 
 
 def _pyvista():
@@ -77,9 +78,11 @@ def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
     plotter.camera.zoom(1.0)
 
 
-def _finish(plotter, screenshot: Optional[str]):
-    if screenshot is not None:
-        image = plotter.screenshot(screenshot)
+def _finish(plotter, screenshot):
+    """Show the plotter, or with ``screenshot`` (a path, or True for no file)
+    render it offscreen and return the picture."""
+    if screenshot is not None and screenshot is not False:
+        image = plotter.screenshot(None if screenshot is True else screenshot)
         plotter.close()
         return image
     plotter.show()
@@ -87,13 +90,14 @@ def _finish(plotter, screenshot: Optional[str]):
 
 
 def _plotter(pv, shape, window_size, screenshot):
-    plotter = pv.Plotter(shape=shape, off_screen=screenshot is not None, window_size=window_size,
+    offscreen = screenshot is not None and screenshot is not False
+    plotter = pv.Plotter(shape=shape, off_screen=offscreen, window_size=window_size,
                          border=False)
     plotter.set_background("white")
     return plotter
 
 
-def show_result(result: RenderResult, screenshot: Optional[str] = None,
+def show_result(result: RenderResult, screenshot: Union[str, bool, None] = None,
                 window_size=(1500, 450)):
     """The shaded image, the depth map (with a colour bar) and the triangle
     ids in false colour, side by side.
@@ -101,8 +105,9 @@ def show_result(result: RenderResult, screenshot: Optional[str] = None,
     Parameters
     ----------
     result : RenderResult
-    screenshot : str, optional
-        Write a PNG there instead of opening a window.
+    screenshot : str or True, optional
+        Write a PNG there instead of opening a window (True: render
+        offscreen and only return the picture).
     window_size : (int, int)
 
     Returns
@@ -128,7 +133,7 @@ def _levels(source) -> List[np.ndarray]:
     return [np.asarray(level) for level in source]
 
 
-def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: Optional[str] = None,
+def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: Union[str, bool, None] = None,
                  levels: Optional[Iterable[int]] = None, window_size=None):
     """Z-pyramid levels side by side, one shared colour scale (depth of the
     farthest pixel under each cell; black where nothing was drawn).
@@ -138,8 +143,9 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
     source : RenderResult or list of (h, w) float32 arrays
         A render (its pyramid is computed) or levels as from
         :meth:`RenderResult.pyramid`.
-    screenshot : str, optional
-        Write a PNG there instead of opening a window.
+    screenshot : str or True, optional
+        Write a PNG there instead of opening a window (True: render
+        offscreen and only return the picture).
     levels : iterable of int, optional
         Which levels to show (default: all down to 4 x 4 cells or less).
     """
@@ -162,7 +168,7 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
 
 
 def show_pyramid_stack(source: Union[RenderResult, Sequence[np.ndarray]],
-                       screenshot: Optional[str] = None, spacing: float = 0.25,
+                       screenshot: Union[str, bool, None] = None, spacing: float = 0.25,
                        window_size=(900, 900)):
     """The pyramid as a 3D stack of planes: level 0 (the depth map) at the
     bottom, each coarser level above it, all at the image's scale, so a cell
@@ -189,7 +195,7 @@ def show_pyramid_stack(source: Union[RenderResult, Sequence[np.ndarray]],
 
 
 def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
-                       algos: Optional[Sequence[str]] = None, screenshot: Optional[str] = None,
+                       algos: Optional[Sequence[str]] = None, screenshot: Union[str, bool, None] = None,
                        **render_options) -> Dict[str, RenderResult]:
     """The same view rendered by several algorithms: their images with times
     and counters, and the difference of their depth maps from the first one's
@@ -225,3 +231,123 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
                    clim=(0.0, max(float(diff.max()), 1e-12)), cmap="magma")
     _finish(plotter, screenshot)
     return results
+
+
+# Trees
+
+# Colours of the node fates (zbuffer.scene.NODE_FATES, in order).
+FATE_COLORS = ("#d0d0d0", "#7fb3e6", "#d62728", "#ff9f1c", "#2ca02c")
+
+# The 8 corners of a box as VTK orders a hexahedron: the bottom face (z low)
+# counter-clockwise, then the top face.
+_HEX_CORNERS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
+                         [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], dtype=bool)
+
+
+def tree_grid(scene, algo: str = "hiz_octree", level: Optional[int] = None):
+    """The boxes of a Scene's tree as one ``pyvista.UnstructuredGrid`` of
+    hexahedra (one cell per node; never one actor per node), with cell data
+    ``fate`` (index into :data:`zbuffer.scene.NODE_FATES`, last render),
+    ``depth`` (in the tree) and ``triangles`` (in the subtree).
+
+    Parameters
+    ----------
+    scene : zbuffer.Scene
+    algo : {"hiz_octree", "hiz_bvh"}
+    level : int, optional
+        Only the nodes at this depth in the tree (root 0); default all.
+    """
+    pv = _pyvista()
+    nodes = scene.nodes(algo)
+    keep = np.ones(len(nodes["depth"]), bool) if level is None else nodes["depth"] == level
+    lo, hi = nodes["lo"][keep], nodes["hi"][keep]
+    n = len(lo)
+    points = np.where(_HEX_CORNERS[None, :, :], hi[:, None, :], lo[:, None, :]).reshape(-1, 3)
+    cells = np.hstack([np.full((n, 1), 8), np.arange(8 * n).reshape(n, 8)]).ravel()
+    grid = pv.UnstructuredGrid(cells, np.full(n, pv.CellType.HEXAHEDRON, np.uint8), points)
+    grid.cell_data["fate"] = nodes["fate"][keep].astype(np.int32)
+    grid.cell_data["depth"] = nodes["depth"][keep]
+    grid.cell_data["triangles"] = nodes["n_triangles"][keep]
+    return grid
+
+
+def frustum_grid(result: RenderResult):
+    """The view volume of a render (its camera's near-to-far frustum) as one
+    hexahedron, from the inverse of the result's MVP."""
+    pv = _pyvista()
+    inv = np.linalg.inv(result.mvp)
+    ndc = np.where(_HEX_CORNERS, 1.0, -1.0)
+    clip = np.hstack([ndc, np.ones((8, 1))]) @ inv.T
+    points = clip[:, :3] / clip[:, 3:]
+    return pv.UnstructuredGrid(np.array([8, *range(8)]), np.array([pv.CellType.HEXAHEDRON], np.uint8),
+                               points)
+
+
+def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = None,
+              color_by: str = "fate", level: Optional[int] = None,
+              screenshot: Union[str, bool, None] = None, window_size=(900, 700), mesh_opacity: float = 0.35):
+    """The mesh and its octree or BVH: every node's box as one wireframe
+    grid, coloured by its fate in the last render (culled as hidden or
+    outside, visited, drawn) or by its depth in the tree, with the camera's
+    view volume when ``result`` (a render of this tree) is given.
+
+    Parameters
+    ----------
+    scene : zbuffer.Scene
+    algo : {"hiz_octree", "hiz_bvh"}
+    result : RenderResult, optional
+        The last ``scene.render(..., algo=algo)``: its frustum is drawn.
+    color_by : {"fate", "depth"}
+    level : int, optional
+        Show the nodes of one tree depth only. In a window without
+        ``level`` or ``screenshot``, a slider picks the depth.
+    screenshot : str or True, optional
+        Write a PNG there instead of opening a window (True: render
+        offscreen and only return the picture).
+
+    Returns
+    -------
+    (H, W, 3|4) uint8 array of the screenshot, or the pyvista Plotter shown.
+    """
+    from .scene import NODE_FATES
+
+    if color_by not in ("fate", "depth"):
+        raise ValueError(f"color_by must be 'fate' or 'depth', got {color_by!r}")
+    pv = _pyvista()
+    plotter = _plotter(pv, (1, 1), window_size, screenshot)
+    mesh = scene.mesh
+    if len(mesh.faces):
+        faces = np.hstack([np.full((len(mesh.faces), 1), 3), mesh.faces]).ravel()
+        plotter.add_mesh(pv.PolyData(mesh.vertices, faces), color="#bbbbbb",
+                         opacity=mesh_opacity)
+    depth_max = int(scene.nodes(algo)["depth"].max(initial=0))
+    options = dict(style="wireframe", line_width=1.5, show_scalar_bar=True)
+    if color_by == "fate":
+        options.update(scalars="fate", cmap=list(FATE_COLORS), clim=(-0.5, len(NODE_FATES) - 0.5),
+                       n_colors=len(NODE_FATES), categories=True,
+                       annotations={k: name for k, name in enumerate(NODE_FATES)},
+                       scalar_bar_args={"title": "fate in the last render", "n_labels": 0})
+    else:
+        options.update(scalars="depth", cmap="viridis", clim=(0, max(depth_max, 1)),
+                       scalar_bar_args={"title": "depth in the tree", "fmt": "%.0f"})
+
+    def draw(depth):
+        grid = tree_grid(scene, algo, depth)
+        if grid.n_cells:
+            plotter.add_mesh(grid, name="tree", **options)
+        else:
+            plotter.remove_actor("tree")
+
+    if level is None and screenshot is None and depth_max > 0:
+        plotter.add_slider_widget(lambda value: draw(int(round(value))), (0, depth_max),
+                                  value=0, title="tree depth", fmt="%.0f")
+    else:
+        draw(level)
+    if result is not None:
+        plotter.add_mesh(frustum_grid(result), style="wireframe", color="black", line_width=2)
+    what = "octree" if algo == "hiz_octree" else "BVH"
+    plotter.add_text(f"{what} of {len(mesh.faces):,} triangles"
+                     + ("" if level is None else f", depth {level}"), font_size=10)
+    plotter.reset_camera()
+    return _finish(plotter, screenshot)
+

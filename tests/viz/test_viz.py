@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import zbuffer
+from helpers import can_render_offscreen
 from zbuffer import scenes
 
 pv = pytest.importorskip("pyvista")
@@ -15,18 +16,7 @@ pv.OFF_SCREEN = True
 from zbuffer import viz  # noqa: E402  (after pyvista's offscreen switch)
 
 
-def can_render() -> bool:
-    try:
-        plotter = pv.Plotter(off_screen=True, window_size=(32, 32))
-        plotter.add_mesh(pv.Sphere())
-        image = plotter.screenshot(None)
-        plotter.close()
-        return image is not None and image.size > 0
-    except Exception:  # no OpenGL context at all
-        return False
-
-
-RENDERS = can_render()
+RENDERS = can_render_offscreen()
 if not RENDERS and os.environ.get("ZBUFFER_REQUIRE_VIZ"):  # CI: a skip would hide a failure
     raise RuntimeError("ZBUFFER_REQUIRE_VIZ is set but pyvista cannot render offscreen")
 
@@ -92,3 +82,34 @@ def test_id_colours_are_stable_and_black_for_background():
     assert (rgb[ids < 0] == 0).all()
     np.testing.assert_array_equal(rgb[0, 2], rgb[1, 0])
     assert not np.array_equal(rgb[0, 1], rgb[0, 2])
+
+
+@pytest.mark.parametrize("algo", ["hiz_octree", "hiz_bvh"])
+def test_tree_views(algo, tmp_path):
+    mesh = scenes.instance_grid(scenes.default_scene(), (2, 2, 3))
+    scene = zbuffer.Scene(mesh, leaf_size=64)
+    cam = zbuffer.Camera.fit(mesh, direction=(0.3, 0.2, 1.0), aspect=4 / 3)
+    res = scene.render(cam, algo=algo, width=160, height=120)
+    nodes = scene.nodes(algo)
+    grid = viz.tree_grid(scene, algo)
+    assert grid.n_cells == len(nodes["depth"])  # one grid, one cell per node
+    np.testing.assert_array_equal(grid.cell_data["fate"], nodes["fate"])
+    level = viz.tree_grid(scene, algo, level=2)
+    assert level.n_cells == (nodes["depth"] == 2).sum() > 0
+    np.testing.assert_allclose(grid.bounds, [mesh.vertices[:, 0].min(), mesh.vertices[:, 0].max(),
+                                             mesh.vertices[:, 1].min(), mesh.vertices[:, 1].max(),
+                                             mesh.vertices[:, 2].min(), mesh.vertices[:, 2].max()])
+    for color_by, lvl in [("fate", None), ("depth", 2)]:
+        image = viz.show_tree(scene, algo, result=res, color_by=color_by, level=lvl,
+                              screenshot=str(tmp_path / f"{color_by}.png"), window_size=(400, 300))
+        assert not_blank(image)
+    with pytest.raises(ValueError, match="color_by must be"):
+        viz.show_tree(scene, algo, color_by="size", screenshot=str(tmp_path / "x.png"))
+
+
+def test_frustum_corners_project_to_the_clip_cube():
+    res = zbuffer.render(scenes.default_scene(), width=80, height=60, shading="none")
+    pts = np.asarray(viz.frustum_grid(res).points)
+    clip = np.hstack([pts, np.ones((8, 1))]) @ res.mvp.T
+    np.testing.assert_allclose(np.abs(clip[:, :3] / clip[:, 3:]), 1.0, rtol=1e-9)
+

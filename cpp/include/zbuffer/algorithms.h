@@ -34,6 +34,9 @@ const Algorithm* find_algorithm(const std::string& name);
 // "zbuffer", "scanline", ... for error messages.
 std::string algorithm_names();
 
+// Depth +inf and id -1 everywhere.
+void clear_target(DepthTarget& target);
+
 // Clear the target, run the algorithm, time the whole call.
 void render(const Algorithm& algorithm, const RenderInput& input,
             DepthTarget& target, RenderStats& stats);
@@ -42,5 +45,7 @@ void render(const Algorithm& algorithm, const RenderInput& input,
 void render_zbuffer(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats& stats);
+void render_hiz_octree(const RenderInput& input, DepthTarget& target, RenderStats& stats);
+void render_hiz_bvh(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 
 }  // namespace zbuffer

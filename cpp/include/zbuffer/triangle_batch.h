@@ -61,6 +61,9 @@ class TriangleBatch {
   // the target.
   void flush();
 
+  // Triangles added and not drawn yet.
+  int pending() const { return n_small_ + int(large_.size()); }
+
  private:
   // Groups 0-7: narrow (< 8 px wide), 1-8 passes of 8 x 2 pixels.
   // Groups 8-15: wide (< 16 px wide), 2-16 passes of 16 x 1 pixels.
@@ -86,9 +89,10 @@ class TriangleBatch {
   void draw_large_by_tiles(const TriangleSetup& s);
   void mark_tiles(int x0, int y0, int x1, int y1);
   void update_pyramid();
-  // Vector assembly and setup of faces first .. first + 15 (AVX-512 builds).
+  // Vector assembly and setup of faces first .. first + count - 1, count
+  // <= 16 (AVX-512 builds).
   void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
-                    const ScreenVertices& sv, int64_t first, bool cull_backfaces);
+                    const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count);
 
   DepthTarget& target_;
   RenderStats& stats_;

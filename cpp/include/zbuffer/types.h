@@ -57,14 +57,17 @@ struct RenderInput {
 };
 
 // Counters and timings of one render. Triangle counters follow a triangle
-// through the pipeline: every input face is culled_invalid, culled_frustum,
-// clipped_away, or handed on (split into clip_pieces if it was clipped).
-// Each triangle handed on is culled_backface, culled_degenerate,
-// culled_hidden (by a hierarchical algorithm's occlusion test) or rasterized:
-//   triangles_in - culled_invalid - culled_frustum - clipped + clip_pieces
-//     == culled_backface + culled_degenerate + culled_hidden + rasterized
+// through the pipeline: every input face is culled_in_nodes (never reached:
+// an object-space algorithm culled a tree node holding it), culled_invalid,
+// culled_frustum, clipped_away, or handed on (split into clip_pieces if it
+// was clipped). Each triangle handed on is culled_backface,
+// culled_degenerate, culled_hidden (by a hierarchical algorithm's occlusion
+// test) or rasterized:
+//   triangles_in - culled_in_nodes - culled_invalid - culled_frustum - clipped
+//     + clip_pieces == culled_backface + culled_degenerate + culled_hidden + rasterized
 struct RenderStats {
   int64_t triangles_in = 0;        // input faces
+  int64_t culled_in_nodes = 0;     // in tree nodes culled whole (hidden or outside)
   int64_t culled_invalid = 0;      // a vertex overflowed in the transform
   int64_t culled_frustum = 0;      // wholly outside one plane of the view volume
   int64_t clipped = 0;             // crossed the near, far or guard-band planes
@@ -92,8 +95,14 @@ struct RenderStats {
   // Bytes of depth values the algorithm keeps while it works (the full
   // W x H buffer for image-space algorithms, one row for the scanline).
   int64_t depth_storage_bytes = 0;
+  int64_t nodes_visited = 0;       // tree nodes tested (or not testable) and kept
+  int64_t nodes_hidden = 0;        // tree nodes culled by the Z-pyramid
+  int64_t nodes_outside = 0;       // tree nodes culled as outside the view volume
+  double build_ms = 0.0;           // building an object-space tree
+  double traversal_ms = 0.0;       // visiting and testing tree nodes
   double vertex_ms = 0.0;          // per-vertex transform and snapping
   double raster_ms = 0.0;          // assembly, clipping, setup, rasterization
+  double pyramid_ms = 0.0;         // Z-pyramid upkeep (part of raster_ms)
   double total_ms = 0.0;           // the whole C++ render call
 };
 

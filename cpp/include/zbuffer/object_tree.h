@@ -1,0 +1,136 @@
+// Object-space trees for the hierarchical Z-buffer, and the one traversal
+// that renders them.
+//
+// The octree (octree.h) and the bounding volume hierarchy (bvh.h) differ in
+// how they split space; once built, both are the same thing: nodes with
+// bounds and children, some of which own a cluster of triangles. One
+// traversal (render_object_tree) visits the nodes front to back, culls every
+// node whose projected box the Z-pyramid proves hidden -- its whole subtree
+// with it -- and hands the clusters of the others to a TriangleBatch, which
+// culls and draws triangles exactly as `hiz` does. Culling is strict and
+// conservative, so the output is the plain Z-buffer's, bit for bit.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "zbuffer/types.h"
+
+namespace zbuffer {
+
+// A node: the bounds of every triangle in its subtree (world space), its
+// children, and the cluster of triangles it owns itself (if any).
+struct TreeNode {
+  double lo[3], hi[3];
+  int32_t first_child = -1;  // children are first_child .. first_child + n_children - 1
+  int32_t n_children = 0;
+  int32_t cluster = -1;      // index into ObjectTree::clusters, or -1
+  int32_t depth = 0;         // 0 for the root
+  int64_t n_triangles = 0;   // triangle references in the subtree
+};
+
+// The triangles one node owns, drawn as one unit.
+struct TriangleCluster {
+  int64_t face_begin, face_end;      // rows of ObjectTree::faces and ids
+  int64_t vertex_begin, vertex_end;  // rows of ObjectTree::positions
+  int32_t node;
+};
+
+// Design decision: a built tree is self-contained. Every cluster gets its
+// own copy of its vertices, with faces indexed locally, so that drawing a
+// cluster transforms exactly the vertices it uses (vertex_stage.h, 8 at a
+// time) and never touches the rest of the mesh. Good: render time depends on
+// what is visible, not on the size of the mesh, and the tree outlives the
+// arrays it was built from. Bad: vertices on cluster borders are stored (and
+// transformed) more than once -- identical bits each time, so the output does
+// not change -- and the tree holds about 40 bytes per triangle.
+struct ObjectTree {
+  std::vector<TreeNode> nodes;           // nodes[0] is the root (empty mesh: none)
+  std::vector<TriangleCluster> clusters;
+  std::vector<double> positions;         // (vertices, 3) cluster-local copies
+  std::vector<int32_t> faces;            // (references, 3) local vertex indices
+  std::vector<int32_t> ids;              // (references,) triangle id reported
+  std::vector<int32_t> source;           // (references,) input face index (shared only)
+  int64_t n_input_faces = 0;
+  // True when one face may be referenced by several clusters (Greene's rule
+  // for the octree); the traversal then draws each face at most once.
+  bool shared = false;
+  // id -> cluster (the first one holding it), if ids are the face indices
+  // 0 .. n_input_faces - 1; empty otherwise. Temporal coherence needs it.
+  std::vector<int32_t> cluster_of_id;
+
+  // Bytes held by the tree.
+  int64_t memory_bytes() const;
+
+  // Empty the tree, keeping its memory for the next build.
+  void clear();
+};
+
+// Builds the clusters and node bounds of a tree whose structure is decided.
+// Octree and BVH builders sort face references so that every node's own
+// references and its subtree are contiguous, then call add_cluster for each
+// node that owns triangles.
+class ClusterBuilder {
+ public:
+  ClusterBuilder(const MeshView& mesh, ObjectTree& tree);
+  // Make node `node` own faces face[b .. e) (input indices); sets its
+  // cluster and bounds. Duplicate faces within one cluster are dropped.
+  void add_cluster(int32_t node, const int32_t* face, int64_t n);
+  // Finish: cluster_of_id.
+  void finish();
+
+ private:
+  const MeshView& mesh_;
+  ObjectTree& tree_;
+  // Per input vertex and (shared trees) per input face: scratch kept per
+  // thread from build to build.
+  std::vector<int32_t>& vertex_mark_;
+  std::vector<int32_t>& vertex_local_;
+  std::vector<int32_t>& face_mark_;
+};
+
+// Bounds of node `i` from its cluster and its children (children first).
+void merge_child_bounds(ObjectTree& tree, int32_t i);
+
+// What happened to a node in the last render.
+enum NodeFate : uint8_t {
+  kNodeNotReached = 0,  // an ancestor was culled (or the tree was not rendered)
+  kNodeOutside = 1,     // outside the view volume
+  kNodeHidden = 2,      // its projected box is behind the Z-pyramid
+  kNodeVisited = 3,     // tested and kept; owns no triangles
+  kNodeDrawn = 4,       // tested and kept; its triangles were handed on
+};
+
+// The per-frame state of one tree: reused across frames so that nothing of
+// the size of the mesh is cleared per frame.
+// Design decision: stamps (the number of the frame that last touched a face
+// or cluster) instead of flags. Good: a new frame costs one increment, not a
+// pass over every face. Bad: 4 bytes per face and per cluster.
+struct TreeFrame {
+  uint32_t frame = 0;
+  std::vector<uint32_t> face_stamp;     // shared trees: frame a face was last drawn in
+  std::vector<uint32_t> cluster_stamp;  // frame a cluster was last drawn in
+  std::vector<uint32_t> visible_stamp;  // frame a cluster was last found visible
+  std::vector<uint8_t> node_fate;       // NodeFate of each node in the last frame
+  std::vector<int32_t> visible_clusters;  // clusters with a pixel in the last frame
+  bool has_visible = false;             // visible_clusters belongs to the tree's last frame
+};
+
+// Renders one frame of the tree into the cleared target (depth +inf, ids -1)
+// and adds to stats: nodes visited, hidden and outside, triangles in culled
+// nodes (culled_in_nodes), and everything the TriangleBatch counts.
+//
+// With `temporal` (Greene, Kass and Miller, section 6), the clusters that
+// had a visible pixel in the frame before are drawn first, and the pyramid
+// they produce is what the traversal starts with; the clusters visible now
+// are recorded for the next frame. Needs tree.cluster_of_id.
+void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthTarget& target,
+                        RenderStats& stats, TreeFrame& frame, bool temporal = false);
+
+// What render() (algorithms.h) does around an algorithm, for a tree built
+// beforehand: clear the target, count the tree's faces in triangles_in,
+// render, time the whole call. input.mesh is not used.
+void render_tree_frame(const ObjectTree& tree, const RenderInput& input, DepthTarget& target,
+                       RenderStats& stats, TreeFrame& frame, bool temporal = false);
+
+}  // namespace zbuffer

@@ -1,0 +1,54 @@
+// The octree of the hierarchical Z-buffer (Greene, Kass and Miller 1993,
+// section 4): a world-space octree over a mesh's triangles, built once per
+// scene and rendered front to back by render_object_tree (object_tree.h).
+#pragma once
+
+#include <string>
+
+#include "zbuffer/object_tree.h"
+#include "zbuffer/types.h"
+
+namespace zbuffer {
+
+// Where a triangle that straddles the boundary between two children goes.
+enum class OctreeRule {
+  // The simpler rule: the triangle stays in the smallest node that encloses
+  // it. Each triangle has one home, but one crossing a split plane near the
+  // root is drawn whenever the root is visited, however small it is.
+  kSmallest,
+  // Greene's rule: a triangle is put in the cells of the deepest level at
+  // which it spans at most two cells a side -- every one of the (at most 8)
+  // cells it overlaps there -- and drawn at most once per frame.
+  kGreene,
+};
+
+// "smallest" or "greene"; parse returns false for an unknown name.
+const char* octree_rule_name(OctreeRule rule);
+bool parse_octree_rule(const std::string& name, OctreeRule& rule);
+
+struct OctreeParams {
+  // A node with at most this many triangle references is a leaf.
+  int leaf_size = 128;  // measured on the spot grid (benchmarks/bench_hiz.py)
+  // Depth of the finest cells (the root is depth 0): cells of the root cube
+  // divided 2^max_depth times a side. 1 .. kMaxOctreeDepth.
+  int max_depth = 10;
+  OctreeRule rule = OctreeRule::kSmallest;
+};
+
+constexpr int kMaxOctreeDepth = 10;  // cells are addressed by 30-bit Morton codes
+
+// Design decision: the octree is built from a sort, not by inserting
+// triangles one by one. Each triangle reference gets a key -- the Morton code
+// of its cell padded to the finest level, then the cell's level -- and one
+// radix sort puts every node's own references first and its subtree right
+// after them; the nodes are then read off the sorted keys. Node bounds are
+// the bounds of the node's triangles, not its cube, so a node that holds one
+// small triangle in a large cell culls like the triangle. Good: linear-time
+// build (no pointer chasing, no per-node allocation), tight bounds. Bad: a
+// depth limit of 10 (1024 cells a side), and the nodes of a cell's subtree
+// must all be built at once.
+ObjectTree build_octree(const MeshView& mesh, const OctreeParams& params);
+// The same into `tree`, reusing its memory (a tree rebuilt every frame).
+void build_octree(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree);
+
+}  // namespace zbuffer

@@ -1,0 +1,106 @@
+// Private to the core: Morton (Z-order) codes and the radix sort that orders
+// faces by them. The spatial visiting order (mesh_order.cpp), the octree and
+// the BVH all start from faces sorted along this curve.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "zbuffer/types.h"
+
+namespace zbuffer {
+
+// Spread the low 10 bits of v so that bit i lands on bit 3 i.
+inline uint32_t spread_bits_10(uint32_t v) {
+  v &= 0x3FF;
+  v = (v | (v << 16)) & 0x030000FF;
+  v = (v | (v << 8)) & 0x0300F00F;
+  v = (v | (v << 4)) & 0x030C30C3;
+  v = (v | (v << 2)) & 0x09249249;
+  return v;
+}
+
+// The 30-bit Morton code of a cell of a 1024^3 grid: x in bits 0, 3, 6 ...
+inline uint32_t morton_30(uint32_t x, uint32_t y, uint32_t z) {
+  return spread_bits_10(x) | (spread_bits_10(y) << 1) | (spread_bits_10(z) << 2);
+}
+
+// Sorts (key, value) pairs by the low `key_bits` bits of key, stably, with
+// passes of up to 12 bits (LSD radix sort). Both vectors are permuted.
+// Design decision: LSD radix rather than a comparison sort. Good: linear in
+// the number of faces (a few ns per face and pass), which keeps building a
+// tree per frame affordable. Bad: a scratch copy of both arrays, kept per
+// thread so that the next sort does not fault its pages in again.
+template <class Key, class Value>
+void radix_sort(std::vector<Key>& key, std::vector<Value>& value, int key_bits) {
+  const size_t n = key.size();
+  if (n < 2 || key_bits <= 0) return;
+  const int passes = (key_bits + 11) / 12;
+  const int bits = (key_bits + passes - 1) / passes;
+  const Key mask = (Key(1) << bits) - 1;
+  thread_local std::vector<Key> key_tmp;
+  thread_local std::vector<Value> value_tmp;
+  key_tmp.resize(n);
+  value_tmp.resize(n);
+  std::vector<size_t> count(size_t(1) << bits);
+  for (int pass = 0; pass < passes; ++pass) {
+    const int shift = pass * bits;
+    std::fill(count.begin(), count.end(), 0);
+    for (size_t i = 0; i < n; ++i) ++count[(key[i] >> shift) & mask];
+    size_t sum = 0;
+    for (size_t& c : count) {
+      const size_t here = c;
+      c = sum;
+      sum += here;
+    }
+    for (size_t i = 0; i < n; ++i) {
+      const size_t dst = count[(key[i] >> shift) & mask]++;
+      key_tmp[dst] = key[i];
+      value_tmp[dst] = value[i];
+    }
+    key.swap(key_tmp);
+    value.swap(value_tmp);
+  }
+}
+
+// Every vertex of a mesh quantized to a grid of 1024^3 cubic cells over the
+// vertices' bounding cube: cell x | y << 10 | z << 20 per vertex.
+// Design decision: quantize each vertex once rather than each corner of
+// each face. Good: a face's cell box is then three integer loads and
+// min/max (a mesh has about half as many vertices as faces, and each vertex
+// is shared by six). Bad: 4 bytes per vertex of scratch.
+struct VertexGrid {
+  static constexpr int kBits = 10;
+  static constexpr uint32_t kMask = (1u << kBits) - 1;
+  std::vector<uint32_t> cell;
+
+  void build(const MeshView& mesh) {
+    const int64_t n = mesh.n_vertices;
+    double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                    std::numeric_limits<double>::infinity()};
+    double hi[3] = {-lo[0], -lo[1], -lo[2]};
+    for (int64_t v = 0; v < n; ++v)
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], mesh.positions[3 * v + a]);
+        hi[a] = std::max(hi[a], mesh.positions[3 * v + a]);
+      }
+    const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    const double scale = side > 0.0 && std::isfinite(side) ? double(kMask + 1) / side : 0.0;
+    cell.resize(size_t(n));
+    for (int64_t v = 0; v < n; ++v) {
+      uint32_t packed = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double q = std::floor((mesh.positions[3 * v + a] - lo[a]) * scale);
+        packed |= uint32_t(std::min(double(kMask), std::max(0.0, q))) << (kBits * a);
+      }
+      cell[size_t(v)] = packed;
+    }
+  }
+  static uint32_t axis(uint32_t packed, int a) { return (packed >> (kBits * a)) & kMask; }
+};
+
+}  // namespace zbuffer
+

@@ -1,0 +1,444 @@
+// Clusters of object-space trees, and the front-to-back traversal that
+// renders them against a Z-pyramid.
+#include "zbuffer/object_tree.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <utility>
+
+#include "zbuffer/algorithms.h"
+#include "zbuffer/triangle_batch.h"
+#include "zbuffer/vertex_stage.h"
+#include "zbuffer/zpyramid.h"
+
+namespace zbuffer {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double ms_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+}  // namespace
+
+int64_t ObjectTree::memory_bytes() const {
+  return int64_t(nodes.size() * sizeof(TreeNode) + clusters.size() * sizeof(TriangleCluster) +
+                 positions.size() * sizeof(double) + faces.size() * sizeof(int32_t) +
+                 ids.size() * sizeof(int32_t) + source.size() * sizeof(int32_t) +
+                 cluster_of_id.size() * sizeof(int32_t));
+}
+
+void ObjectTree::clear() {
+  nodes.clear();
+  clusters.clear();
+  positions.clear();
+  faces.clear();
+  ids.clear();
+  source.clear();
+  cluster_of_id.clear();
+  n_input_faces = 0;
+}
+
+// Cluster Construction
+
+namespace {
+std::vector<int32_t>& scratch(int k) {
+  thread_local std::vector<int32_t> v[3];
+  return v[k];
+}
+}  // namespace
+
+ClusterBuilder::ClusterBuilder(const MeshView& mesh, ObjectTree& tree)
+    : mesh_(mesh), tree_(tree), vertex_mark_(scratch(0)), vertex_local_(scratch(1)),
+      face_mark_(scratch(2)) {
+  vertex_mark_.assign(size_t(mesh.n_vertices), -1);
+  vertex_local_.resize(size_t(mesh.n_vertices));
+  tree_.n_input_faces = mesh.n_faces;
+  if (tree_.shared) face_mark_.assign(size_t(mesh.n_faces), -1);
+  tree_.faces.reserve(3 * size_t(mesh.n_faces));
+  tree_.ids.reserve(size_t(mesh.n_faces));
+  // Room for every face's three vertices (no cluster can copy more), so
+  // that the copies never move; only the pages written are ever mapped.
+  tree_.positions.reserve(9 * size_t(mesh.n_faces) * (tree_.shared ? 2 : 1));
+}
+
+void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
+  const int32_t c = int32_t(tree_.clusters.size());
+  TriangleCluster cluster;
+  cluster.node = node;
+  cluster.face_begin = int64_t(tree_.ids.size());
+  cluster.vertex_begin = int64_t(tree_.positions.size() / 3);
+  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                  std::numeric_limits<double>::infinity()};
+  double hi[3] = {-lo[0], -lo[1], -lo[2]};
+  int32_t local = 0;
+  for (int64_t r = 0; r < n; ++r) {
+    const int32_t f = face[r];
+    if (tree_.shared) {  // the same face reached through two cells of one leaf
+      if (face_mark_[f] == c) continue;
+      face_mark_[f] = c;
+      tree_.source.push_back(f);
+    }
+    const int32_t* idx = mesh_.faces + 3 * int64_t(f);
+    for (int k = 0; k < 3; ++k) {
+      const int32_t v = idx[k];
+      if (vertex_mark_[v] != c) {  // first use of v in this cluster: copy it
+        vertex_mark_[v] = c;
+        vertex_local_[v] = local++;
+        const double* p = mesh_.positions + 3 * int64_t(v);
+        for (int a = 0; a < 3; ++a) {
+          tree_.positions.push_back(p[a]);
+          lo[a] = std::min(lo[a], p[a]);
+          hi[a] = std::max(hi[a], p[a]);
+        }
+      }
+      tree_.faces.push_back(vertex_local_[v]);
+    }
+    tree_.ids.push_back(mesh_.id(f));
+  }
+  cluster.face_end = int64_t(tree_.ids.size());
+  cluster.vertex_end = int64_t(tree_.positions.size() / 3);
+  tree_.clusters.push_back(cluster);
+  TreeNode& t = tree_.nodes[size_t(node)];
+  t.cluster = c;
+  for (int a = 0; a < 3; ++a) {
+    t.lo[a] = lo[a];
+    t.hi[a] = hi[a];
+  }
+}
+
+void ClusterBuilder::finish() {
+  // id -> cluster, when ids are the face indices (then temporal coherence
+  // can map the pixels of a frame back to clusters).
+  if (mesh_.face_ids) return;
+  tree_.cluster_of_id.assign(size_t(mesh_.n_faces), -1);
+  for (size_t c = 0; c < tree_.clusters.size(); ++c) {
+    const TriangleCluster& cl = tree_.clusters[c];
+    for (int64_t r = cl.face_begin; r < cl.face_end; ++r) {
+      int32_t& slot = tree_.cluster_of_id[size_t(tree_.ids[size_t(r)])];
+      if (slot < 0) slot = int32_t(c);
+    }
+  }
+}
+
+void merge_child_bounds(ObjectTree& tree, int32_t i) {
+  TreeNode& node = tree.nodes[size_t(i)];
+  if (node.cluster < 0) {
+    for (int a = 0; a < 3; ++a) {
+      node.lo[a] = std::numeric_limits<double>::infinity();
+      node.hi[a] = -std::numeric_limits<double>::infinity();
+    }
+  }
+  for (int32_t k = 0; k < node.n_children; ++k) {
+    const TreeNode& child = tree.nodes[size_t(node.first_child + k)];
+    for (int a = 0; a < 3; ++a) {
+      node.lo[a] = std::min(node.lo[a], child.lo[a]);
+      node.hi[a] = std::max(node.hi[a], child.hi[a]);
+    }
+  }
+}
+
+// Node Test
+
+namespace {
+
+// A node's box as the pyramid sees it: a pixel rectangle that contains every
+// pixel any of its triangles can cover, and a depth no pixel of theirs can be
+// nearer than.
+struct ProjectedNode {
+  int32_t node;
+  int x0, y0, x1, y1;
+  float z_near;
+  bool testable;  // false: the box reaches the near plane, never cull it
+};
+
+// Margin on a box's nearest window depth for rounding. A triangle's depth
+// comes from the same double formulas as the box corners' (transform_point,
+// to_screen) at points inside the box; the two differ by rounding only,
+// orders of magnitude below this for any scene whose coordinates stay within
+// 1e8 of the eye in units of the near distance.
+constexpr double kDepthMargin = 1e-7;
+
+// The largest float <= v.
+float float_at_or_below(double v) {
+  float f = float(v);
+  if (double(f) > v) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+
+// Projects node `i`'s box. Returns false if it lies outside the view volume
+// (wholly beyond one of its planes, or off the image).
+bool project_node(const TreeNode& node, int32_t i, const double* mvp, const Viewport& vp,
+                  ProjectedNode& out) {
+  uint32_t all_out = ~0u;
+  bool near = false;
+  double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo;
+  double y_lo = x_lo, y_hi = -x_lo, z_lo = x_lo;
+  for (int corner = 0; corner < 8; ++corner) {
+    const double p[3] = {(corner & 1) ? node.hi[0] : node.lo[0],
+                         (corner & 2) ? node.hi[1] : node.lo[1],
+                         (corner & 4) ? node.hi[2] : node.lo[2]};
+    const ClipVertex c = transform_point(mvp, p);
+    const uint32_t oc = outcode(c, vp);
+    all_out &= oc;
+    if (oc & (kOutNear | kOutInvalid)) {  // at, behind or too close to the eye
+      near = true;
+      continue;
+    }
+    // The perspective divide and viewport, as to_screen does them.
+    const double inv_w = 1.0 / c.w;
+    const double xw = (c.x * inv_w + 1.0) * vp.half_w;
+    const double yw = (1.0 - c.y * inv_w) * vp.half_h;
+    const double zw = (c.z * inv_w) * 0.5 + 0.5;
+    x_lo = std::min(x_lo, xw);
+    x_hi = std::max(x_hi, xw);
+    y_lo = std::min(y_lo, yw);
+    y_hi = std::max(y_hi, yw);
+    z_lo = std::min(z_lo, zw);
+  }
+  if (all_out & kOutView) return false;
+  out.node = i;
+  if (near) {  // the projection of the box is unbounded: keep it whole
+    out.x0 = 0;
+    out.y0 = 0;
+    out.x1 = vp.width - 1;
+    out.y1 = vp.height - 1;
+    out.z_near = -std::numeric_limits<float>::infinity();
+    out.testable = false;
+    return true;
+  }
+  // In front of the eye the box projects into the bounding rectangle of its
+  // corners; a pixel whose centre (i + 0.5) is covered lies within half a
+  // pixel of it, and snapping moves vertices by 1/512 pixel: one pixel of
+  // margin each side. Clamped in double before converting to int.
+  auto pixel = [](double v, double limit) {
+    return int(std::floor(std::max(-1.0, std::min(limit, v))));
+  };
+  out.x0 = std::max(0, pixel(x_lo - 1.0, vp.width));
+  out.x1 = std::min(vp.width - 1, pixel(x_hi + 1.0, vp.width));
+  out.y0 = std::max(0, pixel(y_lo - 1.0, vp.height));
+  out.y1 = std::min(vp.height - 1, pixel(y_hi + 1.0, vp.height));
+  if (out.x0 > out.x1 || out.y0 > out.y1) return false;  // off the image
+  out.z_near = float_at_or_below(z_lo - kDepthMargin);
+  out.testable = true;
+  return true;
+}
+
+// The farthest depth the pyramid holds over a node's rectangle: the maximum
+// of the cells covering it at the finest kept level where it spans at most
+// four cells a side (ZPyramid::max_over stops at two, which for the small
+// boxes of leaves reads up to four times the area).
+float farthest_under(const ZPyramid& pyramid, const ProjectedNode& r) {
+  if (pyramid.levels() <= pyramid.first_level())  // a tiny image: no coarse levels
+    return pyramid.max_over(r.x0, r.y0, r.x1, r.y1);
+  int k = pyramid.first_level();
+  while (k + 1 < pyramid.levels() &&
+         (((r.x1 >> k) - (r.x0 >> k)) > 3 || ((r.y1 >> k) - (r.y0 >> k)) > 3))
+    ++k;
+  const float* cells = pyramid.level(k);
+  const int w = pyramid.width(k);
+  float m = -std::numeric_limits<float>::infinity();
+  for (int j = r.y0 >> k; j <= (r.y1 >> k); ++j)
+    for (int i = r.x0 >> k; i <= (r.x1 >> k); ++i) m = std::max(m, cells[size_t(j) * w + i]);
+  return m;
+}
+
+}  // namespace
+
+// Traversal
+
+void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthTarget& target,
+                        RenderStats& stats, TreeFrame& frame, bool temporal) {
+  const auto start = Clock::now();
+  if (temporal && tree.cluster_of_id.empty() && tree.n_input_faces > 0)
+    throw std::invalid_argument("temporal coherence needs a tree whose ids are the face indices");
+  const Viewport vp(target.width, target.height);
+
+  // Frame state: one more frame; stamps are reset only when the counter wraps.
+  if (frame.node_fate.size() != tree.nodes.size() ||
+      frame.cluster_stamp.size() != tree.clusters.size() ||
+      frame.frame == std::numeric_limits<uint32_t>::max()) {
+    frame.frame = 0;
+    frame.cluster_stamp.assign(tree.clusters.size(), 0);
+    frame.visible_stamp.assign(tree.clusters.size(), 0);
+    frame.face_stamp.assign(tree.shared ? size_t(tree.n_input_faces) : 0, 0);
+    frame.node_fate.assign(tree.nodes.size(), kNodeNotReached);
+    frame.visible_clusters.clear();
+    frame.has_visible = false;
+  } else {
+    std::fill(frame.node_fate.begin(), frame.node_fate.end(), kNodeNotReached);
+  }
+  const uint32_t now = ++frame.frame;
+
+  ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true);
+  TriangleBatch batch(target, stats, &pyramid);
+  thread_local ScreenVertices screen;
+  thread_local std::vector<int32_t> kept_faces, kept_ids;
+  int64_t reached = 0;         // faces handed to the batch (each once)
+  double draw_ms = 0.0;        // cluster drawing and batch flushes
+
+  // Drawing a cluster: its own vertices through the vertex stage, its faces
+  // into the batch (which culls and draws them as `hiz` does).
+  auto draw_cluster = [&](int32_t c) {
+    if (frame.cluster_stamp[size_t(c)] == now) return;  // drawn already this frame
+    frame.cluster_stamp[size_t(c)] = now;
+    const TriangleCluster& cl = tree.clusters[size_t(c)];
+    MeshView mesh;
+    mesh.positions = tree.positions.data() + 3 * cl.vertex_begin;
+    mesh.n_vertices = cl.vertex_end - cl.vertex_begin;
+    mesh.faces = tree.faces.data() + 3 * cl.face_begin;
+    mesh.face_ids = tree.ids.data() + cl.face_begin;
+    mesh.n_faces = cl.face_end - cl.face_begin;
+    if (tree.shared) {
+      // Greene's rule put some faces in several clusters: keep those not
+      // drawn yet this frame.
+      kept_faces.clear();
+      kept_ids.clear();
+      for (int64_t r = cl.face_begin; r < cl.face_end; ++r) {
+        uint32_t& stamp = frame.face_stamp[size_t(tree.source[size_t(r)])];
+        if (stamp == now) continue;
+        stamp = now;
+        kept_faces.insert(kept_faces.end(), &tree.faces[3 * size_t(r)], &tree.faces[3 * size_t(r)] + 3);
+        kept_ids.push_back(tree.ids[size_t(r)]);
+      }
+      mesh.faces = kept_faces.data();
+      mesh.face_ids = kept_ids.data();
+      mesh.n_faces = int64_t(kept_ids.size());
+    }
+    reached += mesh.n_faces;
+    if (mesh.n_faces == 0) return;
+    const auto t0 = Clock::now();
+    transform_vertices(mesh, input.mvp, vp, screen);
+    const auto t1 = Clock::now();
+    batch.add_faces(mesh, input.mvp, vp, screen, 0, mesh.n_faces, input.cull_backfaces);
+    const auto t2 = Clock::now();
+    stats.vertex_ms += ms_between(t0, t1);
+    stats.raster_ms += ms_between(t1, t2);
+    draw_ms += ms_between(t0, t2);
+  };
+  auto flush = [&] {
+    const auto t0 = Clock::now();
+    batch.flush();
+    const double ms = ms_between(t0, Clock::now());
+    stats.raster_ms += ms;
+    draw_ms += ms;
+  };
+
+  // Temporal coherence: what was visible last frame first, so that the
+  // pyramid the traversal starts from is already close to the final one.
+  constexpr int kFlushAt = 256;  // see the traversal below
+  if (temporal && frame.has_visible) {
+    // Nearest first, as the traversal would meet them, with the pyramid
+    // brought up to date as they go; those hidden or outside by now are
+    // left to the traversal.
+    thread_local std::vector<std::pair<ProjectedNode, int32_t>> order;
+    order.clear();
+    for (int32_t c : frame.visible_clusters) {
+      const int32_t i = tree.clusters[size_t(c)].node;
+      ProjectedNode p;
+      if (project_node(tree.nodes[size_t(i)], i, input.mvp, vp, p)) order.emplace_back(p, c);
+    }
+    std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) {
+      return a.first.z_near < b.first.z_near;
+    });
+    for (const auto& [p, c] : order) {
+      if (batch.pending() >= kFlushAt) flush();
+      if (p.testable && p.z_near > farthest_under(pyramid, p)) continue;
+      draw_cluster(c);
+    }
+    flush();
+  }
+
+  // Front to back, depth first: children are pushed farthest first, so the
+  // nearest is visited next. Before a node is tested, the batch is flushed
+  // if it holds enough triangles (kFlushAt) to be worth bringing the pyramid
+  // up to date.
+  std::vector<ProjectedNode> stack;
+  ProjectedNode root;
+  if (!tree.nodes.empty()) {
+    if (project_node(tree.nodes[0], 0, input.mvp, vp, root)) {
+      stack.push_back(root);
+    } else {
+      frame.node_fate[0] = kNodeOutside;
+      ++stats.nodes_outside;
+    }
+  }
+  while (!stack.empty()) {
+    const ProjectedNode item = stack.back();
+    stack.pop_back();
+    if (item.testable) {
+      if (batch.pending() >= kFlushAt) flush();
+      if (item.z_near > farthest_under(pyramid, item)) {
+        frame.node_fate[size_t(item.node)] = kNodeHidden;  // and its whole subtree
+        ++stats.nodes_hidden;
+        continue;
+      }
+    }
+    ++stats.nodes_visited;
+    const TreeNode& node = tree.nodes[size_t(item.node)];
+    frame.node_fate[size_t(item.node)] = kNodeVisited;
+    if (node.cluster >= 0) {
+      draw_cluster(node.cluster);
+      frame.node_fate[size_t(item.node)] = kNodeDrawn;
+    }
+    // Visit near child first: order the children by their nearest depth.
+    ProjectedNode kids[8];
+    int n = 0;
+    for (int32_t k = 0; k < node.n_children; ++k) {
+      const int32_t child = node.first_child + k;
+      ProjectedNode p;
+      if (!project_node(tree.nodes[size_t(child)], child, input.mvp, vp, p)) {
+        frame.node_fate[size_t(child)] = kNodeOutside;
+        ++stats.nodes_outside;
+        continue;
+      }
+      int j = n++;
+      for (; j > 0 && kids[j - 1].z_near < p.z_near; --j) kids[j] = kids[j - 1];
+      kids[j] = p;  // kids sorted farthest first
+    }
+    for (int k = 0; k < n; ++k) stack.push_back(kids[k]);
+  }
+  flush();
+  stats.culled_in_nodes += tree.n_input_faces - reached;
+
+  // Temporal coherence: record the clusters with a pixel in this frame.
+  // Every other row is enough: the set only decides what is drawn first
+  // next frame (anything missed is found by the traversal), and a cluster
+  // seen in one row of its projection is seen in the next.
+  if (temporal) {
+    frame.visible_clusters.clear();
+    const int32_t* cluster_of_id = tree.cluster_of_id.data();
+    uint32_t* seen = frame.visible_stamp.data();
+    std::vector<int32_t>& visible = frame.visible_clusters;
+    for (int y = 0; y < target.height; y += 2) {
+      const int32_t* row = target.triangle_id + size_t(y) * size_t(target.width);
+      int32_t last = -1;  // neighbouring pixels mostly show the same triangle
+      for (int x = 0; x < target.width; ++x) {
+        const int32_t id = row[x];
+        if (id == last || id < 0) continue;
+        last = id;
+        const int32_t c = cluster_of_id[id];
+        if (seen[c] == now) continue;
+        seen[c] = now;
+        visible.push_back(c);
+      }
+    }
+    frame.has_visible = true;
+  } else {
+    frame.has_visible = false;
+  }
+  stats.traversal_ms += ms_between(start, Clock::now()) - draw_ms;
+}
+
+void render_tree_frame(const ObjectTree& tree, const RenderInput& input, DepthTarget& target,
+                       RenderStats& stats, TreeFrame& frame, bool temporal) {
+  const auto start = Clock::now();
+  clear_target(target);
+  stats.triangles_in += tree.n_input_faces;
+  render_object_tree(tree, input, target, stats, frame, temporal);
+  stats.total_ms += ms_between(start, Clock::now());
+}
+
+}  // namespace zbuffer

@@ -1,0 +1,148 @@
+// Octree and BVH structure: every face is in the tree, node bounds contain
+// their triangles and their children, and Greene's rule draws a face that
+// several cells share at most once per frame.
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "check.h"
+#include "zbuffer/algorithms.h"
+#include "zbuffer/bvh.h"
+#include "zbuffer/object_tree.h"
+#include "zbuffer/octree.h"
+
+using namespace zbuffer;
+
+namespace {
+
+struct Soup {
+  std::vector<double> pos;
+  std::vector<int32_t> faces;
+  MeshView view() const {
+    return {pos.data(), int64_t(pos.size() / 3), faces.data(), int64_t(faces.size() / 3)};
+  }
+};
+
+// Triangles of mixed sizes (a few spanning most of the box) in [-1, 1]^3.
+Soup random_soup(uint64_t seed, int n) {
+  Lcg next{seed};
+  Soup s;
+  for (int t = 0; t < n; ++t) {
+    const double r = t % 50 == 0 ? 1.0 : next.uniform(0.001, 0.1);
+    const double c[3] = {next.uniform(-1, 1), next.uniform(-1, 1), next.uniform(-1, 1)};
+    for (int k = 0; k < 3; ++k) {
+      for (int a = 0; a < 3; ++a) s.pos.push_back(std::clamp(c[a] + next.uniform(-r, r), -1.0, 1.0));
+      s.faces.push_back(int32_t(s.faces.size()));
+    }
+  }
+  return s;
+}
+
+bool inside(const double* p, const TreeNode& n) {
+  for (int a = 0; a < 3; ++a)
+    if (p[a] < n.lo[a] || p[a] > n.hi[a]) return false;
+  return true;
+}
+
+void check_structure(const ObjectTree& tree, const Soup& soup, bool each_once) {
+  const MeshView mesh = soup.view();
+  CHECK(tree.n_input_faces == mesh.n_faces);
+  std::vector<int> seen(size_t(mesh.n_faces), 0);
+  for (size_t i = 0; i < tree.nodes.size(); ++i) {
+    const TreeNode& node = tree.nodes[i];
+    // Children lie inside their parent, one level deeper.
+    for (int32_t k = 0; k < node.n_children; ++k) {
+      const TreeNode& child = tree.nodes[size_t(node.first_child + k)];
+      CHECK(child.depth == node.depth + 1);
+      for (int a = 0; a < 3; ++a) CHECK(child.lo[a] >= node.lo[a] && child.hi[a] <= node.hi[a]);
+    }
+    if (node.cluster < 0) continue;
+    const TriangleCluster& cl = tree.clusters[size_t(node.cluster)];
+    CHECK(cl.node == int32_t(i));
+    for (int64_t r = cl.face_begin; r < cl.face_end; ++r) {
+      const int32_t id = tree.ids[size_t(r)];
+      ++seen[size_t(id)];
+      for (int k = 0; k < 3; ++k) {
+        // The cluster's copy of the vertex is the input vertex, and the node
+        // contains it.
+        const double* copy = &tree.positions[3 * size_t(cl.vertex_begin + tree.faces[3 * size_t(r) + k])];
+        const double* input = &soup.pos[3 * size_t(soup.faces[3 * size_t(id) + k])];
+        CHECK(std::memcmp(copy, input, 3 * sizeof(double)) == 0);
+        CHECK(inside(copy, node));
+      }
+    }
+  }
+  for (int count : seen) CHECK(each_once ? count == 1 : count >= 1);
+}
+
+void test_structures() {
+  for (int scene = 0; scene < 4; ++scene) {
+    const Soup soup = random_soup(7 + scene, 2000 + 500 * scene);
+    for (int leaf : {1, 8, 64, 1000}) {
+      OctreeParams p;
+      p.leaf_size = leaf;
+      p.max_depth = 3 + scene * 2;
+      check_structure(build_octree(soup.view(), p), soup, true);
+      p.rule = OctreeRule::kGreene;
+      const ObjectTree greene = build_octree(soup.view(), p);
+      check_structure(greene, soup, false);
+      if (leaf == 8) CHECK(greene.ids.size() > size_t(soup.faces.size() / 3));  // shared faces exist
+      BvhParams b;
+      b.leaf_size = leaf;
+      const ObjectTree bvh = build_bvh(soup.view(), b);
+      check_structure(bvh, soup, true);
+      for (const TreeNode& n : bvh.nodes)
+        CHECK(n.n_children == 2 || (n.n_children == 0 && n.n_triangles <= leaf));
+    }
+  }
+}
+
+void test_greene_draws_each_face_once() {
+  // Tiny, well separated triangles facing the camera: nothing hides
+  // anything, so every face is drawn -- exactly once, although Greene's rule
+  // puts many of them in several cells.
+  Soup soup;
+  Lcg next{99};
+  for (int t = 0; t < 3000; ++t) {
+    const double x = next.uniform(-1, 1), y = next.uniform(-1, 1), z = next.uniform(-3, -2);
+    const double d = 0.004;
+    const double v[3][3] = {{x, y, z}, {x + d, y, z}, {x, y + d, z}};
+    for (int k = 0; k < 3; ++k) {
+      for (int a = 0; a < 3; ++a) soup.pos.push_back(v[k][a]);
+      soup.faces.push_back(int32_t(soup.faces.size()));
+    }
+  }
+  OctreeParams p;
+  p.leaf_size = 4;
+  p.rule = OctreeRule::kGreene;
+  const ObjectTree tree = build_octree(soup.view(), p);
+  CHECK(tree.ids.size() > size_t(3000));
+  RenderInput input;
+  input.mesh = soup.view();
+  const double mvp[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, -1.2, -2.2, 0, 0, -1, 0};
+  std::copy(mvp, mvp + 16, input.mvp);
+  const int w = 400, h = 400;
+  std::vector<float> depth(size_t(w) * h, std::numeric_limits<float>::infinity());
+  std::vector<int32_t> ids(size_t(w) * h, -1);
+  DepthTarget target{depth.data(), ids.data(), w, h};
+  TreeFrame frame;
+  for (int round = 0; round < 3; ++round) {  // stamps carry over between frames
+    std::fill(depth.begin(), depth.end(), std::numeric_limits<float>::infinity());
+    std::fill(ids.begin(), ids.end(), -1);
+    RenderStats stats;
+    stats.triangles_in = 3000;
+    render_object_tree(tree, input, target, stats, frame, round > 0);
+    CHECK(stats.culled_in_nodes == 0);
+    CHECK(stats.culled_hidden == 0);
+    CHECK(stats.rasterized + stats.culled_degenerate == 3000);
+  }
+}
+
+}  // namespace
+
+int main() {
+  test_structures();
+  test_greene_draws_each_face_once();
+  return check_report("test_object_tree");
+}

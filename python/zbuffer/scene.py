@@ -1,0 +1,191 @@
+""":class:`Scene`: a mesh with the object-space trees of the hierarchical
+algorithms, built once and rendered from any number of cameras."""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Dict, Optional
+
+import numpy as np
+
+from . import _core
+from .api import check_algorithm, finish
+from .camera import Camera
+from .mesh import as_mesh
+from .options import DEFAULT_SIZE, prepare
+from .result import RenderResult
+from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE
+
+__all__ = ["Scene", "TREE_ALGORITHMS", "NODE_FATES", "OCTREE_RULES"]
+
+# The algorithms that render an object-space tree, and the tree each builds.
+TREE_ALGORITHMS = {"hiz_octree": "octree", "hiz_bvh": "bvh"}
+
+# Names of the values of ``Scene.nodes(...)["fate"]``.
+NODE_FATES = ("not reached", "outside", "hidden", "visited", "drawn")
+
+OCTREE_RULES = ("smallest", "greene")
+
+
+def _positive_int(name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int, got {value!r}")
+    if value < 1:
+        raise ValueError(f"{name} must be >= 1, got {value}")
+    return int(value)
+
+
+class Scene:
+    """A mesh prepared for many frames.
+
+    The octree of ``hiz_octree`` and the BVH of ``hiz_bvh`` are built on
+    first use (or by :meth:`build`) and reused by every later
+    :meth:`render`, whatever the camera and image size. The other algorithms
+    need nothing built; a Scene renders them like :func:`zbuffer.render`.
+
+    Parameters
+    ----------
+    mesh : Mesh, trimesh.Trimesh, trimesh.Scene, pyvista.PolyData, (vertices, faces) or path
+        What to draw (see :func:`zbuffer.render`).
+    leaf_size : int, optional
+        Tree nodes with at most this many triangles are leaves (both trees).
+        Default: each tree's own (``zbuffer._core.DEFAULT_OCTREE_LEAF_SIZE``,
+        ``DEFAULT_BVH_LEAF_SIZE``; 128, the fastest on the spot grid).
+    max_depth : int, optional
+        Deepest octree level (cells of 1/2**max_depth of the root cube a
+        side), 1 .. ``zbuffer._core.MAX_OCTREE_DEPTH`` (10).
+    octree_rule : {"smallest", "greene"}
+        Where an octree puts a triangle that straddles a split: in the
+        smallest node enclosing it (default, measured faster), or -- Greene's
+        rule -- in each of the at most 8 cells it overlaps at the deepest
+        level where it spans at most two cells a side, drawn at most once
+        per frame.
+
+    Raises
+    ------
+    ValueError, TypeError
+        Bad mesh or parameters.
+
+    Examples
+    --------
+    >>> scene = zbuffer.Scene(mesh)
+    >>> for cam in cameras:                       # the octree is built once
+    ...     res = scene.render(cam, algo="hiz_octree", temporal=True)
+    """
+
+    def __init__(self, mesh, *, leaf_size: Optional[int] = None,
+                 max_depth: Optional[int] = None, octree_rule: str = "smallest"):
+        self.mesh = as_mesh(mesh)
+        self.leaf_size = None if leaf_size is None else _positive_int("leaf_size", leaf_size)
+        self.max_depth = _positive_int(
+            "max_depth", _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None else max_depth)
+        if self.max_depth > _core.MAX_OCTREE_DEPTH:
+            raise ValueError(
+                f"max_depth must be in 1 .. {_core.MAX_OCTREE_DEPTH}, got {self.max_depth}")
+        if octree_rule not in OCTREE_RULES:
+            raise ValueError(f"unknown octree_rule {octree_rule!r}; valid rules are "
+                             f"{', '.join(map(repr, OCTREE_RULES))}")
+        self.octree_rule = octree_rule
+        self._trees: Dict[str, object] = {}
+        self._lock = threading.Lock()
+
+    def __repr__(self) -> str:
+        built = ", ".join(sorted(self._trees)) or "nothing"
+        return f"Scene({self.mesh!r}, built: {built})"
+
+    def build(self, algo: str = "hiz_octree") -> float:
+        """Build the tree ``algo`` renders, if not built yet; returns the
+        milliseconds this call spent building (0.0 if it was built)."""
+        check_algorithm(algo)
+        if algo not in TREE_ALGORITHMS:
+            return 0.0
+        with self._lock:
+            if algo in self._trees:
+                return 0.0
+            if TREE_ALGORITHMS[algo] == "octree":
+                leaf = self.leaf_size or _core.DEFAULT_OCTREE_LEAF_SIZE
+                tree = _core.build_octree(self.mesh.vertices, self.mesh.faces, leaf,
+                                          self.max_depth, self.octree_rule)
+            else:
+                leaf = self.leaf_size or _core.DEFAULT_BVH_LEAF_SIZE
+                tree = _core.build_bvh(self.mesh.vertices, self.mesh.faces, leaf)
+            self._trees[algo] = tree
+            return tree.build_ms
+
+    def tree_info(self, algo: str = "hiz_octree") -> dict:
+        """Size of ``algo``'s tree (built if needed): nodes, clusters,
+        triangle references, bytes and build time."""
+        self._require_tree(algo)
+        tree = self._trees[algo]
+        return {"kind": tree.kind, "nodes": tree.n_nodes, "clusters": tree.n_clusters,
+                "references": tree.n_references, "faces": tree.n_faces,
+                "memory_bytes": tree.memory_bytes, "build_ms": tree.build_ms}
+
+    def nodes(self, algo: str = "hiz_octree") -> Dict[str, np.ndarray]:
+        """The nodes of ``algo``'s tree (built if needed), for display.
+
+        Returns
+        -------
+        dict
+            ``lo``, ``hi`` : (K, 3) float64 world-space bounds of each node's
+            triangles; ``depth``, ``parent``, ``first_child``, ``n_children`` :
+            (K,) int32 (parent -1 for the root); ``n_triangles`` (subtree) and
+            ``own_triangles`` (drawn with the node itself) : (K,) int64;
+            ``fate`` : (K,) uint8 in the last render of this tree, an index
+            into :data:`NODE_FATES` (0 if it was never rendered).
+        """
+        self._require_tree(algo)
+        return self._trees[algo].nodes()
+
+    def render(self, camera: Optional[Camera] = None, algo: str = "hiz_octree",
+               width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], *,
+               temporal: bool = False, cull_backfaces: bool = False, shading: str = "flat",
+               light_dir=None, ambient: float = DEFAULT_AMBIENT,
+               diffuse: float = DEFAULT_DIFFUSE, color=None,
+               background=DEFAULT_BACKGROUND) -> RenderResult:
+        """Render one frame; arguments as for :func:`zbuffer.render`.
+
+        Parameters
+        ----------
+        temporal : bool
+            Temporal coherence (Greene, Kass and Miller, section 6; tree
+            algorithms only): first draw the tree clusters that were visible
+            in this Scene's previous ``temporal=True`` frame of the same
+            algorithm, then traverse the tree against the Z-pyramid they
+            produced. The output is the same bits either way; only the work
+            changes (see ``stats``).
+
+        Returns
+        -------
+        RenderResult
+            As :func:`zbuffer.render`; ``stats["build_ms"]`` is the time this
+            call spent building the tree (0.0 once it is built).
+        """
+        start = time.perf_counter()
+        check_algorithm(algo)
+        if not isinstance(temporal, (bool, np.bool_)):
+            raise TypeError(f"temporal must be a bool, got {temporal!r}")
+        if temporal and algo not in TREE_ALGORITHMS:
+            raise ValueError(f"temporal coherence needs a tree algorithm "
+                             f"({', '.join(map(repr, TREE_ALGORITHMS))}), got {algo!r}")
+        mesh, camera, mvp, width, height, params = prepare(
+            self.mesh, camera, width, height, shading, light_dir, ambient, diffuse, color,
+            background)
+        if algo not in TREE_ALGORITHMS:
+            faces, face_ids = mesh.faces_for_render()
+            depth, triangle_id, stats = _core.render(
+                mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces), face_ids)
+        else:
+            build_ms = self.build(algo)
+            depth, triangle_id, stats = self._trees[algo].render(
+                mvp, width, height, bool(cull_backfaces), bool(temporal))
+            stats["build_ms"] = build_ms
+        return finish(mesh, camera, mvp, params, algo, depth, triangle_id, stats, start)
+
+    def _require_tree(self, algo: str) -> None:
+        check_algorithm(algo)
+        if algo not in TREE_ALGORITHMS:
+            raise ValueError(f"{algo!r} has no tree; trees belong to "
+                             f"{', '.join(map(repr, TREE_ALGORITHMS))}")
+        self.build(algo)
