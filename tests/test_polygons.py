@@ -29,9 +29,10 @@ def render_polygons_core(v, faces, sizes, indices, cull=False, algo="scanline"):
 
 
 @st.composite
-def polygon_scenes(draw):
+def polygon_scenes(draw, steep=False):
     """Star-shaped polygons (simple; convex when the radius is constant) on
-    the fixed-point grid, each in a random plane, some wound each way."""
+    the fixed-point grid, each in a random plane, some wound each way. Steep
+    planes leave [-1, 1] in z: those polygons cross the near or far plane."""
     sizes, points = [], []
     for _ in range(draw(st.integers(1, 4))):
         n = draw(st.integers(3, 11))
@@ -46,7 +47,8 @@ def polygon_scenes(draw):
             angles = angles[::-1]
         # A random plane z = a + b x + c y, kept inside [-1, 1] over the image.
         a = draw(st.integers(-4, 4)) / 8.0
-        b, c = (draw(st.integers(-4, 4)) / (8.0 * SIZE * SUB) for _ in range(2))
+        slope = 8.0 if steep else 1.0
+        b, c = (slope * draw(st.integers(-4, 4)) / (8.0 * SIZE * SUB) for _ in range(2))
         for deg in angles:
             r = r_max if convex else draw(st.integers(r_max // 4, r_max))
             x = cx + round(r * math.cos(math.radians(deg)))
@@ -101,6 +103,31 @@ def test_random_polygons_equal_reference(scene, cull):
     if stats["clipped"] == 0:
         first = np.concatenate([[0], np.cumsum(sizes - 2)[:-1]])
         assert set(np.unique(ids)) <= set(first.tolist()) | {-1}
+
+
+@SETTINGS
+@given(scene=polygon_scenes(steep=True), cull=st.booleans())
+def test_polygons_crossing_near_and_far_planes_equal_reference(scene, cull):
+    # Such polygons are drawn as their (clipped) triangles, the others natively.
+    v, sizes, indices, _ = scene
+    faces, _ = triangulate_polygons(v, sizes, indices)
+    depth, ids, stats = render_polygons_core(v, faces, sizes, indices, cull)
+    ref_depth, ref_ids, ref_stats = reference.render_polygons(v, faces, sizes, indices, MVP,
+                                                              SIZE, SIZE, cull)
+    np.testing.assert_array_equal(ids, ref_ids)
+    np.testing.assert_array_equal(depth, ref_depth)
+    assert_same_counters(stats, ref_stats)
+    assert stats["pixels_covered"] == ref_stats["pixels_covered"]
+
+
+def test_steep_polygon_scenes_do_cross_the_clip_planes():
+    # The test above is only worth its name if clipping happens in it.
+    from hypothesis import find
+
+    find(polygon_scenes(steep=True),
+         lambda scene: render_polygons_core(
+             scene[0], triangulate_polygons(*scene[:3])[0], scene[1], scene[2])[2]["clipped"] > 0,
+         settings=settings(max_examples=500, database=None))
 
 
 @SETTINGS

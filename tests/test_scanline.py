@@ -53,7 +53,7 @@ def test_horizontal_edges_and_shared_vertices_equal_reference(scene, cull):
 
 @SETTINGS
 @given(scene=shared_vertex_scenes())
-def test_scanline_equals_zbuffer_with_a_mesh_order(scene):
+def test_scanline_equals_zbuffer_on_shared_vertex_scenes(scene):
     v, f = scene
     a = render_core(v, f, "scanline")
     b = render_core(v, f, "zbuffer")

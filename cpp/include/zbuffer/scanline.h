@@ -22,8 +22,10 @@
 
 namespace zbuffer {
 
-// One edge of a triangle, as the edge table stores it and the active edge
-// list steps it.
+// An edge in the active edge list, stepped from row to row. (General
+// polygons' edges use the same DDA for their crossings: slot is then the
+// polygon, and q the first pixel at or right of the edge; see
+// ScanlineTables::add_polygon.)
 //
 // Edge k of a triangle admits the pixels where its biased edge value is
 // >= 0 (raster.h). Along a row the value is affine in x with slope step_x,
@@ -36,8 +38,8 @@ namespace zbuffer {
 // the next N changes by the constant -step_y. The DDA keeps
 // N = q * div + r with 0 <= r < div and steps q and r: exact integers only.
 //
-// Design decision: one entry per edge, holding its DDA state and the slot
-// of its polygon's span bound it tightens (bounds[2 p] = first pixel,
+// Design decision: one entry per active edge, holding its DDA state and the
+// slot of its polygon's span bound it tightens (bounds[2 p] = first pixel,
 // bounds[2 p + 1] = minus the last pixel, each tightened by max). Good:
 // entering, stepping and leaving are local to the entry, and left and right
 // edges are applied by the same branch-free code. Bad: 40 bytes an edge,
@@ -64,7 +66,7 @@ struct ScanEdge {
 // An entry of the edge table: which edge of which polygon, and until which
 // row it stays active.
 //
-// Design decision: 8 bytes naming the edge; its DDA state (ScanEdge) is
+// Design decision: 12 bytes naming the edge; its DDA state (ScanEdge) is
 // computed when it enters the active edge list, from its polygon's record,
 // which is in cache then (the polygon entered on the same row or earlier).
 // Good: the table that holds every edge of the frame is small, so filling
