@@ -158,6 +158,15 @@ def markdown(report: dict) -> str:
             f"| {c['N']} | {c['triangles']:,} | {c['projection']} | {c['algo']} | {c['mode']} | "
             f"{c['ms_median']:.1f} | {ratio:.2f} | {build} | {c['rasterized']:,} | "
             f"{c['culled_hidden']:,} | {c['culled_in_nodes']:,} | {c['cull_ratio']:.1%} | {nodes} |")
+    if report.get("unoccluded"):
+        lines += ["", "Single unoccluded meshes (camera framing the mesh), same size, x zbuffer "
+                  "per frame in the same run:", "",
+                  "| mesh | algorithm | mode | ms | x zbuffer | rasterized |", "|---|---|---|---:|---:|---:|"]
+        for c in report["unoccluded"]:
+            base = next(d for d in report["unoccluded"] if d["mesh"] == c["mesh"]
+                        and d["algo"] == "zbuffer")
+            lines.append(f"| {c['mesh']} | {c['algo']} | {c['mode']} | {c['ms_median']:.2f} | "
+                         f"{c['ms_median'] / base['ms_median']:.2f} | {c['rasterized']:,} |")
     lines += ["", "Output sensitivity (built once, perspective): time at the largest N over "
               "time at the smallest:", ""]
     for algo in TREES:
@@ -228,6 +237,25 @@ def main(argv=None) -> int:
                 record({**common, "algo": algo, "mode": "built once",
                         **built_once(mesh, camera, algo, size, runs)})
         del mesh
+
+    # Single unoccluded meshes: the cost of the hierarchy where it cannot win.
+    report["unoccluded"] = []
+    for name in (["bunny_69k.obj"] if args.quick else ["bunny_69k.obj", "armadillo_86k.obj"]):
+        path = MODELS / name
+        if not path.is_file():
+            print(f"{name} not found: unoccluded cases skipped", flush=True)
+            continue
+        single = zbuffer.load(path)
+        camera = zbuffer.Camera.fit(single, aspect=1.0).resolve(single)
+        for algo in ALGOS:
+            case = {"mesh": name, "algo": algo, "mode": "per frame",
+                    **per_frame(single, camera, algo, size, runs * 3)}
+            report["unoccluded"].append(case)
+        for algo in TREES:
+            report["unoccluded"].append({"mesh": name, "algo": algo, "mode": "built once",
+                                         **built_once(single, camera, algo, size, runs * 3)})
+        for c in report["unoccluded"][-6:]:
+            print(f"{name} {c['algo']:11s} {c['mode']:10s} {c['ms_median']:7.2f} ms", flush=True)
 
     # The octree's two rules, and leaf sizes, on one grid.
     n_rules = sizes[0]

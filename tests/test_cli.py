@@ -54,3 +54,11 @@ def test_bad_size_syntax_is_a_usage_error(capsys):
 def test_algorithms_lists_the_registry(capsys):
     assert main(["algorithms"]) == 0
     assert capsys.readouterr().out.startswith("zbuffer ")
+
+
+@pytest.mark.skipif(__import__("sys").platform in ("win32", "darwin"), reason="always has a display")
+def test_view_without_a_display_asks_for_a_screenshot(monkeypatch, capsys):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", "--size", "32x24"]) == 2
+    assert "use --screenshot FILE" in capsys.readouterr().err

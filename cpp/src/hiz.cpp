@@ -21,7 +21,8 @@ void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stat
   // but cost more upkeep: 128 instead of 512 made single unoccluded meshes
   // ~10% slower.
   ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true);
-  render_faces_batched(input, target, stats, &pyramid, TriangleBatch::kCapacity);
+  render_faces_batched(input, target, stats, &pyramid, TriangleBatch::kCapacity,
+                       /*lazy_upkeep=*/true);
   // Depth storage: the W x H buffer and the pyramid levels kept above it.
   int64_t cells = int64_t(target.width) * target.height;
   for (int k = pyramid.first_level(); k < pyramid.levels(); ++k)

@@ -1,11 +1,12 @@
 // `hiz_octree`: the hierarchical Z-buffer with its object-space octree
 // (Greene, Kass and Miller 1993, section 4). Through the registry the octree
-// is built for the frame and rendered once; zbuffer.Scene keeps it instead.
+// is built for the frame (frame_tree.h: the build is part of the frame
+// time) and rendered once; zbuffer.Scene builds octree.h's instead, once.
 #include <chrono>
 
 #include "zbuffer/algorithms.h"
+#include "zbuffer/frame_tree.h"
 #include "zbuffer/object_tree.h"
-#include "zbuffer/octree.h"
 
 namespace zbuffer {
 
@@ -13,7 +14,7 @@ void render_hiz_octree(const RenderInput& input, DepthTarget& target, RenderStat
   const auto t0 = std::chrono::steady_clock::now();
   // Rebuilt every frame into the same memory: this thread's last tree.
   thread_local ObjectTree tree;
-  build_octree(input.mesh, OctreeParams{}, tree);
+  build_octree_for_frame(input.mesh, OctreeParams{}, tree);
   stats.build_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   thread_local TreeFrame frame;

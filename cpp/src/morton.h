@@ -76,6 +76,13 @@ struct VertexGrid {
   static constexpr int kBits = 10;
   static constexpr uint32_t kMask = (1u << kBits) - 1;
   std::vector<uint32_t> cell;
+  double origin[3] = {0, 0, 0};  // the cube's low corner
+  double cell_size = 1.0;        // its side / 1024
+
+  // A world-space box that contains every point of the cells lo .. hi
+  // (inclusive) of axis a, with a cell of margin for rounding.
+  double world_lo(uint32_t lo, int a) const { return origin[a] + (double(lo) - 1.0) * cell_size; }
+  double world_hi(uint32_t hi, int a) const { return origin[a] + (double(hi) + 2.0) * cell_size; }
 
   void build(const MeshView& mesh) {
     const int64_t n = mesh.n_vertices;
@@ -89,14 +96,17 @@ struct VertexGrid {
       }
     const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
     const double scale = side > 0.0 && std::isfinite(side) ? double(kMask + 1) / side : 0.0;
+    for (int a = 0; a < 3; ++a) origin[a] = n > 0 ? lo[a] : 0.0;
+    cell_size = scale > 0.0 ? 1.0 / scale : 1.0;
     cell.resize(size_t(n));
+    // (p - lo) * scale lies in [0, 1024] (p is within the bounds just
+    // taken), so truncation is floor and only 1024 needs clamping.
+    const double* p = mesh.positions;
     for (int64_t v = 0; v < n; ++v) {
-      uint32_t packed = 0;
-      for (int a = 0; a < 3; ++a) {
-        const double q = std::floor((mesh.positions[3 * v + a] - lo[a]) * scale);
-        packed |= uint32_t(std::min(double(kMask), std::max(0.0, q))) << (kBits * a);
-      }
-      cell[size_t(v)] = packed;
+      const uint32_t x = std::min(kMask, uint32_t((p[3 * v] - lo[0]) * scale));
+      const uint32_t y = std::min(kMask, uint32_t((p[3 * v + 1] - lo[1]) * scale));
+      const uint32_t z = std::min(kMask, uint32_t((p[3 * v + 2] - lo[2]) * scale));
+      cell[size_t(v)] = x | y << kBits | z << (2 * kBits);
     }
   }
   static uint32_t axis(uint32_t packed, int a) { return (packed >> (kBits * a)) & kMask; }

@@ -39,6 +39,8 @@ void ObjectTree::clear() {
   source.clear();
   cluster_of_id.clear();
   n_input_faces = 0;
+  mesh_positions = nullptr;
+  mesh_vertices = 0;
 }
 
 // Cluster Construction
@@ -277,7 +279,19 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   thread_local ScreenVertices screen;
   thread_local std::vector<int32_t> kept_faces, kept_ids;
   int64_t reached = 0;         // faces handed to the batch (each once)
-  double draw_ms = 0.0;        // cluster drawing and batch flushes
+  double draw_ms = 0.0;        // vertex stage, cluster drawing and batch flushes
+  if (tree.mesh_positions) {
+    // An indexed tree (built for this frame, in time linear in the mesh
+    // anyway): every vertex through the vertex stage once, up front.
+    const auto t0 = Clock::now();
+    MeshView whole;
+    whole.positions = tree.mesh_positions;
+    whole.n_vertices = tree.mesh_vertices;
+    transform_vertices(whole, input.mvp, vp, screen);
+    const double ms = ms_between(t0, Clock::now());
+    stats.vertex_ms += ms;
+    draw_ms += ms;
+  }
 
   // Drawing a cluster: its own vertices through the vertex stage, its faces
   // into the batch (which culls and draws them as `hiz` does).
@@ -285,9 +299,10 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     if (frame.cluster_stamp[size_t(c)] == now) return;  // drawn already this frame
     frame.cluster_stamp[size_t(c)] = now;
     const TriangleCluster& cl = tree.clusters[size_t(c)];
-    MeshView mesh;
-    mesh.positions = tree.positions.data() + 3 * cl.vertex_begin;
-    mesh.n_vertices = cl.vertex_end - cl.vertex_begin;
+    MeshView mesh;  // the cluster's own vertices, or the whole mesh's (indexed)
+    mesh.positions = tree.mesh_positions ? tree.mesh_positions
+                                         : tree.positions.data() + 3 * cl.vertex_begin;
+    mesh.n_vertices = tree.mesh_positions ? tree.mesh_vertices : cl.vertex_end - cl.vertex_begin;
     mesh.faces = tree.faces.data() + 3 * cl.face_begin;
     mesh.face_ids = tree.ids.data() + cl.face_begin;
     mesh.n_faces = cl.face_end - cl.face_begin;
@@ -310,7 +325,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     reached += mesh.n_faces;
     if (mesh.n_faces == 0) return;
     const auto t0 = Clock::now();
-    transform_vertices(mesh, input.mvp, vp, screen);
+    if (!tree.mesh_positions) transform_vertices(mesh, input.mvp, vp, screen);
     const auto t1 = Clock::now();
     batch.add_faces(mesh, input.mvp, vp, screen, 0, mesh.n_faces, input.cull_backfaces);
     const auto t2 = Clock::now();

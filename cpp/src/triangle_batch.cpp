@@ -23,7 +23,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderStats& stats,
-                          ZPyramid* pyramid, int capacity) {
+                          ZPyramid* pyramid, int capacity, bool lazy_upkeep) {
   const Viewport vp(target.width, target.height);
 
   // Vertex stage: each vertex once, however many faces share it. The
@@ -38,6 +38,7 @@ void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderS
   // Assembly, setup, (culling,) rasterization: every face, in batches.
   t0 = std::chrono::steady_clock::now();
   TriangleBatch batch(target, stats, pyramid, capacity);
+  batch.set_lazy_upkeep(lazy_upkeep);
   batch.add_faces(input.mesh, input.mvp, vp, screen, 0, input.mesh.n_faces,
                   input.cull_backfaces);
   batch.flush();
@@ -136,6 +137,8 @@ void TriangleBatch::add_face(const MeshView& mesh, const double* mvp, const View
 // Drawing
 
 void TriangleBatch::flush() {
+  const int64_t pending_before = pending();
+  const int64_t culled_before = stats_.culled_hidden;
   if (pyramid_) cull_hidden();
   int64_t covered = 0, written = 0;
 #ifdef ZBUFFER_AVX512
@@ -166,7 +169,24 @@ void TriangleBatch::flush() {
       rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target_, stats_);
   }
   large_.clear();
-  if (pyramid_) update_pyramid();
+  if (pyramid_) {
+    // Adaptive upkeep: while the pyramid culls next to nothing (a single
+    // unoccluded mesh), bring it up to date only every few batches -- the
+    // blocks drawn into meanwhile stay marked and are recomputed once. A
+    // pyramid that lags only culls less: depth never increases.
+    // Only a test against an up-to-date pyramid says whether testing pays.
+    const int64_t culled = stats_.culled_hidden - culled_before;
+    const bool useless = pyramid_fresh_ && culled * 64 < pending_before;
+    if (lazy_upkeep_ && (useless || (skipped_updates_ > 0 &&
+                                     skipped_updates_ < kMaxSkippedUpdates))) {
+      ++skipped_updates_;
+      pyramid_fresh_ = false;
+    } else {
+      update_pyramid();
+      skipped_updates_ = 0;
+      pyramid_fresh_ = true;
+    }
+  }
   n_small_ = 0;
   small_tested_ = 0;
   for (int& g : group_size_) g = 0;

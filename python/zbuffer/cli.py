@@ -2,6 +2,8 @@
 
     zbuffer render                              # the built-in scene -> render.png
     zbuffer render bunny.obj --algo zbuffer --size 1024x768 --out bunny.png --depth bunny_depth.png
+    zbuffer view bunny.obj --algo hiz_octree        # a live window (see zbuffer.viewer)
+    zbuffer view --screenshot frame.png             # one frame offscreen, then exit
     zbuffer algorithms
 """
 
@@ -102,6 +104,38 @@ def _cmd_render(args) -> int:
     return 0
 
 
+def _cmd_view(args) -> int:
+    import zbuffer
+
+    from .scenes import default_scene
+    from .viewer import Viewer, run
+
+    width, height = args.size
+    mesh = default_scene() if args.mesh is None else zbuffer.load(args.mesh)
+    viewer = Viewer(mesh, algo=args.algo, width=width, height=height, shading=args.shading)
+    if args.overlay == "pyramid":
+        viewer.render()
+    if args.overlay != "none":
+        viewer.toggle(args.overlay)
+        if viewer.overlay != args.overlay:
+            raise ValueError(f"overlay {args.overlay!r} needs a tree algorithm (hiz_octree, hiz_bvh)")
+    if args.screenshot is None and not _can_open_window():
+        raise ValueError("no display to open a window on; use --screenshot FILE")
+    run(viewer, screenshot=args.screenshot)
+    if args.screenshot is not None:
+        print(viewer.status())
+        print(f"wrote {args.screenshot}")
+    return 0
+
+
+def _can_open_window() -> bool:
+    import os
+    import sys as _sys
+
+    return _sys.platform in ("win32", "darwin") or bool(os.environ.get("DISPLAY")
+                                                        or os.environ.get("WAYLAND_DISPLAY"))
+
+
 def _cmd_algorithms(args) -> int:
     from . import _core
 
@@ -134,6 +168,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="point looked at (default: the mesh centre)")
     r.add_argument("--up", type=_vec3, default=(0.0, 1.0, 0.0), metavar="X,Y,Z")
     r.set_defaults(func=_cmd_render)
+
+    v = sub.add_parser("view", help="a live window of zbuffer's own rendering "
+                       "(drag: rotate, wheel: zoom, keys a/s/d/p/o/r; see zbuffer.viewer)")
+    v.add_argument("mesh", nargs="?", help="mesh file; omitted: the built-in default scene")
+    v.add_argument("--algo", default="hiz_octree", help="starting algorithm (key a: next)")
+    v.add_argument("--size", type=_size, default=(800, 600), help="WIDTHxHEIGHT (default 800x600)")
+    v.add_argument("--shading", choices=["flat", "smooth", "none"], default="flat")
+    v.add_argument("--overlay", choices=["none", "depth", "pyramid", "tree"], default="none",
+                   help="starting overlay (keys d, p, o)")
+    v.add_argument("--screenshot", default=None, metavar="FILE",
+                   help="render one frame offscreen into FILE (PNG) and exit")
+    v.set_defaults(func=_cmd_view)
 
     a = sub.add_parser("algorithms", help="list the depth algorithms")
     a.set_defaults(func=_cmd_algorithms)

@@ -113,3 +113,22 @@ def test_frustum_corners_project_to_the_clip_cube():
     clip = np.hstack([pts, np.ones((8, 1))]) @ res.mvp.T
     np.testing.assert_allclose(np.abs(clip[:, :3] / clip[:, 3:]), 1.0, rtol=1e-9)
 
+
+
+def test_zbuffer_view_screenshot(tmp_path, capsys):
+    from zbuffer.cli import main
+
+    path = tmp_path / "view.png"
+    assert main(["view", "--size", "160x120", "--overlay", "tree", "--screenshot", str(path)]) == 0
+    image = viz_image(path)
+    assert image.shape[:2] == (120, 160) and not_blank(image)
+    assert "hiz_octree" in capsys.readouterr().out
+    assert main(["view", "--algo", "zbuffer", "--overlay", "tree", "--screenshot",
+                 str(tmp_path / "x.png")]) == 2  # no tree to show: a clear error
+    assert "needs a tree algorithm" in capsys.readouterr().err
+
+
+def viz_image(path):
+    import skimage.io
+
+    return skimage.io.imread(path)

@@ -32,18 +32,24 @@ struct TreeNode {
 // The triangles one node owns, drawn as one unit.
 struct TriangleCluster {
   int64_t face_begin, face_end;      // rows of ObjectTree::faces and ids
-  int64_t vertex_begin, vertex_end;  // rows of ObjectTree::positions
+  int64_t vertex_begin, vertex_end;  // rows of ObjectTree::positions (0, 0 if indexed)
   int32_t node;
 };
 
-// Design decision: a built tree is self-contained. Every cluster gets its
-// own copy of its vertices, with faces indexed locally, so that drawing a
-// cluster transforms exactly the vertices it uses (vertex_stage.h, 8 at a
-// time) and never touches the rest of the mesh. Good: render time depends on
-// what is visible, not on the size of the mesh, and the tree outlives the
-// arrays it was built from. Bad: vertices on cluster borders are stored (and
-// transformed) more than once -- identical bits each time, so the output does
-// not change -- and the tree holds about 40 bytes per triangle.
+// Design decision: a tree built to last (zbuffer.Scene) is self-contained.
+// Every cluster gets its own copy of its vertices, with faces indexed
+// locally, so that drawing a cluster transforms exactly the vertices it uses
+// (vertex_stage.h, 8 at a time) and never touches the rest of the mesh.
+// Good: render time depends on what is visible, not on the size of the
+// mesh, and the tree outlives the arrays it was built from. Bad: vertices on
+// cluster borders are stored (and transformed) more than once -- identical
+// bits each time, so the output does not change -- and the tree holds about
+// 40 bytes per triangle.
+//
+// A tree built for one frame (frame_tree.h) is `indexed` instead: its faces
+// keep the mesh's vertex indices, and the traversal transforms all of the
+// mesh's vertices up front (as the plain Z-buffer does), so that building
+// copies nothing but the faces.
 struct ObjectTree {
   std::vector<TreeNode> nodes;           // nodes[0] is the root (empty mesh: none)
   std::vector<TriangleCluster> clusters;
@@ -55,6 +61,10 @@ struct ObjectTree {
   // True when one face may be referenced by several clusters (Greene's rule
   // for the octree); the traversal then draws each face at most once.
   bool shared = false;
+  // Non-null for an indexed tree: the mesh positions its faces index (the
+  // caller keeps them alive while rendering); `positions` is then empty.
+  const double* mesh_positions = nullptr;
+  int64_t mesh_vertices = 0;
   // id -> cluster (the first one holding it), if ids are the face indices
   // 0 .. n_input_faces - 1; empty otherwise. Temporal coherence needs it.
   std::vector<int32_t> cluster_of_id;

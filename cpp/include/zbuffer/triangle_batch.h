@@ -61,6 +61,14 @@ class TriangleBatch {
   // the target.
   void flush();
 
+  // With a pyramid: let flush() skip bringing the pyramid up to date (for
+  // up to kMaxSkippedUpdates batches in a row) after a batch tested against
+  // an up-to-date pyramid culled under 1/64 of its triangles. For callers that never read the pyramid between
+  // batches themselves (`hiz`; a tree traversal tests nodes against it and
+  // wants it current).
+  void set_lazy_upkeep(bool lazy) { lazy_upkeep_ = lazy; }
+  static constexpr int kMaxSkippedUpdates = 3;
+
   // Triangles added and not drawn yet.
   int pending() const { return n_small_ + int(large_.size()); }
 
@@ -98,6 +106,9 @@ class TriangleBatch {
   RenderStats& stats_;
   ZPyramid* pyramid_;
   int capacity_;
+  bool lazy_upkeep_ = false;
+  int skipped_updates_ = 0;
+  bool pyramid_fresh_ = false;  // updated at the end of the last flush
   static constexpr int kTileShift = 3;   // 8 x 8 pixel tiles (pyramid level 3)
   static constexpr int kDirtyShift = 4;  // dirt is tracked by 16 x 16 blocks
   int tiles_wide_ = 0;                   // blocks of 16 x 16 pixels a row
@@ -138,6 +149,7 @@ class TriangleBatch {
 // vertices, then every face through a TriangleBatch (with `pyramid`, a
 // hierarchical Z-buffer). Adds vertex_ms and raster_ms to stats.
 void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderStats& stats,
-                          ZPyramid* pyramid = nullptr, int capacity = TriangleBatch::kCapacity);
+                          ZPyramid* pyramid = nullptr, int capacity = TriangleBatch::kCapacity,
+                          bool lazy_upkeep = false);
 
 }  // namespace zbuffer

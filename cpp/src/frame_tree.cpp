@@ -1,0 +1,320 @@
+// Per-frame octree and BVH: a counting sort into buckets, nodes read off
+// the bucket counts (frame_tree.h).
+#include "zbuffer/frame_tree.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "morton.h"
+
+namespace zbuffer {
+
+namespace {
+
+constexpr int kMaxFrameDepth = 6;
+
+// Faces in buckets: bucket of each face, faces per bucket (then the first
+// face of each bucket), and each bucket's box on the vertex grid.
+// Consecutive faces mostly fall in the same bucket (meshes list neighbours
+// together), so a run of them is counted and bounded in registers and
+// written once: updating the same counter and box in memory face after face
+// would chain every face to the previous one's store.
+struct Buckets {
+  std::vector<int32_t> of_face;
+  std::vector<int64_t> start;  // n_buckets + 1 entries after scatter()
+  std::vector<uint16_t> box;   // 6 per bucket: lo xyz, hi xyz (grid cells)
+
+  void reset(size_t n_buckets, size_t n_faces) {
+    of_face.resize(n_faces);
+    start.assign(n_buckets + 1, 0);
+    box.resize(6 * n_buckets);
+    for (size_t b = 0; b < n_buckets; ++b) {
+      std::fill_n(&box[6 * b], 3, uint16_t(VertexGrid::kMask));
+      std::fill_n(&box[6 * b + 3], 3, uint16_t(0));
+    }
+    run_ = -1;
+  }
+  void add(int64_t f, int32_t b, const uint32_t* lo, const uint32_t* hi) {
+    of_face[size_t(f)] = b;
+    if (b != run_) {
+      end_run();
+      run_ = b;
+      run_count_ = 0;
+      for (int a = 0; a < 3; ++a) {
+        run_lo_[a] = lo[a];
+        run_hi_[a] = hi[a];
+      }
+    }
+    ++run_count_;
+    for (int a = 0; a < 3; ++a) {
+      run_lo_[a] = std::min(run_lo_[a], lo[a]);
+      run_hi_[a] = std::max(run_hi_[a], hi[a]);
+    }
+  }
+  // Counts to starts, and the faces (and their ids) into bucket order.
+  void scatter(const MeshView& mesh, ObjectTree& tree) {
+    end_run();
+    for (size_t b = 1; b < start.size(); ++b) start[b] += start[b - 1];
+    thread_local std::vector<int64_t> next;
+    next.assign(start.begin(), start.end() - 1);
+    tree.faces.resize(3 * size_t(mesh.n_faces));
+    tree.ids.resize(size_t(mesh.n_faces));
+    int32_t* faces = tree.faces.data();
+    int32_t* ids = tree.ids.data();
+    for (int64_t f = 0; f < mesh.n_faces;) {
+      // A run of faces of one bucket goes to consecutive places.
+      const int32_t b = of_face[size_t(f)];
+      int64_t to = next[size_t(b)];
+      for (; f < mesh.n_faces && of_face[size_t(f)] == b; ++f, ++to) {
+        std::memcpy(faces + 3 * to, mesh.faces + 3 * f, 3 * sizeof(int32_t));
+        ids[to] = mesh.id(f);
+      }
+      next[size_t(b)] = to;
+    }
+  }
+  // Grid box of buckets [b, e) into lo/hi (empty buckets do not widen it).
+  void unite(size_t b, size_t e, uint32_t* lo, uint32_t* hi) const {
+    for (size_t k = b; k < e; ++k) {
+      if (start[k + 1] == start[k]) continue;
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min<uint32_t>(lo[a], box[6 * k + a]);
+        hi[a] = std::max<uint32_t>(hi[a], box[6 * k + 3 + a]);
+      }
+    }
+  }
+
+ private:
+  void end_run() {
+    if (run_ < 0) return;
+    start[size_t(run_) + 1] += run_count_;
+    uint16_t* bx = &box[6 * size_t(run_)];
+    for (int a = 0; a < 3; ++a) {
+      bx[a] = std::min<uint16_t>(bx[a], uint16_t(run_lo_[a]));
+      bx[3 + a] = std::max<uint16_t>(bx[3 + a], uint16_t(run_hi_[a]));
+    }
+    run_ = -1;
+  }
+  int32_t run_ = -1;
+  int64_t run_count_ = 0;
+  uint32_t run_lo_[3] = {}, run_hi_[3] = {};
+};
+
+Buckets& buckets() {
+  thread_local Buckets b;
+  return b;
+}
+
+// The face's box on the vertex grid.
+inline void face_cells(const VertexGrid& grid, const int32_t* idx, uint32_t* lo, uint32_t* hi) {
+  const uint32_t c0 = grid.cell[size_t(idx[0])], c1 = grid.cell[size_t(idx[1])],
+                 c2 = grid.cell[size_t(idx[2])];
+  for (int a = 0; a < 3; ++a) {
+    const uint32_t v0 = VertexGrid::axis(c0, a), v1 = VertexGrid::axis(c1, a),
+                   v2 = VertexGrid::axis(c2, a);
+    lo[a] = std::min({v0, v1, v2});
+    hi[a] = std::max({v0, v1, v2});
+  }
+}
+
+void set_bounds(TreeNode& node, const VertexGrid& grid, const uint32_t* lo, const uint32_t* hi) {
+  for (int a = 0; a < 3; ++a) {
+    node.lo[a] = grid.world_lo(lo[a], a);
+    node.hi[a] = grid.world_hi(hi[a], a);
+  }
+}
+
+int32_t add_cluster(ObjectTree& tree, int32_t node, int64_t b, int64_t e) {
+  const int32_t c = int32_t(tree.clusters.size());
+  tree.clusters.push_back({b, e, 0, 0, node});
+  tree.nodes[size_t(node)].cluster = c;
+  return c;
+}
+
+void begin(const MeshView& mesh, ObjectTree& tree) {
+  tree.clear();
+  tree.shared = false;
+  tree.n_input_faces = mesh.n_faces;
+  tree.mesh_positions = mesh.positions;
+  tree.mesh_vertices = mesh.n_vertices;
+}
+
+// Octree
+
+class FrameOctree {
+ public:
+  FrameOctree(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree,
+              const VertexGrid& grid)
+      : mesh_(mesh), params_(params), tree_(tree), grid_(grid), b_(buckets()) {
+    depth_ = std::min(frame_tree_depth(mesh.n_faces, params.leaf_size), params.max_depth);
+    // size_[l]: nodes of a complete subtree rooted at level l.
+    for (int l = depth_; l >= 0; --l) size_[l] = l == depth_ ? 1 : 1 + 8 * size_[l + 1];
+  }
+
+  void build() {
+    const int coarsen = VertexGrid::kBits - depth_;
+    b_.reset(size_t(size_[0]), size_t(mesh_.n_faces));
+    for (int64_t f = 0; f < mesh_.n_faces; ++f) {
+      uint32_t lo[3], hi[3];
+      face_cells(grid_, mesh_.faces + 3 * f, lo, hi);
+      // The smallest enclosing cell at depth <= T (octree.h, the simpler rule).
+      const uint32_t x = lo[0] >> coarsen, y = lo[1] >> coarsen, z = lo[2] >> coarsen;
+      const uint32_t differ = (x ^ (hi[0] >> coarsen)) | (y ^ (hi[1] >> coarsen)) |
+                              (z ^ (hi[2] >> coarsen));
+      const int s = differ ? 32 - __builtin_clz(differ) : 0;
+      b_.add(f, int32_t(preorder(x >> s, y >> s, z >> s, depth_ - s)), lo, hi);
+    }
+    b_.scatter(mesh_, tree_);
+    tree_.nodes.emplace_back();
+    build_node(0, 0, 0);
+  }
+
+ private:
+  // The pre-order number, in the complete octree of depth T, of the cell
+  // (x, y, z) at `level`: sum over its octal digits d_l (l = 1 .. level,
+  // from the top) of 1 + d_l size_[l], where size_[l] = (8^(T-l+1) - 1) / 7.
+  // With m the cell's Morton code, sum d_l 8^(T-l+1) = 8^(T-level+1) m, so
+  // the sum is level + (8^(T-level+1) m - digit_sum(m)) / 7, exactly.
+  int64_t preorder(uint32_t x, uint32_t y, uint32_t z, int level) const {
+    const uint64_t m = morton_30(x, y, z);
+    const int64_t digit_sum = __builtin_popcountll(m & 0x249249249249ull) +
+                              2 * __builtin_popcountll(m & 0x492492492492ull) +
+                              4 * __builtin_popcountll(m & 0x924924924924ull);
+    return level + (int64_t(m << (3 * (depth_ - level + 1))) - digit_sum) / 7;
+  }
+
+  // Node `i` of the tree is bucket `index` at `level`.
+  void build_node(int32_t i, int64_t index, int level) {
+    const int64_t end_index = index + size_[level];
+    const int64_t b = b_.start[size_t(index)], e = b_.start[size_t(end_index)];
+    tree_.nodes[size_t(i)].depth = level;
+    tree_.nodes[size_t(i)].n_triangles = e - b;
+    uint32_t lo[3] = {VertexGrid::kMask, VertexGrid::kMask, VertexGrid::kMask}, hi[3] = {0, 0, 0};
+    if (e - b <= params_.leaf_size || level == depth_) {  // a leaf: the whole subtree
+      b_.unite(size_t(index), size_t(end_index), lo, hi);
+      set_bounds(tree_.nodes[size_t(i)], grid_, lo, hi);
+      add_cluster(tree_, i, b, e);
+      return;
+    }
+    const int64_t own_end = b_.start[size_t(index) + 1];
+    if (own_end > b) add_cluster(tree_, i, b, own_end);
+    b_.unite(size_t(index), size_t(index) + 1, lo, hi);
+    int64_t child_index[8];
+    int n = 0;
+    for (int c = 0; c < 8; ++c) {
+      const int64_t k = index + 1 + c * size_[level + 1];
+      if (b_.start[size_t(k + size_[level + 1])] > b_.start[size_t(k)]) child_index[n++] = k;
+    }
+    const int32_t first = int32_t(tree_.nodes.size());
+    tree_.nodes.resize(tree_.nodes.size() + size_t(n));  // invalidates references
+    tree_.nodes[size_t(i)].first_child = first;
+    tree_.nodes[size_t(i)].n_children = n;
+    for (int k = 0; k < n; ++k) build_node(first + k, child_index[k], level + 1);
+    if (own_end > b) set_bounds(tree_.nodes[size_t(i)], grid_, lo, hi);
+    merge_child_bounds(tree_, i);
+  }
+
+  const MeshView& mesh_;
+  const OctreeParams& params_;
+  ObjectTree& tree_;
+  const VertexGrid& grid_;
+  Buckets& b_;
+  int depth_ = 1;
+  int64_t size_[kMaxFrameDepth + 1] = {};
+};
+
+// BVH
+
+class FrameBvh {
+ public:
+  FrameBvh(const MeshView& mesh, const BvhParams& params, ObjectTree& tree, const VertexGrid& grid)
+      : mesh_(mesh), params_(params), tree_(tree), grid_(grid), b_(buckets()) {
+    bits_ = 3 * frame_tree_depth(mesh.n_faces, params.leaf_size);
+  }
+
+  void build() {
+    b_.reset(size_t(1) << bits_, size_t(mesh_.n_faces));
+    for (int64_t f = 0; f < mesh_.n_faces; ++f) {
+      uint32_t lo[3], hi[3];
+      face_cells(grid_, mesh_.faces + 3 * f, lo, hi);
+      const int32_t* idx = mesh_.faces + 3 * f;
+      uint32_t q[3];
+      for (int a = 0; a < 3; ++a)
+        q[a] = (VertexGrid::axis(grid_.cell[size_t(idx[0])], a) +
+                VertexGrid::axis(grid_.cell[size_t(idx[1])], a) +
+                VertexGrid::axis(grid_.cell[size_t(idx[2])], a)) / 3;
+      b_.add(f, int32_t(morton_30(q[0], q[1], q[2]) >> (30 - bits_)), lo, hi);
+    }
+    b_.scatter(mesh_, tree_);
+    used_.clear();
+    for (size_t k = 0; k + 1 < b_.start.size(); ++k)
+      if (b_.start[k + 1] > b_.start[k]) used_.push_back(uint32_t(k));
+    tree_.nodes.emplace_back();
+    build_node(0, 0, used_.size(), 0);
+  }
+
+ private:
+  // Node `i` holds the used buckets [u0, u1).
+  void build_node(int32_t i, size_t u0, size_t u1, int depth) {
+    const int64_t b = b_.start[used_[u0]], e = b_.start[size_t(used_[u1 - 1]) + 1];
+    tree_.nodes[size_t(i)].depth = depth;
+    tree_.nodes[size_t(i)].n_triangles = e - b;
+    if (e - b <= params_.leaf_size || u1 - u0 == 1) {
+      uint32_t lo[3] = {VertexGrid::kMask, VertexGrid::kMask, VertexGrid::kMask}, hi[3] = {0, 0, 0};
+      b_.unite(used_[u0], size_t(used_[u1 - 1]) + 1, lo, hi);
+      set_bounds(tree_.nodes[size_t(i)], grid_, lo, hi);
+      add_cluster(tree_, i, b, e);
+      return;
+    }
+    // Split where the highest differing bit of the bucket codes turns to 1.
+    const uint32_t bit = 1u << (31 - __builtin_clz(used_[u0] ^ used_[u1 - 1]));
+    const size_t mid = size_t(std::partition_point(used_.begin() + long(u0), used_.begin() + long(u1),
+                                                   [bit](uint32_t k) { return !(k & bit); }) -
+                              used_.begin());
+    const int32_t first = int32_t(tree_.nodes.size());
+    tree_.nodes.resize(tree_.nodes.size() + 2);  // invalidates references
+    tree_.nodes[size_t(i)].first_child = first;
+    tree_.nodes[size_t(i)].n_children = 2;
+    build_node(first, u0, mid, depth + 1);
+    build_node(first + 1, mid, u1, depth + 1);
+    merge_child_bounds(tree_, i);
+  }
+
+  const MeshView& mesh_;
+  const BvhParams& params_;
+  ObjectTree& tree_;
+  const VertexGrid& grid_;
+  Buckets& b_;
+  int bits_ = 3;
+  std::vector<uint32_t> used_;
+};
+
+}  // namespace
+
+int frame_tree_depth(int64_t faces, int leaf_size) {
+  // A surface crosses about 4^T cells of a depth-T grid: aim for leaf_size
+  // triangles in each.
+  const double cells = double(faces) / double(std::max(1, leaf_size));
+  const int depth = cells > 1.0 ? int(std::ceil(std::log(cells) / std::log(4.0))) : 1;
+  return std::max(1, std::min(kMaxFrameDepth, depth));
+}
+
+void build_octree_for_frame(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree) {
+  begin(mesh, tree);
+  if (mesh.n_faces == 0) return;
+  thread_local VertexGrid grid;
+  grid.build(mesh);
+  FrameOctree(mesh, params, tree, grid).build();
+}
+
+void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTree& tree) {
+  begin(mesh, tree);
+  if (mesh.n_faces == 0) return;
+  thread_local VertexGrid grid;
+  grid.build(mesh);
+  FrameBvh(mesh, params, tree, grid).build();
+}
+
+}  // namespace zbuffer

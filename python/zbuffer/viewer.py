@@ -1,0 +1,278 @@
+"""``zbuffer view``: a window showing zbuffer's own software-rendered image,
+live.
+
+The window is a pyvista plotter showing one picture -- the frame zbuffer
+rendered, or an overlay of it -- and a line with the frame time and the main
+counters. VTK's own camera never moves: dragging and the wheel move
+zbuffer's camera, and every change renders a new frame on the CPU.
+
+Mouse: drag to rotate around the mesh, wheel to zoom. Keys:
+
+====  =========================================================
+a     next algorithm (``zbuffer.algorithms()``)
+s     shading: flat, smooth, none (triangle ids in false colour)
+d     overlay: the depth map
+p     overlay: the Z-pyramid, one level coarser each press (then off)
+o     overlay: the tree's node rectangles, coloured by fate
+      (``hiz_octree`` / ``hiz_bvh``: hidden red, drawn green)
+r     reset the view
+====  =========================================================
+
+:class:`Viewer` holds the state and composes frames without any window
+(:meth:`Viewer.frame`), which is what the tests and ``--screenshot`` use.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Optional
+
+import numpy as np
+
+from .api import algorithms
+from .camera import Camera
+from .mesh import as_mesh
+from .result import RenderResult
+from .scene import TREE_ALGORITHMS, Scene
+
+__all__ = ["Viewer", "run"]
+
+SHADINGS = ("flat", "smooth", "none")
+# Overlay colours of node fates (zbuffer.scene.NODE_FATES): hidden, drawn.
+_RECT_COLORS = {2: (214, 39, 40), 3: (255, 159, 28), 4: (44, 160, 44)}
+
+
+class Viewer:
+    """The state of an interactive view of one mesh, and its frames.
+
+    Parameters
+    ----------
+    mesh : anything :func:`zbuffer.render` accepts
+    algo : str
+        Starting algorithm.
+    width, height : int
+        Frame size in pixels.
+    shading : {"flat", "smooth", "none"}
+    """
+
+    def __init__(self, mesh, algo: str = "hiz_octree", width: int = 800, height: int = 600,
+                 shading: str = "flat"):
+        self.scene = Scene(as_mesh(mesh))
+        if algo not in algorithms():
+            raise ValueError(f"unknown algorithm {algo!r}; valid names are "
+                             f"{', '.join(map(repr, algorithms()))}")
+        if shading not in SHADINGS:
+            raise ValueError(f"shading must be one of {SHADINGS}, got {shading!r}")
+        self.algo = algo
+        self.width, self.height = int(width), int(height)
+        self.shading = shading
+        self.overlay = "none"     # "none", "depth", "pyramid", "tree"
+        self.pyramid_level = 0
+        self.result: Optional[RenderResult] = None
+        self.frame_ms = 0.0
+        self.reset_view()
+
+    # Camera
+
+    def reset_view(self) -> None:
+        """Azimuth 0 (looking down -z), a little from above, the mesh framed."""
+        centre, radius = self.scene.mesh.bounding_sphere
+        self.target = np.asarray(centre, float)
+        self.radius = float(radius) if radius > 0 else 1.0
+        self.azimuth, self.elevation = 0.0, 20.0
+        self.distance = 2.6 * self.radius
+
+    def rotate(self, d_azimuth: float, d_elevation: float) -> None:
+        """Orbit around the target (degrees); elevation stays within +-89."""
+        self.azimuth = (self.azimuth + d_azimuth) % 360.0
+        self.elevation = float(np.clip(self.elevation + d_elevation, -89.0, 89.0))
+
+    def zoom(self, factor: float) -> None:
+        """Move towards (factor < 1) or away from the target."""
+        self.distance = float(np.clip(self.distance * factor, 0.05 * self.radius,
+                                      100.0 * self.radius))
+
+    def camera(self) -> Camera:
+        a, e = math.radians(self.azimuth), math.radians(self.elevation)
+        offset = np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])
+        eye = self.target + self.distance * offset
+        return Camera.look_at(eye, self.target, fov_y=45.0,
+                              near=max(self.distance - 1.5 * self.radius, 1e-3 * self.distance),
+                              far=self.distance + 1.5 * self.radius)
+
+    # Modes
+
+    def next_algorithm(self) -> None:
+        names = algorithms()
+        self.algo = names[(names.index(self.algo) + 1) % len(names)]
+        if self.overlay == "tree" and self.algo not in TREE_ALGORITHMS:
+            self.overlay = "none"
+
+    def next_shading(self) -> None:
+        self.shading = SHADINGS[(SHADINGS.index(self.shading) + 1) % len(SHADINGS)]
+
+    def toggle(self, overlay: str) -> None:
+        """Switch an overlay on (or off, if it is on). "pyramid" steps one
+        level coarser each call instead, and off after the last level."""
+        if overlay not in ("depth", "pyramid", "tree"):
+            raise ValueError(f"unknown overlay {overlay!r}")
+        if overlay == "pyramid":
+            if self.overlay != "pyramid":
+                self.overlay, self.pyramid_level = "pyramid", 1
+            else:
+                self.pyramid_level += 1
+                levels = len(self.result.pyramid()) if self.result is not None else 1
+                if self.pyramid_level >= levels:
+                    self.overlay, self.pyramid_level = "none", 0
+            return
+        if overlay == "tree" and self.overlay != "tree" and self.algo not in TREE_ALGORITHMS:
+            return  # no tree to show
+        self.overlay = "none" if self.overlay == overlay else overlay
+
+    # Frames
+
+    def render(self) -> RenderResult:
+        """Render the current view with the current algorithm."""
+        t0 = time.perf_counter()
+        self.result = self.scene.render(self.camera(), algo=self.algo, width=self.width,
+                                        height=self.height, shading=self.shading)
+        self.frame_ms = (time.perf_counter() - t0) * 1e3
+        return self.result
+
+    def frame(self) -> np.ndarray:
+        """Render and compose the picture shown: (H, W, 3) uint8."""
+        from .viz import depth_for_display, id_colors
+
+        res = self.render()
+        picture = res.image if res.image is not None else id_colors(res.triangle_id)
+        if self.overlay == "depth":
+            picture = _grey(depth_for_display(res.depth))
+        elif self.overlay == "pyramid":
+            level = res.pyramid()[self.pyramid_level]
+            k = 2 ** self.pyramid_level
+            up = np.repeat(np.repeat(level, k, axis=0), k, axis=1)[:self.height, :self.width]
+            picture = _grey(depth_for_display(up))
+        elif self.overlay == "tree":
+            picture = picture.copy()
+            _draw_node_rects(picture, self.scene.nodes(self.algo), res.mvp)
+        return picture
+
+    def status(self) -> str:
+        """The on-screen line: algorithm, frame time and the main counters."""
+        if self.result is None:
+            return ""
+        s = self.result.stats
+        line = (f"{self.algo}  {self.frame_ms:.1f} ms/frame (core {s['render_ms']:.1f})  "
+                f"{s['rasterized']:,} drawn, {s['culled_hidden']:,} culled")
+        if self.algo in TREE_ALGORITHMS:
+            line += (f", {s['culled_in_nodes']:,} in culled nodes "
+                     f"({s['nodes_hidden']:,} hidden / {s['nodes_visited']:,} visited nodes)")
+        overlay = {"none": "", "depth": "  [depth]", "tree": "  [tree nodes]",
+                   "pyramid": f"  [pyramid level {self.pyramid_level}]"}[self.overlay]
+        return line + overlay + f"  shading {self.shading}"
+
+
+def _grey(values: np.ndarray) -> np.ndarray:
+    """Depth to grey: nearest white, farthest dark, nothing drawn black."""
+    out = np.zeros(values.shape + (3,), np.uint8)
+    drawn = np.isfinite(values)
+    if drawn.any():
+        v = values[drawn]
+        lo, hi = v.min(), v.max()
+        t = (v - lo) / (hi - lo) if hi > lo else np.zeros_like(v)
+        out[drawn] = np.round(255 - 200 * t).astype(np.uint8)[:, None]
+    return out
+
+
+def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
+    """Outline, in place, the screen rectangle of every hidden or drawn tree
+    node in front of the camera (the rectangle its node test used, without
+    the margin), in its fate's colour."""
+    h, w = picture.shape[:2]
+    fate = nodes["fate"]
+    keep = np.isin(fate, list(_RECT_COLORS))
+    lo, hi = nodes["lo"][keep], nodes["hi"][keep]
+    corners = np.stack([np.where(np.array([i & 1, i & 2, i & 4], bool), hi, lo)
+                        for i in range(8)], axis=1)                       # (K, 8, 3)
+    clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], -1) @ mvp.T
+    in_front = (clip[..., 3] > 0).all(axis=1) & (clip[..., 2] >= -clip[..., 3]).all(axis=1)
+    x = (clip[..., 0] / clip[..., 3] + 1) * (w / 2)
+    y = (1 - clip[..., 1] / clip[..., 3]) * (h / 2)
+    for k in np.flatnonzero(in_front):
+        x0, x1 = int(np.clip(np.floor(x[k].min()), 0, w - 1)), int(np.clip(np.floor(x[k].max()), 0, w - 1))
+        y0, y1 = int(np.clip(np.floor(y[k].min()), 0, h - 1)), int(np.clip(np.floor(y[k].max()), 0, h - 1))
+        color = _RECT_COLORS[int(fate[keep][k])]
+        picture[y0, x0:x1 + 1] = color
+        picture[y1, x0:x1 + 1] = color
+        picture[y0:y1 + 1, x0] = color
+        picture[y0:y1 + 1, x1] = color
+
+
+def run(viewer: Viewer, screenshot: Optional[str] = None):
+    """Show the viewer in a window (or, with ``screenshot``, render one frame
+    offscreen into that PNG file and return the picture)."""
+    from .viz import _image_plane, _pyvista
+
+    pv = _pyvista()
+    offscreen = screenshot is not None
+    plotter = pv.Plotter(off_screen=offscreen, window_size=(viewer.width, viewer.height),
+                         border=False, title="zbuffer view")
+    plotter.set_background("black")
+
+    def show():
+        grid = _image_plane(pv, viewer.frame())
+        plotter.add_mesh(grid, scalars="values", rgb=True, show_scalar_bar=False, name="frame")
+        plotter.add_text(viewer.status(), position="upper_left", font_size=9, color="white",
+                         shadow=True, name="status")
+        plotter.view_xy()
+        plotter.enable_parallel_projection()
+        plotter.reset_camera(bounds=grid.bounds)
+        plotter.camera.parallel_scale = viewer.height / 2  # one picture pixel per screen pixel
+        plotter.render()
+
+    show()
+    if offscreen:
+        image = plotter.screenshot(screenshot)
+        plotter.close()
+        return image
+
+    # zbuffer's camera, not VTK's: a style that does nothing, and observers.
+    from vtkmodules.vtkInteractionStyle import vtkInteractorStyleUser
+
+    interactor = plotter.iren.interactor
+    interactor.SetInteractorStyle(vtkInteractorStyleUser())
+    drag = {"at": None}
+
+    def press(obj, event):
+        drag["at"] = obj.GetEventPosition()
+
+    def release(obj, event):
+        drag["at"] = None
+
+    def move(obj, event):
+        if drag["at"] is None:
+            return
+        x, y = obj.GetEventPosition()
+        x0, y0 = drag["at"]
+        drag["at"] = (x, y)
+        viewer.rotate(-(x - x0) * 0.4, -(y - y0) * 0.4)
+        show()
+
+    def wheel(factor):
+        def handler(obj, event):
+            viewer.zoom(factor)
+            show()
+        return handler
+
+    interactor.AddObserver("LeftButtonPressEvent", press)
+    interactor.AddObserver("LeftButtonReleaseEvent", release)
+    interactor.AddObserver("MouseMoveEvent", move)
+    interactor.AddObserver("MouseWheelForwardEvent", wheel(1 / 1.15))
+    interactor.AddObserver("MouseWheelBackwardEvent", wheel(1.15))
+    for key, action in {"a": viewer.next_algorithm, "s": viewer.next_shading,
+                        "d": lambda: viewer.toggle("depth"), "p": lambda: viewer.toggle("pyramid"),
+                        "o": lambda: viewer.toggle("tree"), "r": viewer.reset_view}.items():
+        plotter.add_key_event(key, lambda action=action: (action(), show()))
+    plotter.show()
+    return plotter

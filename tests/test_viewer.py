@@ -1,0 +1,95 @@
+"""zbuffer.viewer: the state and frames of ``zbuffer view`` (no window)."""
+
+import numpy as np
+import pytest
+
+import zbuffer
+from zbuffer import scenes
+from zbuffer.viewer import Viewer
+
+
+@pytest.fixture
+def viewer():
+    return Viewer(scenes.default_scene(), algo="hiz_octree", width=96, height=72)
+
+
+def test_frames_are_zbuffers_renders_of_the_current_view(viewer):
+    for _ in range(len(zbuffer.algorithms())):
+        picture = viewer.frame()
+        expected = zbuffer.render(viewer.scene.mesh, algo="zbuffer", camera=viewer.camera(),
+                                  width=96, height=72)
+        np.testing.assert_array_equal(viewer.result.triangle_id, expected.triangle_id)
+        np.testing.assert_array_equal(picture, expected.image)
+        assert viewer.algo in viewer.status()
+        viewer.next_algorithm()
+    assert viewer.algo == "hiz_octree"  # all the way round
+
+
+def test_drag_and_wheel_move_zbuffers_camera(viewer):
+    before = np.array(viewer.camera().eye)
+    viewer.rotate(30, 10)
+    assert viewer.azimuth == 30 and viewer.elevation == 30
+    moved = np.array(viewer.camera().eye)
+    assert not np.allclose(moved, before)
+    # The target stays put and so does the distance to it.
+    np.testing.assert_allclose(np.linalg.norm(moved - viewer.target),
+                               np.linalg.norm(before - viewer.target))
+    viewer.rotate(0, 500)
+    assert viewer.elevation == 89  # never over the pole
+    d = viewer.distance
+    viewer.zoom(0.5)
+    assert viewer.distance == pytest.approx(d / 2)
+    viewer.reset_view()
+    np.testing.assert_allclose(viewer.camera().eye, before)
+
+
+def test_overlays(viewer):
+    viewer.frame()
+    viewer.toggle("depth")
+    depth = viewer.frame()
+    drawn = viewer.result.mask
+    assert (depth[~drawn] == 0).all() and (depth[drawn] > 0).all()  # black where nothing was drawn
+    assert len(np.unique(depth[drawn][:, 0])) > 10                   # shades of grey
+    viewer.toggle("depth")
+    assert viewer.overlay == "none"
+    viewer.toggle("pyramid")
+    assert viewer.overlay == "pyramid" and viewer.pyramid_level == 1
+    coarse = viewer.frame()
+    assert coarse.shape == (72, 96, 3)
+    # Level 1: every 2 x 2 block shows one value.
+    assert (coarse[0:72:2, 0:96:2] == coarse[1:72:2, 1:96:2]).all()
+    for _ in range(len(viewer.result.pyramid()) - 2):  # levels 2 .. last
+        viewer.toggle("pyramid")
+        assert viewer.overlay == "pyramid"
+    viewer.toggle("pyramid")  # past the last level: off
+    assert viewer.overlay == "none"
+    plain = viewer.frame()
+    viewer.toggle("tree")
+    boxes = viewer.frame()
+    assert viewer.overlay == "tree" and (boxes != plain).any()
+    # Only the outlines change: most pixels are the image's.
+    assert (boxes == plain).all(axis=-1).mean() > 0.5
+    viewer.algo = "zbuffer"
+    viewer.toggle("tree")  # off
+    viewer.toggle("tree")  # no tree: stays off
+    assert viewer.overlay == "none"
+
+
+def test_shading_cycle_and_false_colour_ids(viewer):
+    seen = set()
+    for _ in range(3):
+        viewer.next_shading()
+        seen.add(viewer.shading)
+        picture = viewer.frame()
+        if viewer.shading == "none":
+            np.testing.assert_array_equal(picture, zbuffer.viz.id_colors(viewer.result.triangle_id))
+    assert seen == {"flat", "smooth", "none"}
+
+
+def test_bad_arguments():
+    with pytest.raises(ValueError, match="unknown algorithm 'fast'"):
+        Viewer(scenes.default_scene(), algo="fast")
+    with pytest.raises(ValueError, match="shading must be one of"):
+        Viewer(scenes.default_scene(), shading="phong")
+    with pytest.raises(ValueError, match="unknown overlay"):
+        Viewer(scenes.default_scene()).toggle("normals")
