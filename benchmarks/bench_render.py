@@ -38,7 +38,14 @@ CASES = [
     ("bunny_69k.obj", 1024, 1024, "smooth", "zbuffer", "shaded frame, for reference"),
     ("bunny_69k.obj", 1024, 1024, "none", "hiz", "target <= 1.25x zbuffer (issue 4)"),
     ("armadillo_86k.obj", 1024, 1024, "none", "hiz", "target <= 1.25x zbuffer (issue 4)"),
+    ("bunny_69k.obj", 1024, 1024, "none", "scanline", "target <= 1.5x zbuffer (issue 3)"),
+    ("armadillo_86k.obj", 1024, 1024, "none", "scanline", "target <= 1.5x zbuffer (issue 3)"),
+    ("flowers.obj", 1024, 1024, "none", "zbuffer", "polygon mesh (12-gons) as triangles"),
+    ("flowers.obj", 1024, 1024, "none", "scanline", "polygon mesh, polygons drawn natively"),
 ]
+
+# Depth storage per algorithm: one render of this mesh at this size each.
+MEMORY_CASE = ("bunny_69k.obj", 4096, 4096)
 
 
 def machine() -> dict:
@@ -98,6 +105,7 @@ def bench(mesh, width, height, shading, algo, runs):
         "mtris_per_s": len(mesh.faces) / statistics.median(core) / 1e3,
         "mtris_per_s_total": len(mesh.faces) / statistics.median(total) / 1e3,
         "pixels_covered": stats["pixels_covered"],
+        "depth_storage_bytes": stats.get("depth_storage_bytes"),
         "backend": zbuffer._core.RASTER_BACKEND,
     }
 
@@ -138,20 +146,33 @@ def markdown(report: dict) -> str:
         "- times: median of the runs; *core* is the compiled render (and shading) call,",
         "  *total* the whole `zbuffer.render` call from Python. Single thread.",
         "",
+        "  *x zbuffer*: core time over the plain Z-buffer's core time for the same mesh,",
+        "  size and shading, measured in the same run.",
+        "",
         "| mesh | size | shading | algo | triangles | core ms | total ms | M tri/s (core) "
-        "| M tri/s (total) | target |",
-        "|---|---|---|---|---:|---:|---:|---:|---:|---|",
+        "| M tri/s (total) | x zbuffer | target |",
+        "|---|---|---|---|---:|---:|---:|---:|---:|---:|---|",
     ]
     for c in report["cases"]:
         if "skipped" in c:
-            lines.append(f"| {c['mesh']} | {c['size']} | {c['shading']} | {c['algo']} | | | | | | "
-                         f"skipped: "
-                         f"{c['skipped']} |")
+            lines.append(f"| {c['mesh']} | {c['size']} | {c['shading']} | {c['algo']} | | | | | "
+                         f"| | skipped: {c['skipped']} |")
             continue
+        ratio = f"{c['x_zbuffer']:.2f}" if c.get("x_zbuffer") else ""
         lines.append(
             f"| {c['mesh']} | {c['size']} | {c['shading']} | {c['algo']} | {c['triangles']:,} | "
             f"{c['core_ms_median']:.3f} | {c['total_ms_median']:.3f} | "
-            f"{c['mtris_per_s']:.1f} | {c['mtris_per_s_total']:.1f} | {c['target']} |")
+            f"{c['mtris_per_s']:.1f} | {c['mtris_per_s_total']:.1f} | {ratio} | {c['target']} |")
+    memory = report.get("depth_storage")
+    if memory:
+        lines += ["", f"Depth storage while rendering {memory['mesh']} at {memory['size']} "
+                  "(`stats['depth_storage_bytes']`: the depth values an algorithm keeps while it "
+                  "works; the output arrays come on top for every algorithm), with the core "
+                  "time, median of 5 runs after a warm-up:", "",
+                  "| algo | depth storage bytes | MiB | core ms |", "|---|---:|---:|---:|"]
+        for row in memory["algorithms"]:
+            lines.append(f"| {row['algo']} | {row['depth_storage_bytes']:,} | "
+                         f"{row['depth_storage_bytes'] / 2**20:.3f} | {row['core_ms']:.1f} |")
     vtk = [c for c in report["cases"] if c.get("vtk_ms_median")]
     if vtk:
         lines += ["", "Same run, VTK offscreen depth (pyvista `render()` + `get_image_depth()`, "
@@ -197,6 +218,33 @@ def main(argv=None) -> int:
                   f"  total {case['total_ms_median']:8.3f} ms  {case['mtris_per_s']:6.1f} Mtri/s",
                   flush=True)
         report["cases"].append(case)
+
+    # Ratios to the plain Z-buffer measured in this run.
+    base = {(c["mesh"], c["size"], c["shading"]): c["core_ms_median"]
+            for c in report["cases"] if c["algo"] == "zbuffer" and "skipped" not in c}
+    for c in report["cases"]:
+        key = (c["mesh"], c["size"], c["shading"])
+        if c["algo"] != "zbuffer" and "skipped" not in c and key in base:
+            c["x_zbuffer"] = c["core_ms_median"] / base[key]
+
+    name, width, height = MEMORY_CASE
+    if args.quick:
+        width, height = width // 8, height // 8
+    mesh, label = load_case(name, args.quick)
+    if mesh is not None:
+        rows = []
+        camera = zbuffer.Camera.fit(mesh, aspect=width / height).resolve(mesh)
+        for algo in zbuffer.algorithms():
+            times = []
+            for _ in range(1 + (1 if args.quick else 5)):  # a warm-up, then the runs
+                res = zbuffer.render(mesh, algo=algo, camera=camera, width=width,
+                                     height=height, shading="none")
+                times.append(res.stats["render_ms"])
+            rows.append({"algo": algo, "depth_storage_bytes": res.stats["depth_storage_bytes"],
+                         "core_ms": statistics.median(times[1:])})
+            print(f"{label} {width}x{height} {algo:<8} depth storage "
+                  f"{res.stats['depth_storage_bytes']:>12,} bytes", flush=True)
+        report["depth_storage"] = {"mesh": label, "size": f"{width}x{height}", "algorithms": rows}
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

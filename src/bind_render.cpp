@@ -24,9 +24,43 @@ namespace zbuffer_py {
 
 namespace {
 
+// Checks polygon faces (GIL held): offsets from 0 to the number of indices,
+// at least 3 corners each, indices in range, and as many triangles in the
+// triangulation as the polygons have (size - 2 each).
+zbuffer::PolygonView polygon_view(const py::array_t<int64_t>& offsets,
+                                  const py::array_t<int32_t>& indices,
+                                  const zbuffer::MeshView& mesh) {
+  zbuffer::PolygonView polys;
+  polys.offsets = offsets.data();
+  polys.indices = indices.data();
+  polys.n_polygons = offsets.shape(0) - 1;
+  if (polys.n_polygons < 0) throw py::value_error("polygon_offsets must not be empty");
+  if (polys.offsets[0] != 0 || polys.offsets[polys.n_polygons] != indices.shape(0))
+    throw py::value_error("polygon_offsets must run from 0 to len(polygon_indices)");
+  int64_t triangles = 0;
+  for (int64_t p = 0; p < polys.n_polygons; ++p) {
+    const int64_t n = polys.offsets[p + 1] - polys.offsets[p];
+    if (n < 3)
+      throw py::value_error("polygon " + std::to_string(p) + " has " + std::to_string(n) +
+                            " corners; at least 3 are needed");
+    triangles += n - 2;
+  }
+  if (triangles != mesh.n_faces)
+    throw py::value_error("the polygons have " + std::to_string(triangles) +
+                          " triangles (size - 2 each) but faces has " +
+                          std::to_string(mesh.n_faces) + " rows");
+  for (int64_t k = 0; k < indices.shape(0); ++k)
+    if (polys.indices[k] < 0 || polys.indices[k] >= mesh.n_vertices)
+      throw py::value_error("polygon_indices[" + std::to_string(k) + "] = " +
+                            std::to_string(polys.indices[k]) + " is outside [0, " +
+                            std::to_string(mesh.n_vertices) + ")");
+  return polys;
+}
+
 py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_obj,
                  int width, int height, const std::string& algo, bool cull_backfaces,
-                 py::handle face_ids_obj) {
+                 py::handle face_ids_obj, py::handle polygon_offsets_obj,
+                 py::handle polygon_indices_obj) {
   const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
   if (!algorithm)
     throw py::value_error("unknown algorithm \"" + algo + "\"; valid names are " +
@@ -45,6 +79,18 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
     if (bad >= 0)
       throw py::value_error("face_ids must be >= 0, got " +
                             std::to_string(input.mesh.face_ids[bad]) + " at " + std::to_string(bad));
+  }
+  py::array_t<int64_t> polygon_offsets;
+  py::array_t<int32_t> polygon_indices;
+  if (!polygon_offsets_obj.is_none() || !polygon_indices_obj.is_none()) {
+    if (polygon_offsets_obj.is_none() || polygon_indices_obj.is_none())
+      throw py::value_error("give both polygon_offsets and polygon_indices, or neither");
+    if (!algorithm->polygons)
+      throw py::value_error("algorithm \"" + algo + "\" draws triangles only; pass polygons "
+                            "to an algorithm that draws them (\"scanline\")");
+    polygon_offsets = require_array<int64_t>(polygon_offsets_obj, "polygon_offsets", {-1});
+    polygon_indices = require_array<int32_t>(polygon_indices_obj, "polygon_indices", {-1});
+    input.polygons = polygon_view(polygon_offsets, polygon_indices, input.mesh);
   }
   read_mvp(mvp_obj, input.mvp);
   input.cull_backfaces = cull_backfaces;
@@ -75,8 +121,20 @@ void bind_render(py::module_& m) {
   m.def("render", &render, py::arg("positions"), py::arg("faces"), py::arg("mvp"),
         py::arg("width"), py::arg("height"), py::arg("algo") = "zbuffer",
         py::arg("cull_backfaces") = false, py::arg("face_ids") = py::none(),
+        py::arg("polygon_offsets") = py::none(), py::arg("polygon_indices") = py::none(),
         "Render depth and triangle ids; returns (depth, triangle_id, stats). With face_ids,\n"
-        "face f is reported as face_ids[f] (faces passed in another order).");
+        "face f is reported as face_ids[f] (faces passed in another order). With polygons\n"
+        "(int64 offsets, int32 indices; faces = their triangulation in polygon order), an\n"
+        "algorithm that draws polygons draws them natively, each with its first triangle's id.");
+  m.def(
+      "polygon_algorithms",
+      [] {
+        py::list out;
+        for (const zbuffer::Algorithm& a : zbuffer::algorithms())
+          if (a.polygons) out.append(a.name);
+        return out;
+      },
+      "Names of the algorithms that draw polygon faces natively.");
   m.def(
       "pyramid_levels",
       [](py::handle depth_obj) {

@@ -66,6 +66,17 @@ py::dict stats_dict(const zbuffer::RenderStats& s) {
   d["pixels_written"] = s.pixels_written;
   d["tiles_skipped"] = s.tiles_skipped;
   d["pyramid_cells_updated"] = s.pyramid_cells_updated;
+  d["polygons_inserted"] = s.polygons_inserted;
+  d["edges_inserted"] = s.edges_inserted;
+  d["scanline_rows"] = s.scanline_rows;
+  d["active_polygons_max"] = s.active_polygons_max;
+  d["active_polygons_mean"] =
+      s.scanline_rows ? double(s.active_polygons_sum) / double(s.scanline_rows) : 0.0;
+  d["active_edges_max"] = s.active_edges_max;
+  d["active_edges_mean"] =
+      s.scanline_rows ? double(s.active_edges_sum) / double(s.scanline_rows) : 0.0;
+  d["spans_drawn"] = s.spans_drawn;
+  d["depth_storage_bytes"] = s.depth_storage_bytes;
   d["nodes_visited"] = s.nodes_visited;
   d["nodes_hidden"] = s.nodes_hidden;
   d["nodes_outside"] = s.nodes_outside;

@@ -60,6 +60,15 @@ def assert_same_counters(stats, ref_stats):
 
 
 ALGORITHMS = zbuffer.algorithms()
+
+# Algorithms that draw a mesh's polygon faces natively: the reference does so
+# too with polygons=True.
+POLYGON_ALGORITHMS = frozenset(zbuffer._core.polygon_algorithms())
+
+
+def reference_for(algo: str, mesh, **kwargs):
+    """The reference render an algorithm must reproduce bit for bit."""
+    return zbuffer.reference.render(mesh, polygons=algo in POLYGON_ALGORITHMS, **kwargs)
 # The algorithms that cull whole nodes of an object-space tree.
 TREE_ALGORITHMS = [a for a in ALGORITHMS if a in ("hiz_octree", "hiz_bvh")]
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import zbuffer
-from helpers import ALGORITHMS, assert_same_counters, assert_same_visibility, model_path
+from helpers import (ALGORITHMS, assert_same_counters, assert_same_visibility, model_path,
+                     reference_for)
 
 pytestmark = pytest.mark.models
 
@@ -36,8 +37,8 @@ def test_model_equals_reference(algo, name):
     for cam, cull in cams:
         res = zbuffer.render(mesh, algo=algo, camera=cam, width=w, height=h, shading="none",
                              cull_backfaces=cull)
-        ref = zbuffer.reference.render(mesh, camera=cam, width=w, height=h, shading="none",
-                                       cull_backfaces=cull)
+        ref = reference_for(algo, mesh, camera=cam, width=w, height=h, shading="none",
+                            cull_backfaces=cull)
         assert_same_visibility(res, ref)
         drawn += int(res.mask.sum())
         assert_same_counters(res.stats, ref.stats)

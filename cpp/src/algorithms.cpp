@@ -12,6 +12,9 @@ const std::vector<Algorithm>& algorithms() {
       {"zbuffer", "plain Z-buffer: every triangle, its whole pixel box", &render_zbuffer},
       {"hiz", "hierarchical Z-buffer: triangles and 8x8 tiles tested against a Z-pyramid",
        &render_hiz},
+      {"scanline",
+       "scanline Z-buffer: sorted polygon and edge tables, active lists, one row of depth",
+       &render_scanline, /*polygons=*/true},
       {"hiz_octree", "hierarchical Z-buffer over an object-space octree, front to back",
        &render_hiz_octree},
       {"hiz_bvh", "hierarchical Z-buffer over a bounding volume hierarchy, nearest child first",
@@ -49,6 +52,9 @@ void render(const Algorithm& algorithm, const RenderInput& input,
   clear_target(target);
   stats.triangles_in += input.mesh.n_faces;
   algorithm.render(input, target, stats);
+  // Algorithms that keep less (or more) than the W x H depth buffer say so.
+  if (stats.depth_storage_bytes == 0)
+    stats.depth_storage_bytes = int64_t(target.width) * target.height * int64_t(sizeof(float));
   const auto stop = std::chrono::steady_clock::now();
   stats.total_ms += std::chrono::duration<double, std::milli>(stop - start).count();
 }

@@ -50,6 +50,26 @@ void rasterize_rect_scalar(const TriangleSetup& s, int x0, int y0, int x1, int y
   stats.pixels_written += written;
 }
 
+void rasterize_span_scalar(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
+                           int32_t* id_row, RenderStats& stats) {
+  int64_t w[3];
+  rect_origin(s, x0, y, w);
+  int64_t covered = 0, written = 0;
+  for (int x = x0; x <= x1; ++x) {
+    if ((w[0] | w[1] | w[2]) >= 0) {  // all biased edge values >= 0: inside
+      ++covered;
+      const float z = depth_at(s, w[1] + s.bias[1], w[2] + s.bias[2]);
+      written += depth_write(depth_row, id_row, size_t(x), z, s.id);
+    }
+    w[0] += s.step_x[0];
+    w[1] += s.step_x[1];
+    w[2] += s.step_x[2];
+  }
+  stats.pixels_tested += int64_t(x1 - x0 + 1);
+  stats.pixels_covered += covered;
+  stats.pixels_written += written;
+}
+
 namespace {
 
 #ifdef ZBUFFER_AVX512
@@ -237,6 +257,53 @@ ZBUFFER_INLINE void rasterize_rect_avx512(const TriangleSetup& s, int x0, int y0
     rasterize_rect_i64(s, x0, y0, x1, y1, row, target, stats);
   stats.pixels_tested += int64_t(width) * height;
 }
+
+// One row: 16 pixels per step with int32 edge values when the span's values
+// and the 16-pixel step fit (almost always), otherwise the int64 rectangle
+// loop on a one-row rectangle. Spans are short (a few pixels in a detailed
+// mesh), so the per-span setup is kept to three broadcasts and products.
+ZBUFFER_INLINE void rasterize_span_avx512(const TriangleSetup& s, int y, int x0, int x1,
+                                          float* depth_row, int32_t* id_row,
+                                          RenderStats& stats) {
+  int64_t w[3];
+  rect_origin(s, x0, y, w);
+  const int width = x1 - x0 + 1;
+  constexpr int64_t kLimit = int64_t(1) << 30;
+  bool fits = true;
+  for (int k = 0; k < 3; ++k) {
+    const int64_t end = w[k] + int64_t(width - 1) * s.step_x[k];
+    fits &= w[k] < kLimit && w[k] > -kLimit && end < kLimit && end > -kLimit &&
+            s.step_x[k] < kLimit / 16 && s.step_x[k] > -kLimit / 16;
+  }
+  stats.pixels_tested += width;
+  if (!fits) {
+    DepthTarget row{depth_row, id_row, x1 + 1, 1};
+    rasterize_rect_i64(s, x0, 0, x1, 0, w, row, stats);
+    return;
+  }
+  __m512i wv[3], step16[3];
+  for (int k = 0; k < 3; ++k) {
+    wv[k] = simd::row16(int32_t(w[k]), int32_t(s.step_x[k]));
+    step16[k] = _mm512_set1_epi32(int32_t(16 * s.step_x[k]));
+  }
+  const simd::DepthPlane16 plane(s.z0, s.a1, s.a2, s.z_lo, s.z_hi);
+  const __m512i id = _mm512_set1_epi32(s.id);
+  const __m512i bias1 = _mm512_set1_epi32(int32_t(s.bias[1]));
+  const __m512i bias2 = _mm512_set1_epi32(int32_t(s.bias[2]));
+  int64_t covered = 0, written = 0;
+  for (int x = 0; x < width; x += 16) {
+    const __mmask16 in_span =
+        width - x >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (width - x)) - 1);
+    __mmask16 win;
+    const __mmask16 inside = simd::span16(in_span, wv[0], wv[1], wv[2], bias1, bias2, plane, id,
+                                          depth_row + x0 + x, id_row + x0 + x, win);
+    covered += __builtin_popcount(inside);
+    written += __builtin_popcount(win);
+    for (int k = 0; k < 3; ++k) wv[k] = _mm512_add_epi32(wv[k], step16[k]);
+  }
+  stats.pixels_covered += covered;
+  stats.pixels_written += written;
+}
 #endif
 
 }  // namespace
@@ -257,6 +324,31 @@ void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
 #else
   rasterize_rect_scalar(s, x0, y0, x1, y1, target, stats);
 #endif
+}
+
+void rasterize_span(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
+                    int32_t* id_row, RenderStats& stats) {
+#ifdef ZBUFFER_AVX512
+  rasterize_span_avx512(s, y, x0, x1, depth_row, id_row, stats);
+#else
+  rasterize_span_scalar(s, y, x0, x1, depth_row, id_row, stats);
+#endif
+}
+
+void rasterize_span_covered(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
+                            int32_t* id_row, RenderStats& stats) {
+  int64_t w[3];
+  rect_origin(s, x0, y, w);
+  int64_t w1 = w[1] + s.bias[1], w2 = w[2] + s.bias[2];  // exact, unbiased
+  int64_t written = 0;
+  for (int x = x0; x <= x1; ++x) {
+    written += depth_write(depth_row, id_row, size_t(x), depth_at(s, w1, w2), s.id);
+    w1 += s.step_x[1];
+    w2 += s.step_x[2];
+  }
+  stats.pixels_tested += int64_t(x1 - x0 + 1);
+  stats.pixels_covered += int64_t(x1 - x0 + 1);
+  stats.pixels_written += written;
 }
 
 void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats) {

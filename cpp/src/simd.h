@@ -96,6 +96,27 @@ ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* 
   return win;
 }
 
+// Edge values of 16 consecutive pixels of a row: w at the first, `step` from
+// one pixel to the next (wrapping int32 arithmetic: lanes that leave the
+// range of exact values must be masked off by the caller).
+ZBUFFER_INLINE __m512i row16(int32_t w, int32_t step) {
+  const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+  return _mm512_add_epi32(_mm512_set1_epi32(w), _mm512_mullo_epi32(lane, _mm512_set1_epi32(step)));
+}
+
+// The raster core on up to 16 consecutive pixels of one row (the lanes of
+// `in_span`): coverage of the biased edge values w0b, w1b, w2b, the depth
+// formula of the unbiased ones, and the depth write at (d_ptr, id_ptr).
+// Returns the covered lanes; `win` gets those written.
+ZBUFFER_INLINE __mmask16 span16(__mmask16 in_span, __m512i w0b, __m512i w1b, __m512i w2b,
+                                __m512i bias1, __m512i bias2, const DepthPlane16& plane,
+                                __m512i id, float* d_ptr, int32_t* id_ptr, __mmask16& win) {
+  const __mmask16 inside = covered16(in_span, w0b, w1b, w2b);
+  const __m512 z = depth16(plane, _mm512_add_epi32(w1b, bias1), _mm512_add_epi32(w2b, bias2));
+  win = write16(inside, z, id, d_ptr, id_ptr);
+  return inside;
+}
+
 // The depth write for two rows of up to 8 pixels: lanes 0-7 at (d0, i0),
 // lanes 8-15 at (d1, i1).
 ZBUFFER_INLINE __mmask16 write16_rows(__mmask16 inside, __m512 z, __m512i id, float* d0,

@@ -70,8 +70,23 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
         CHECK(stats.rasterized + stats.culled_hidden == ref_stats.rasterized);
       else
         CHECK(stats.rasterized + stats.culled_hidden <= ref_stats.rasterized);
-      if (std::string(algo.name) != "zbuffer") CHECK(stats.culled_hidden > 0);
+      // (The scanline culls nothing: it draws every triangle's exact spans.)
+      if (std::string(algo.name) != "zbuffer" && std::string(algo.name) != "scanline")
+        CHECK(stats.culled_hidden > 0);
       nodes_hidden[algo.name] += stats.nodes_hidden;
+      if (std::string(algo.name) == "scanline") {
+        // Spans are exact: every pixel tested is covered, and the pixels
+        // covered are the plain Z-buffer's (which tests whole boxes).
+        CHECK(stats.pixels_tested == stats.pixels_covered);
+        CHECK(stats.pixels_covered == ref_stats.pixels_covered);
+        CHECK(stats.polygons_inserted > 0 && stats.polygons_inserted <= stats.rasterized);
+        CHECK(stats.edges_inserted >= 2 * stats.polygons_inserted);
+        CHECK(stats.scanline_rows == h && stats.active_polygons_max > 0);
+        CHECK(stats.active_polygons_sum <= stats.active_polygons_max * h);
+        CHECK(stats.depth_storage_bytes == int64_t(w) * int64_t(sizeof(float)));
+      } else {
+        CHECK(stats.depth_storage_bytes >= int64_t(w) * h * int64_t(sizeof(float)));
+      }
     }
   }
   // The object-space algorithms cull whole nodes on these scenes.
@@ -79,9 +94,79 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
   CHECK(nodes_hidden["hiz_bvh"] > 0);
 }
 
+// Polygon faces drawn natively by the scanline cover what their
+// triangulations cover (planar, simple): a grid of quads at constant depths
+// (so depth is exact either way) and L-shaped hexagons, whose fan from
+// corner 0 would overdraw. A polygon's pixels carry its first triangle's id.
+void test_scanline_polygons_cover_their_triangulation() {
+  std::vector<double> pos;
+  std::vector<int32_t> faces, indices;
+  std::vector<int64_t> offsets = {0};
+  std::vector<int32_t> first_of;  // first triangle of each polygon
+  auto vertex = [&](double x, double y, double z) {
+    pos.insert(pos.end(), {x, y, z});
+    return int32_t(pos.size() / 3 - 1);
+  };
+  Lcg next{99};
+  for (int q = 0; q < 36; ++q) {  // quads, some wound each way
+    const double x0 = -0.9 + 0.3 * (q % 6) + next.uniform(-0.05, 0.05);
+    const double y0 = -0.9 + 0.3 * (q / 6) + next.uniform(-0.05, 0.05);
+    const double z = next.uniform(-0.5, 0.5);
+    int32_t v[4] = {vertex(x0, y0, z), vertex(x0 + 0.31, y0, z), vertex(x0 + 0.33, y0 + 0.29, z),
+                    vertex(x0 - 0.02, y0 + 0.3, z)};
+    if (q % 3 == 0) std::swap(v[1], v[3]);
+    first_of.push_back(int32_t(faces.size() / 3));
+    faces.insert(faces.end(), {v[0], v[1], v[2], v[0], v[2], v[3]});
+    indices.insert(indices.end(), v, v + 4);
+    offsets.push_back(int64_t(indices.size()));
+  }
+  for (int l = 0; l < 3; ++l) {  // L-shaped hexagons, corner 0 at (4, 0)
+    const double s = 0.1 + 0.05 * l, x0 = -0.8 + 0.55 * l, y0 = -0.3 - 0.1 * l, z = -0.8;
+    const double c[6][2] = {{4, 0}, {4, 2}, {2, 2}, {2, 4}, {0, 4}, {0, 0}};
+    int32_t v[6];
+    for (int k = 0; k < 6; ++k) v[k] = vertex(x0 + s * c[k][0], y0 + s * c[k][1], z);
+    first_of.push_back(int32_t(faces.size() / 3));
+    // An exact triangulation: (4,0)(4,2)(2,2), (4,0)(2,2)(0,0), (2,2)(2,4)(0,4), (2,2)(0,4)(0,0)
+    faces.insert(faces.end(), {v[0], v[1], v[2], v[0], v[2], v[5], v[2], v[3], v[4], v[2], v[4], v[5]});
+    indices.insert(indices.end(), v, v + 6);
+    offsets.push_back(int64_t(indices.size()));
+  }
+  RenderInput input;
+  input.mesh = {pos.data(), int64_t(pos.size() / 3), faces.data(), int64_t(faces.size() / 3)};
+  const double ortho[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  for (int k = 0; k < 16; ++k) input.mvp[k] = ortho[k];
+  const int w = 157, h = 131;
+  std::vector<float> d0(size_t(w) * h), d1(size_t(w) * h);
+  std::vector<int32_t> i0(size_t(w) * h), i1(size_t(w) * h);
+  DepthTarget tri{d0.data(), i0.data(), w, h}, poly{d1.data(), i1.data(), w, h};
+  RenderStats st, sp;
+  render(*find_algorithm("zbuffer"), input, tri, st);
+  input.polygons = {offsets.data(), indices.data(), int64_t(offsets.size() - 1)};
+  render(*find_algorithm("scanline"), input, poly, sp);
+  // The polygon each triangle id belongs to.
+  std::vector<int32_t> owner(faces.size() / 3);
+  for (size_t p = 0; p < first_of.size(); ++p)
+    for (int64_t t = first_of[p]; t < (p + 1 < first_of.size() ? first_of[p + 1] : int64_t(owner.size())); ++t)
+      owner[size_t(t)] = int32_t(p);
+  bool same = true, first_ids = true;
+  for (size_t p = 0; p < d0.size(); ++p) {
+    same &= (i0[p] < 0) == (i1[p] < 0);
+    if (i0[p] >= 0 && i1[p] >= 0) {
+      same &= owner[size_t(i0[p])] == owner[size_t(i1[p])] && d0[p] == d1[p];
+      first_ids &= i1[p] == first_of[size_t(owner[size_t(i1[p])])];
+    }
+  }
+  CHECK(same);
+  CHECK(first_ids);
+  CHECK(sp.pixels_covered == st.pixels_covered && sp.pixels_tested == sp.pixels_covered);
+  CHECK(sp.rasterized == st.rasterized && st.rasterized == int64_t(faces.size() / 3));
+  CHECK(sp.polygons_inserted == int64_t(first_of.size()));
+}
+
 }  // namespace
 
 int main() {
+  test_scanline_polygons_cover_their_triangulation();
   test_every_algorithm_equals_the_plain_zbuffer();
   return check_report("test_algorithms");
 }

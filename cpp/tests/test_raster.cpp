@@ -172,6 +172,45 @@ void test_fast_loop_equals_scalar_loop() {
   std::printf("test_raster: rasterize_rect backend is %s\n", raster_backend());
 }
 
+// Spans (the scanline algorithm's primitive) written into a one-row buffer
+// give the bits of the scalar rectangle loop, row by row, for any sub-range
+// of a row: small triangles (int32 lanes) and huge ones (int64 lanes).
+void test_span_equals_scalar_rect() {
+  const int w = 75, h = 40;
+  Frame slow(w, h), fast(w, h), scalar(w, h);
+  RenderStats ss, fs, cs;
+  Lcg next{2468};
+  for (int t = 0; t < 3000; ++t) {
+    bool ok;
+    const int64_t r = t % 5 == 0 ? (int64_t(1) << 22) : 900;  // huge: edge values > 2^30
+    const ScreenTriangle tri = random_triangle(next, next(-2000, 77 * 256), next(-2000, 42 * 256),
+                                               r, t % 700, ss, ok);
+    if (!ok) continue;
+    const TriangleSetup s = setup_triangle(tri, w, h);
+    if (s.x_min > s.x_max || s.y_min > s.y_max) continue;
+    rasterize_rect_scalar(s, s.x_min, s.y_min, s.x_max, s.y_max, slow.target, ss);
+    for (int y = s.y_min; y <= s.y_max; ++y) {
+      // The whole box row, or a random part of it split in two.
+      const int xa = int(next(s.x_min, s.x_max));
+      float* d = fast.depth.data() + size_t(y) * w;
+      int32_t* i = fast.ids.data() + size_t(y) * w;
+      if (t % 2) {
+        rasterize_span(s, y, s.x_min, s.x_max, d, i, fs);
+      } else {
+        rasterize_span(s, y, s.x_min, xa, d, i, fs);
+        if (xa < s.x_max) rasterize_span(s, y, xa + 1, s.x_max, d, i, fs);
+      }
+      rasterize_span_scalar(s, y, s.x_min, s.x_max, scalar.depth.data() + size_t(y) * w,
+                            scalar.ids.data() + size_t(y) * w, cs);
+    }
+  }
+  CHECK(same_pixels(fast, slow));
+  CHECK(same_pixels(scalar, slow));
+  CHECK(fs.pixels_covered == ss.pixels_covered && cs.pixels_covered == ss.pixels_covered);
+  CHECK(fs.pixels_tested == ss.pixels_tested && cs.pixels_tested == ss.pixels_tested);
+  CHECK(ss.pixels_covered > 10000);
+}
+
 // A batch (vector setup, groups by box shape, any order) draws the same bits
 // as triangles drawn one by one with the scalar loop.
 void test_batch_equals_scalar_loop() {
@@ -258,6 +297,7 @@ void test_batch_faces_equal_scalar_assembly() {
 }  // namespace
 
 int main() {
+  test_span_equals_scalar_rect();
   test_batch_faces_equal_scalar_assembly();
   test_batch_equals_scalar_loop();
   test_fast_loop_equals_scalar_loop();

@@ -14,6 +14,7 @@ MAX_CLIP_VERTICES: int
 RASTER_BACKEND: str
 
 def algorithms() -> List[Tuple[str, str]]: ...
+def polygon_algorithms() -> List[str]: ...
 def render(
     positions: npt.NDArray[np.float64],
     faces: npt.NDArray[np.int32],
@@ -23,6 +24,8 @@ def render(
     algo: str = "zbuffer",
     cull_backfaces: bool = False,
     face_ids: Optional[npt.NDArray[np.int32]] = None,
+    polygon_offsets: Optional[npt.NDArray[np.int64]] = None,
+    polygon_indices: Optional[npt.NDArray[np.int32]] = None,
 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.int32], Dict[str, Union[int, float]]]: ...
 def pyramid_levels(depth: npt.NDArray[np.float32]) -> List[npt.NDArray[np.float32]]: ...
 def spatial_order(

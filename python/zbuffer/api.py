@@ -19,6 +19,7 @@ __all__ = ["render", "algorithms"]
 
 
 _ALGORITHMS = tuple(name for name, _ in _core.algorithms())
+_POLYGON_ALGORITHMS = frozenset(_core.polygon_algorithms())
 
 
 def algorithms() -> List[str]:
@@ -60,6 +61,10 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     algo : str
         A name from :func:`zbuffer.algorithms`. Every algorithm gives the same
         depth and triangle ids; they differ in speed, memory and statistics.
+        The exception: ``"scanline"`` draws the polygon faces of a mesh that
+        has them (OBJ files with quads or n-gons) natively, as
+        docs/rasterization.md defines them, and
+        ``zbuffer.reference.render(..., polygons=True)`` reproduces it.
     camera : Camera, optional
         None frames the whole mesh (perspective, 45 degrees, from +z). Unset
         near/far are fitted to the mesh.
@@ -101,8 +106,14 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
     faces, face_ids = mesh.faces_for_render()
+    offsets = indices = None
+    if algo in _POLYGON_ALGORITHMS and mesh.polygon_sizes is not None:
+        # Polygons as written; faces in polygon order for those drawn as triangles.
+        faces, face_ids = mesh.faces, None
+        offsets, indices = mesh.polygon_offsets, mesh.polygon_indices
     depth, triangle_id, stats = _core.render(
-        mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces), face_ids)
+        mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces), face_ids,
+        offsets, indices)
     return finish(mesh, camera, mvp, params, algo, depth, triangle_id, stats, start)
 
 

@@ -53,6 +53,12 @@ class Mesh:
     face_polygon : (M,) array_like of int, optional
         For meshes triangulated from polygons: the polygon (in file order)
         each triangle came from.
+    polygons : ((P,) array_like of int, (K,) array_like of int), optional
+        The polygon faces as written, as (sizes, concatenated vertex
+        indices); ``faces`` must then be their triangulation in polygon order,
+        ``size - 2`` triangles each (as :func:`zbuffer.obj.triangulate_polygons`
+        makes it). Algorithms that draw polygons natively (``"scanline"``)
+        draw these; the others draw ``faces``.
 
     Attributes
     ----------
@@ -61,6 +67,10 @@ class Mesh:
     vertex_colors : (N, 3) float32 or None
     face_colors : (M, 3) float32 or None
     face_polygon : (M,) int64 or None
+    polygon_sizes : (P,) int64 or None
+    polygon_indices : (K,) int32 or None
+    polygon_offsets : (P + 1,) int64 or None
+        Where each polygon's indices start (and the last one ends).
 
     Raises
     ------
@@ -78,7 +88,7 @@ class Mesh:
     """
 
     def __init__(self, vertices, faces, vertex_colors=None, face_colors=None,
-                 name: Optional[str] = None, face_polygon=None):
+                 name: Optional[str] = None, face_polygon=None, polygons=None):
         v = np.asarray(vertices)
         f = np.asarray(faces)
         if v.dtype == object or not (np.issubdtype(v.dtype, np.floating)
@@ -131,8 +141,41 @@ class Mesh:
             if fp.shape != (f.shape[0],):
                 raise ValueError(f"face_polygon must have shape ({f.shape[0]},), got {fp.shape}")
             self.face_polygon = _readonly(fp)
+        self.polygon_sizes = self.polygon_indices = self.polygon_offsets = None
+        if polygons is not None:
+            self._set_polygons(polygons, n, f.shape[0])
         self._renders = 0
         self._visit = None  # (faces in a cache-friendly order, their ids)
+
+    def _set_polygons(self, polygons, n_vertices: int, n_faces: int) -> None:
+        try:
+            sizes, indices = polygons
+        except (TypeError, ValueError):
+            raise TypeError("polygons must be a (sizes, indices) pair of arrays") from None
+        sizes = np.asarray(sizes)
+        indices = np.asarray(indices)
+        for a, what in ((sizes, "polygon sizes"), (indices, "polygon indices")):
+            if a.ndim != 1:
+                raise ValueError(f"{what} must be one-dimensional, got shape {a.shape}")
+            if a.size and (not np.issubdtype(a.dtype, np.integer) or a.dtype == np.bool_):
+                raise TypeError(f"{what} must be integers, got dtype {a.dtype}")
+        sizes = sizes.astype(np.int64)
+        if sizes.size and sizes.min() < 3:
+            raise ValueError(f"polygon {int(np.argmax(sizes < 3))} has fewer than 3 corners")
+        if int(sizes.sum()) != len(indices):
+            raise ValueError(f"polygon sizes add up to {int(sizes.sum())}, "
+                             f"but there are {len(indices)} polygon indices")
+        if int((sizes - 2).sum()) != n_faces:
+            raise ValueError(f"the polygons have {int((sizes - 2).sum())} triangles (size - 2 "
+                             f"each), but faces has {n_faces} rows")
+        if indices.size and (indices.min() < 0 or indices.max() >= n_vertices):
+            k = int(np.argmax((indices < 0) | (indices >= n_vertices)))
+            raise ValueError(f"polygon index {int(indices[k])} is outside [0, {n_vertices})")
+        offsets = np.zeros(len(sizes) + 1, np.int64)
+        np.cumsum(sizes, out=offsets[1:])
+        self.polygon_sizes = _readonly(sizes)
+        self.polygon_indices = _readonly(np.array(indices, dtype=np.int32, order="C", copy=True))
+        self.polygon_offsets = _readonly(offsets)
 
     def __repr__(self) -> str:
         name = f" {self.name!r}" if self.name else ""
@@ -258,9 +301,11 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     Returns
     -------
     Mesh
-        OBJ polygons are triangulated exactly (fans for convex polygons, ear
-        clipping for concave ones) and ``face_polygon`` maps triangles to
-        them; trimesh fan-triangulates other formats' polygons; scenes are
+        OBJ polygons are kept as written (``polygon_sizes``,
+        ``polygon_indices``: the scanline algorithm draws them natively) and
+        triangulated exactly for the other algorithms (fans for convex
+        polygons, ear clipping for concave ones); ``face_polygon`` maps
+        triangles to them; trimesh fan-triangulates other formats' polygons; scenes are
         concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
         rendering.
 
@@ -308,7 +353,8 @@ def _load_obj(path: str) -> Mesh:
     faces, owner = triangulate_polygons(data.vertices, data.polygon_sizes, data.polygon_indices)
     polygons = bool(len(data.polygon_sizes)) and bool((data.polygon_sizes > 3).any())
     return Mesh(data.vertices, faces, vertex_colors=data.vertex_colors,
-                name=os.path.basename(path), face_polygon=owner if polygons else None)
+                name=os.path.basename(path), face_polygon=owner if polygons else None,
+                polygons=(data.polygon_sizes, data.polygon_indices) if polygons else None)
 
 
 def _has_content(path: str) -> bool:

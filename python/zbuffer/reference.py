@@ -24,7 +24,7 @@ from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, shade_numpy
 
-__all__ = ["render", "vertex_stage", "rasterize", "ScreenTriangles"]
+__all__ = ["render", "vertex_stage", "rasterize", "render_polygons", "ScreenTriangles"]
 
 # Outcode bits (vertex_stage.h).
 OUT_LEFT, OUT_RIGHT, OUT_BOTTOM, OUT_TOP, OUT_NEAR, OUT_FAR = (1 << k for k in range(6))
@@ -352,26 +352,213 @@ def rasterize(tris: ScreenTriangles, width: int, height: int
     return depth.reshape(height, width), ids.reshape(height, width), stats
 
 
+# Polygons
+
+# Polygons with more corners are drawn as their triangles (scanline.h).
+MAX_POLYGON_CORNERS = 4096
+
+
+def _keys(depth: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(depth bits << 32) | id per pixel, the maximum where nothing was drawn."""
+    d = depth.reshape(-1)
+    keys = np.full(d.shape, np.iinfo(np.uint64).max, np.uint64)
+    drawn = ids.reshape(-1) >= 0
+    keys[drawn] = (d[drawn].view(np.uint32).astype(np.uint64) << np.uint64(32)) | \
+        ids.reshape(-1)[drawn].astype(np.uint64)
+    return keys
+
+
+def _from_keys(keys: np.ndarray, width: int, height: int):
+    drawn = keys != np.iinfo(np.uint64).max
+    depth = np.full(keys.shape, np.inf, np.float32)
+    ids = np.full(keys.shape, -1, np.int32)
+    depth[drawn] = (keys[drawn] >> np.uint64(32)).astype(np.uint32).view(np.float32)
+    ids[drawn] = (keys[drawn] & np.uint64(0xFFFFFFFF)).astype(np.int32)
+    return depth.reshape(height, width), ids.reshape(height, width)
+
+
+def _polygon_pixels(x, y, z, area: int, width: int, height: int):
+    """Covered pixels of one polygon (snapped vertices x, y: Python ints,
+    window depths z) and their depth: (flat pixel indices, float32 depths).
+    docs/rasterization.md, "Polygons"."""
+    n = len(x)
+    # Rows with centres in [min y, max y), columns with centres in [min x, max x].
+    j0 = max((min(y) - HALF_PIXEL + SUBPIXEL_SCALE - 1) >> SUBPIXEL_BITS, 0)
+    j1 = min(((max(y) - HALF_PIXEL + SUBPIXEL_SCALE - 1) >> SUBPIXEL_BITS) - 1, height - 1)
+    i0 = max((min(x) - HALF_PIXEL + SUBPIXEL_SCALE - 1) >> SUBPIXEL_BITS, 0)
+    i1 = min((max(x) - HALF_PIXEL) >> SUBPIXEL_BITS, width - 1)
+    if j0 > j1 or i0 > i1:
+        return np.zeros(0, np.int64), np.zeros(0, np.float32)
+    jj, ii = np.meshgrid(np.arange(j0, j1 + 1, dtype=np.int64),
+                         np.arange(i0, i1 + 1, dtype=np.int64), indexing="ij")
+    px = ii * SUBPIXEL_SCALE + HALF_PIXEL
+    py = jj * SUBPIXEL_SCALE + HALF_PIXEL
+
+    # Coverage: an odd number of edges crossing the row (centres in
+    # [y_top, y_bottom)) at or left of the centre.
+    count = np.zeros(px.shape, np.int64)
+    for k in range(n):
+        xa, ya, xb, yb = x[k], y[k], x[(k + 1) % n], y[(k + 1) % n]
+        if ya == yb:
+            continue
+        (xt, yt), (xu, yu) = ((xa, ya), (xb, yb)) if ya < yb else ((xb, yb), (xa, ya))
+        cross = (xu - xt) * (py - yt) - (yu - yt) * (px - xt)
+        count += (yt <= py) & (py < yu) & (cross <= 0)
+    inside = (count & 1) == 1
+    if not inside.any():
+        return np.zeros(0, np.int64), np.zeros(0, np.float32)
+
+    # Depth plane: the fan triangle (v0, v_k, v_k+1) of largest area with the
+    # polygon's orientation (first k on a tie), oriented to area > 0.
+    best, best_area = 1, 0
+    for k in range(1, n - 1):
+        a = (x[k] - x[0]) * (y[k + 1] - y[0]) - (y[k] - y[0]) * (x[k + 1] - x[0])
+        oriented = a if area > 0 else -a
+        if oriented > best_area:
+            best, best_area = k, oriented
+    tri = [0, best, best + 1] if area > 0 else [0, best + 1, best]
+    X = [x[t] for t in tri]
+    Y = [y[t] for t in tri]
+    Z = [float(z[t]) for t in tri]
+    px, py = px[inside], py[inside]
+    w1 = (X[0] - X[2]) * (py - Y[2]) - (Y[0] - Y[2]) * (px - X[2])  # edge 1: v2 -> v0
+    w2 = (X[1] - X[0]) * (py - Y[0]) - (Y[1] - Y[0]) * (px - X[0])  # edge 2: v0 -> v1
+    inv_area = 1.0 / np.float64(best_area)
+    a1 = np.float32((np.float64(Z[1]) - np.float64(Z[0])) * inv_area)
+    a2 = np.float32((np.float64(Z[2]) - np.float64(Z[0])) * inv_area)
+    z0 = np.float32(Z[0])
+    z_lo, z_hi = np.float32(np.min(z)), np.float32(np.max(z))
+    zf = z0 + (w1.astype(np.float32) * a1 + w2.astype(np.float32) * a2)
+    zf = np.where(zf < z_lo, z_lo, zf)
+    zf = np.where(zf > z_hi, z_hi, zf)
+    assert zf.dtype == np.float32
+    return jj[inside] * width + ii[inside], zf
+
+
+def render_polygons(vertices: np.ndarray, faces: np.ndarray, sizes: np.ndarray,
+                    indices: np.ndarray, mvp: np.ndarray, width: int, height: int,
+                    cull_backfaces: bool = False):
+    """Visibility of polygon faces drawn natively, as ``algo="scanline"``
+    draws them (docs/rasterization.md, "Polygons").
+
+    Parameters
+    ----------
+    vertices : (N, 3) float64
+    faces : (M, 3) integer
+        The polygons' triangulation in polygon order, ``size - 2`` each:
+        polygons that need clipping are drawn as these triangles.
+    sizes : (P,) integer
+    indices : (sum of sizes,) integer
+    mvp : (4, 4) float64
+    width, height : int
+    cull_backfaces : bool
+
+    Returns
+    -------
+    depth : (H, W) float32
+    triangle_id : (H, W) int32
+        A polygon's pixels carry the id of its first triangle.
+    stats : dict
+        Triangle counters (each polygon decision counts its ``size - 2``
+        triangles) and ``pixels_covered``.
+    """
+    sizes = np.asarray(sizes, dtype=np.int64)
+    indices = np.asarray(indices, dtype=np.int64)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    half_w, half_h = 0.5 * width, 0.5 * height
+    gx, gy = GUARD_BAND_PX / half_w, GUARD_BAND_PX / half_h
+    with np.errstate(over="ignore", invalid="ignore"):
+        cx, cy, cz, cw = _transform(mvp, np.asarray(vertices, dtype=np.float64))
+    oc = _outcodes(cx, cy, cz, cw, gx, gy)
+    direct = (oc & (OUT_CLIP | OUT_INVALID)) == 0
+    vx = np.zeros(len(oc), np.int64)
+    vy = np.zeros(len(oc), np.int64)
+    vz = np.zeros(len(oc), np.float64)
+    vx[direct], vy[direct], vz[direct] = _to_screen(
+        cx[direct], cy[direct], cz[direct], cw[direct], half_w, half_h)
+
+    stats = dict.fromkeys(STAT_KEYS, 0)
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    first_tri = np.concatenate([[0], np.cumsum(sizes - 2)])
+    fallback = []
+    native = []
+    for p in range(len(sizes)):
+        idx = indices[offsets[p]:offsets[p + 1]]
+        n, t = len(idx), len(idx) - 2
+        codes = oc[idx]
+        any_out = int(np.bitwise_or.reduce(codes))
+        all_out = int(np.bitwise_and.reduce(codes))
+        if any_out & OUT_INVALID:
+            stats["culled_invalid"] += t
+        elif all_out & OUT_VIEW:
+            stats["culled_frustum"] += t
+        elif any_out & OUT_CLIP or n > MAX_POLYGON_CORNERS:
+            fallback.extend(range(first_tri[p], first_tri[p] + t))
+        else:
+            x = [int(v) for v in vx[idx]]
+            y = [int(v) for v in vy[idx]]
+            area = sum((x[k] - x[0]) * (y[k + 1] - y[0]) - (y[k] - y[0]) * (x[k + 1] - x[0])
+                       for k in range(1, n - 1))
+            if area == 0:
+                stats["culled_degenerate"] += t
+            elif area > 0 and cull_backfaces:
+                stats["culled_backface"] += t
+            else:
+                stats["rasterized"] += t
+                native.append((x, y, vz[idx], area, int(first_tri[p])))
+
+    # Polygons drawn as their triangles: the triangle pipeline.
+    fb = np.array(fallback, dtype=np.int64)
+    tris, tri_stats = vertex_stage(vertices, faces[fb], mvp, width, height, cull_backfaces)
+    tris.id = fb[tris.id] if len(fb) else tris.id
+    for key in STAT_KEYS:
+        if key != "triangles_in":
+            stats[key] += tri_stats[key]
+    stats["triangles_in"] = len(faces)
+    depth, ids, pixel_stats = rasterize(tris, width, height)
+    stats["pixels_covered"] = pixel_stats["pixels_covered"]
+    keys = _keys(depth, ids)
+    for x, y, z, area, pid in native:
+        pix, zf = _polygon_pixels(x, y, z, area, width, height)
+        stats["pixels_covered"] += len(pix)
+        key = (zf.view(np.uint32).astype(np.uint64) << np.uint64(32)) | np.uint64(pid)
+        keys[pix] = np.minimum(keys[pix], key)  # a polygon covers a pixel once
+    del stats["pixels_tested"]  # (an algorithm's own business for polygons)
+    depth, ids = _from_keys(keys, width, height)
+    return depth, ids, stats
+
+
 # Whole Renders
 
 def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
            height: int = DEFAULT_SIZE[1], *, cull_backfaces: bool = False,
            shading: str = "flat", light_dir=None, ambient: float = DEFAULT_AMBIENT,
-           diffuse: float = DEFAULT_DIFFUSE, color=None, background=DEFAULT_BACKGROUND
-           ) -> RenderResult:
+           diffuse: float = DEFAULT_DIFFUSE, color=None, background=DEFAULT_BACKGROUND,
+           polygons: bool = False) -> RenderResult:
     """Render like :func:`zbuffer.render`, in pure numpy.
 
     Takes the same arguments (but no ``algo``) and returns a
     :class:`~zbuffer.RenderResult` whose ``depth`` and ``triangle_id`` every
     compiled algorithm reproduces exactly. ``stats`` holds the counters that do
     not depend on visiting order (no ``pixels_written``) and ``total_ms``.
+
+    With ``polygons=True``, a mesh that keeps polygon faces
+    (``mesh.polygon_sizes``) has them drawn natively, as the algorithms
+    that draw polygons (``"scanline"``) draw them; other meshes are drawn
+    as triangles either way.
     """
     start = time.perf_counter()
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
-    tris, stats = vertex_stage(mesh.vertices, mesh.faces, mvp, width, height, cull_backfaces)
-    depth, triangle_id, pixel_stats = rasterize(tris, width, height)
-    stats.update(pixel_stats)
+    if polygons and mesh.polygon_sizes is not None:
+        depth, triangle_id, stats = render_polygons(
+            mesh.vertices, mesh.faces, mesh.polygon_sizes, mesh.polygon_indices, mvp,
+            width, height, cull_backfaces)
+    else:
+        tris, stats = vertex_stage(mesh.vertices, mesh.faces, mvp, width, height,
+                                   cull_backfaces)
+        depth, triangle_id, pixel_stats = rasterize(tris, width, height)
+        stats.update(pixel_stats)
     image = None
     if params.mode != "none":
         image = shade_numpy(mesh, triangle_id, camera, mvp, params)

@@ -200,7 +200,8 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
                        **render_options) -> Dict[str, RenderResult]:
     """The same view rendered by several algorithms: their images with times
     and counters, and the difference of their depth maps from the first one's
-    (all zeros: they agree bit for bit).
+    (all zeros: they agree bit for bit -- except ``"scanline"`` on a mesh with
+    polygon faces, which it draws natively: docs/rasterization.md, 3.7).
 
     Returns
     -------

@@ -22,6 +22,7 @@ struct Algorithm {
   const char* name;     // the name users pass as algo=
   const char* summary;  // one line for help texts
   AlgorithmFn render;
+  bool polygons = false;  // draws RenderInput::polygons natively
 };
 
 // All algorithms, in the order they are presented to users.
@@ -43,6 +44,7 @@ void render(const Algorithm& algorithm, const RenderInput& input,
 // The Algorithms
 void render_zbuffer(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stats);
+void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 void render_hiz_octree(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 void render_hiz_bvh(const RenderInput& input, DepthTarget& target, RenderStats& stats);
 

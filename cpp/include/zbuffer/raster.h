@@ -129,6 +129,27 @@ void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
 void rasterize_rect_scalar(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                            DepthTarget& target, RenderStats& stats);
 
+// Rasterize pixels [x0, x1] of row y of a triangle (inside its box) into a
+// buffer holding that one row: depth_row[x] and id_row[x] are pixel (x, y).
+// The scanline algorithm's primitive: the edge values at (x0, y) come from
+// the setup, exactly as rasterize_rect would step to them, and every pixel
+// goes through the same coverage test, depth formula and depth write, so a
+// span that is exactly the covered pixels tests nothing else, and a wider
+// one still draws nothing more.
+void rasterize_span(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
+                    int32_t* id_row, RenderStats& stats);
+
+// The scalar form of rasterize_span, kept callable for tests.
+void rasterize_span_scalar(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
+                           int32_t* id_row, RenderStats& stats);
+
+// Draw every pixel [x0, x1] of row y (coverage decided by the caller: the
+// scanline's even-odd rule for polygons) with the depth plane of s: the
+// depth formula of s's exact edge values at each pixel centre, which may lie
+// outside s's triangle, then the depth write. Scalar: polygons are rare.
+void rasterize_span_covered(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
+                            int32_t* id_row, RenderStats& stats);
+
 // Set up and rasterize a whole triangle (its box). Algorithms that draw many
 // triangles use a TriangleBatch (triangle_batch.h), which is faster.
 void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats);

@@ -37,9 +37,21 @@ struct DepthTarget {
   int height = 0;
 };
 
+// Polygon faces, for the algorithms that draw polygons natively (the
+// scanline; see Algorithm::polygons). Polygon p has the vertices
+// indices[offsets[p] .. offsets[p + 1]) (at least 3), and its triangulation
+// is the next size - 2 faces of the MeshView, in polygon order: the first
+// polygon's triangles first. Other algorithms draw those faces.
+struct PolygonView {
+  const int64_t* offsets = nullptr;  // (n_polygons + 1,), offsets[0] == 0
+  const int32_t* indices = nullptr;  // (offsets[n_polygons],) vertex indices
+  int64_t n_polygons = 0;            // 0: no polygons, draw the faces
+};
+
 // Everything an algorithm needs to render one frame.
 struct RenderInput {
   MeshView mesh;
+  PolygonView polygons;         // optional: the faces grouped into polygons
   double mvp[16] = {};        // row-major model-view-projection matrix
   bool cull_backfaces = false;  // drop triangles wound clockwise in NDC
 };
@@ -70,6 +82,19 @@ struct RenderStats {
   int64_t pixels_written = 0;      // ...that won the depth test
   int64_t tiles_skipped = 0;       // 8x8 tiles of drawn triangles found hidden
   int64_t pyramid_cells_updated = 0;  // Z-pyramid cells recomputed
+  // The scanline algorithm's tables and lists (zero for the others). Means
+  // of the active lists are their sums over scanline_rows rows.
+  int64_t polygons_inserted = 0;   // entries of the polygon table
+  int64_t edges_inserted = 0;      // entries of the edge table
+  int64_t scanline_rows = 0;       // rows walked
+  int64_t active_polygons_max = 0;
+  int64_t active_polygons_sum = 0;
+  int64_t active_edges_max = 0;
+  int64_t active_edges_sum = 0;
+  int64_t spans_drawn = 0;         // non-empty spans handed to the raster core
+  // Bytes of depth values the algorithm keeps while it works (the full
+  // W x H buffer for image-space algorithms, one row for the scanline).
+  int64_t depth_storage_bytes = 0;
   int64_t nodes_visited = 0;       // tree nodes tested (or not testable) and kept
   int64_t nodes_hidden = 0;        // tree nodes culled by the Z-pyramid
   int64_t nodes_outside = 0;       // tree nodes culled as outside the view volume

@@ -1,0 +1,213 @@
+// The scanline Z-buffer (Watkins 1970; the "scan-line Z-buffer" of the
+// textbooks): the image is walked row by row, top to bottom, and only the
+// polygons and edges that cross the current row are looked at. Depth is kept
+// for one row only.
+//
+// It decides which triangles and which pixels of a row to visit; coverage,
+// depth and the depth write are the raster core's (raster.h:
+// rasterize_span), so its output is bit-identical to every other
+// algorithm's. Exactness shapes the edge stepping: a span's first and last
+// pixel come from the exact integer edge function under the top-left rule,
+// stepped from row to row by an integer DDA (quotient and remainder), never
+// from a float x += dx; depth comes from the shared formula of the exact
+// edge values at each pixel, never from a float z += dz/dx.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "zbuffer/raster.h"
+#include "zbuffer/types.h"
+#include "zbuffer/vertex_stage.h"
+
+namespace zbuffer {
+
+// An edge in the active edge list, stepped from row to row. (General
+// polygons' edges use the same DDA for their crossings: slot is then the
+// polygon, and q the first pixel at or right of the edge; see
+// ScanlineTables::add_polygon.)
+//
+// Edge k of a triangle admits the pixels where its biased edge value is
+// >= 0 (raster.h). Along a row the value is affine in x with slope step_x,
+// so the edge bounds the row's span from one side: x >= x_first when
+// step_x > 0 (a left edge), x <= x_last when step_x < 0 (a right edge).
+// With div = |step_x| and wb0 the biased value at the centre of pixel
+// (0, y), both bounds are one formula,
+//     q = ceil(-wb0 / div) = floor(N / div),  N = -wb0 + div - 1,
+// a left edge admitting x >= q and a right edge x <= -q; from one row to
+// the next N changes by the constant -step_y. The DDA keeps
+// N = q * div + r with 0 <= r < div and steps q and r: exact integers only.
+//
+// Design decision: one entry per active edge, holding its DDA state and the
+// slot of its polygon's span bound it tightens (bounds[2 p] = first pixel,
+// bounds[2 p + 1] = minus the last pixel, each tightened by max). Good:
+// entering, stepping and leaving are local to the entry, and left and right
+// edges are applied by the same branch-free code. Bad: 40 bytes an edge,
+// since remainders of edges spanning more than 2^23 sub-pixel rows need
+// int64 (q itself fits int32 on every row where the edge is active: the
+// bound lies within the edge's x range there).
+struct ScanEdge {
+  int64_t r;         // remainder, 0 <= r < div
+  int64_t div;       // |step_x| > 0
+  int64_t dr;        // N changes by dq * div + dr from one row to the next
+  int32_t q, dq;     // bound on the current row, and its change
+  int32_t slot;      // index into the span bounds: 2 * polygon (+ 1 if right)
+  int32_t last_row;  // leaves the active list after this row
+
+  // The next row: N += dq * div + dr.
+  void step() {
+    r += dr;
+    const bool carry = r >= div;
+    r -= carry ? div : 0;
+    q += dq + int32_t(carry);
+  }
+};
+
+// An entry of the edge table: which edge of which polygon, and until which
+// row it stays active.
+//
+// Design decision: 12 bytes naming the edge; its DDA state (ScanEdge) is
+// computed when it enters the active edge list, from its polygon's record,
+// which is in cache then (the polygon entered on the same row or earlier).
+// Good: the table that holds every edge of the frame is small, so filling
+// and sorting it moves little memory. Bad: the division that starts the
+// DDA happens during the row walk rather than before it.
+struct EdgeEntry {
+  int32_t poly;      // index in the polygon store
+  int32_t last_row;  // active through this row
+  int32_t k;         // edge k of the triangle, or kKillRow
+  static constexpr int32_t kKillRow = 3;  // a bottom edge exactly on a row of centres
+};
+
+// A triangle in the polygon store: what the row walk needs to draw its span
+// on any row.
+//
+// Design decision: the raster setup (raster.h: TriangleSetup) cut down to
+// int32 edge values at the box's first pixel with int32 steps, when every
+// edge value in the box fits (nearly always); the full setup, kept apart,
+// otherwise. Good: 88 bytes instead of 136, and a span needs no int64
+// arithmetic. Bad: two forms of one triangle; the int32 one is only a
+// faster evaluation of the same exact integers.
+struct ScanPolygon {
+  int32_t x_min, x_max, y_min, y_max;  // pixel box, inside the image
+  int32_t w[3];                        // biased edge values at (x_min, y_min)
+  int32_t step_x[3], step_y[3];
+  int32_t bias1, bias2;
+  float z0, a1, a2, z_lo, z_hi;
+  int32_t id;
+  int32_t large;  // index into the full setups, or -1 for the int32 form
+};
+
+// A polygon face drawn natively (docs/rasterization.md, "Polygons"): its
+// coverage is the even-odd rule over its snapped edges, its depth the plane
+// of one of its fan triangles.
+//
+// Design decision: a general polygon keeps its full edge list in the edge
+// table, and on each row the crossings of its active edges are sorted and
+// paired (even-odd), rather than bounded by one left and one right edge as
+// a triangle is. Good: concave polygons, n-gons and self-intersecting
+// outlines are drawn by their written definition, not by edge pairs (which
+// hold only for convex polygons). Bad: a sort of the crossings per row; the
+// cheaper left/right bounds stay for triangles, which are nearly all faces
+// of a typical mesh.
+struct ScanGeneralPolygon {
+  TriangleSetup plane;  // depth plane (a fan triangle), z range and id of the polygon
+  int32_t last_row;
+};
+
+// Polygons with more corners than this are drawn as their triangles (their
+// exact signed area could overflow int64 beyond).
+constexpr int kMaxScanPolygonCorners = 4096;
+
+// The tables and active lists of one frame. Reused from frame to frame (the
+// vectors keep their memory), one per thread.
+class ScanlineTables {
+ public:
+  // Start a frame of width x height pixels.
+  void reset(int width, int height);
+
+  // Insert one assembled triangle (area > 0): an entry of the polygon table
+  // and its edges in the edge table. Counts what it inserts. A triangle
+  // whose box holds no pixel centre of the image is not inserted.
+  void add_triangle(const ScreenTriangle& t, RenderStats& stats);
+
+  // Insert one polygon face (n >= 3 snapped vertices, none needing
+  // clipping) with twice its signed area `area` (!= 0), drawn with id `id`
+  // (docs/rasterization.md, "Polygons").
+  void add_polygon(const ScreenVertex* v, int n, int64_t area, int32_t id, RenderStats& stats);
+
+  // Sort the tables by starting row, walk the rows and draw into target
+  // (already cleared to +inf and -1).
+  void render(DepthTarget& target, RenderStats& stats);
+
+ private:
+  void add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb, int32_t poly,
+                RenderStats& stats);
+  void start_edge(const EdgeEntry& entry, int y, ScanEdge& e) const;
+  struct Counts {
+    int64_t tested = 0, covered = 0, written = 0;
+  };
+  void draw_span(const ScanPolygon& p, int y, int lo, int hi, Counts& counts);
+
+  int width_ = 0, height_ = 0;
+
+  // Polygon store and sorted polygon table.
+  // Design decision: the store keeps the triangles in the order they
+  // arrive; the polygon table is a list of store indices sorted by starting
+  // row (a counting sort: one bucket per row, poly_start_[y] ..
+  // poly_start_[y + 1]). Good: O(n + H) to build, a row's entering
+  // polygons are one contiguous run, edges can name their polygon before
+  // the sort, and meshes in a spatial order keep neighbours near each other
+  // in the store. Bad: one indirection per polygon entering.
+  std::vector<ScanPolygon> polys_;
+  std::vector<TriangleSetup> large_;  // full setups of triangles too big for int32
+  std::vector<int32_t> poly_row_;     // starting row of each stored polygon
+  std::vector<int32_t> poly_table_;   // store indices, sorted by starting row
+  std::vector<int32_t> poly_start_;   // (height + 1) bucket offsets
+
+  // Edge table.
+  // Design decision: edges are collected unsorted, then counting-sorted
+  // into buckets by starting row (like the polygon table). Good: O(n + H),
+  // and a row's entering edges are one contiguous run. Bad: the edge table
+  // holds every edge of the frame at once (O(triangles) memory, as the
+  // polygon table; only depth is O(width)).
+  std::vector<EdgeEntry> edges_;       // unsorted
+  std::vector<EdgeEntry> edge_table_;  // sorted by starting row
+  std::vector<int32_t> edge_row_;     // starting row of each unsorted edge
+  std::vector<int32_t> edge_start_;   // (height + 1) bucket offsets
+  std::vector<int32_t> position_;     // scratch of the counting sorts
+
+  // Active polygon list and active edge list.
+  // Design decision: plain arrays compacted in place once per row (entries
+  // whose last row was the current one are dropped while the row is
+  // processed, without a branch); the span of each active polygon lives in
+  // bounds_, indexed by store index, narrowed by its active edges. Good: no
+  // allocation while walking, entries stay contiguous, and neither list
+  // needs to be kept sorted by x because each span is drawn through the
+  // depth write, which is order-free. Bad: the bounds are as long as the
+  // polygon store.
+  std::vector<int32_t> active_polys_;
+  std::vector<ScanEdge> active_edges_;
+  std::vector<int32_t> bounds_;
+
+  // General polygons: their store, sorted table and edge table (full DDA
+  // entries: polygon meshes are small), the active lists, and the sorted
+  // crossings of the current row, keyed (polygon << 32) | (x + 2^31).
+  std::vector<ScanGeneralPolygon> gpolys_;
+  std::vector<int32_t> gpoly_row_, gpoly_table_, gpoly_start_;
+  std::vector<ScanEdge> gedges_, gedge_table_;
+  std::vector<int32_t> gedge_row_, gedge_start_;
+  std::vector<int32_t> active_gpolys_;
+  std::vector<ScanEdge> active_gedges_;
+  std::vector<uint64_t> crossings_;
+
+  // The depth buffer of one row, and the id row written with it.
+  // Design decision: O(width) depth storage; after each row its drawn range
+  // is copied into the output image and reset. Good: the working depth
+  // stays in L1 cache whatever the image size. Bad: a copy of every drawn
+  // pixel, once.
+  std::vector<float> depth_row_;
+  std::vector<int32_t> id_row_;
+};
+
+}  // namespace zbuffer

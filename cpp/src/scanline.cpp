@@ -1,0 +1,554 @@
+// The scanline Z-buffer (scanline.h): sorted polygon and edge tables, an
+// active polygon list and an active edge list, one row of depth.
+#include "zbuffer/scanline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "simd.h"
+#include "zbuffer/algorithms.h"
+
+namespace zbuffer {
+
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+      .count();
+}
+
+inline void prefetch(const void* p) {
+#if defined(__GNUC__)
+  __builtin_prefetch(p);
+#else
+  (void)p;
+#endif
+}
+
+// n = q * d + r with 0 <= r < d, for d > 0 and |n|, d < 2^53. The double
+// quotient is within one of the true one; integer arithmetic corrects it
+// (an int64 division costs several times as much).
+inline void floor_divmod(int64_t n, int64_t d, int64_t& q, int64_t& r) {
+  q = int64_t(std::floor(double(n) / double(d)));
+  r = n - q * d;
+  while (r < 0) {
+    --q;
+    r += d;
+  }
+  while (r >= d) {
+    ++q;
+    r -= d;
+  }
+}
+
+// Stable counting sort by row: fills start[0 .. height] with bucket offsets
+// and position[i] with item i's place in the sorted order.
+void bucket_by_row(const std::vector<int32_t>& row, int height, std::vector<int32_t>& start,
+                   std::vector<int32_t>& position) {
+  start.assign(size_t(height) + 2, 0);
+  for (int32_t y : row) ++start[size_t(y) + 2];
+  for (int y = 0; y < height; ++y) start[size_t(y) + 2] += start[size_t(y) + 1];
+  // start[y + 1] is now where bucket y begins; hand out places from it.
+  position.resize(row.size());
+  for (size_t i = 0; i < row.size(); ++i) position[i] = start[size_t(row[i]) + 1]++;
+  // ... which leaves start[y + 1] at the end of bucket y: start[y] .. start[y + 1].
+  start.pop_back();
+}
+
+}  // namespace
+
+void ScanlineTables::reset(int width, int height) {
+  width_ = width;
+  height_ = height;
+  polys_.clear();
+  large_.clear();
+  poly_row_.clear();
+  edges_.clear();
+  edge_row_.clear();
+  gpolys_.clear();
+  gpoly_row_.clear();
+  gedges_.clear();
+  gedge_row_.clear();
+}
+
+// Edge Table Entries
+
+void ScanlineTables::add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb,
+                              int32_t poly, RenderStats& stats) {
+  // Rows whose centres lie on the edge's closed y range, within the box.
+  // On such a row the edges spanning it give the span exactly; an edge not
+  // spanning the row is > 0 all along the span (a zero would be a point of
+  // the closed triangle on that edge, at a y outside its range), so its
+  // constraint holds without being applied.
+  const int64_t first = std::max<int64_t>(first_pixel_at_or_after(std::min(ya, yb)), s.y_min);
+  const int64_t last = std::min<int64_t>(last_pixel_at_or_before(std::max(ya, yb)), s.y_max);
+  if (first > last) return;
+  // A horizontal edge exactly on a row of pixel centres: a top edge (bias
+  // 0) admits the whole row, a bottom edge (bias 1, edge value 0 there)
+  // none of it. Only the latter needs an entry.
+  if (s.step_x[k] == 0 && s.bias[k] == 0) return;
+  EdgeEntry& e = edges_.emplace_back();
+  e.poly = poly;
+  e.last_row = int32_t(last);
+  e.k = s.step_x[k] == 0 ? EdgeEntry::kKillRow : k;
+  edge_row_.push_back(int32_t(first));
+  ++stats.edges_inserted;
+}
+
+// The DDA of an edge entering the active list at row y (its first row),
+// written into e field by field (a returned struct copied whole into the
+// list stalled on store forwarding).
+void ScanlineTables::start_edge(const EdgeEntry& entry, int y, ScanEdge& e) const {
+  e.last_row = entry.last_row;
+  if (entry.k == EdgeEntry::kKillRow) {
+    // A left bound beyond any column, for this one row.
+    e.slot = 2 * entry.poly;
+    e.q = int32_t(1) << 30;
+    e.dq = 0;
+    e.r = e.dr = 0;
+    e.div = 1;
+    return;
+  }
+  const ScanPolygon& p = polys_[size_t(entry.poly)];
+  const int k = entry.k;
+  int64_t w, sx, sy;
+  if (p.large >= 0) {
+    const TriangleSetup& s = large_[size_t(p.large)];
+    w = s.w_origin[k];
+    sx = s.step_x[k];
+    sy = s.step_y[k];
+  } else {
+    w = p.w[k];
+    sx = p.step_x[k];
+    sy = p.step_y[k];
+  }
+  // q = floor(N / div) with N = -wb0 + div - 1, wb0 the biased edge value
+  // at the centre of pixel (0, y); N changes by -step_y a row.
+  const int64_t wb0 = w + (0 - int64_t(p.x_min)) * sx + (int64_t(y) - p.y_min) * sy;
+  e.slot = 2 * entry.poly + (sx > 0 ? 0 : 1);
+  e.div = sx > 0 ? sx : -sx;
+  int64_t q, dq;
+  floor_divmod(-wb0 + e.div - 1, e.div, q, e.r);
+  floor_divmod(-sy, e.div, dq, e.dr);
+  e.q = int32_t(q);    // in the edge's x range on its active rows: fits
+  e.dq = int32_t(dq);  // |dq| <= |dx| + 1 < 2^25
+}
+
+// Polygon Table Entries
+
+void ScanlineTables::add_triangle(const ScreenTriangle& t, RenderStats& stats) {
+  const TriangleSetup s = setup_triangle(t, width_, height_);
+  if (s.x_min > s.x_max || s.y_min > s.y_max) return;  // no pixel centre of the image
+  const int32_t poly = int32_t(polys_.size());
+  ScanPolygon& p = polys_.emplace_back();  // in place, as the edges
+  p.x_min = s.x_min;
+  p.x_max = s.x_max;
+  p.y_min = s.y_min;
+  p.y_max = s.y_max;
+  // The int32 form if every edge value in the box (an affine function:
+  // extremes at the corners) fits with room to spare.
+  constexpr int64_t kLimit = int64_t(1) << 30;
+  bool fits = true;
+  for (int k = 0; k < 3; ++k) {
+    const int64_t dx = int64_t(s.x_max - s.x_min) * s.step_x[k];
+    const int64_t dy = int64_t(s.y_max - s.y_min) * s.step_y[k];
+    for (int64_t c : {s.w_origin[k], s.w_origin[k] + dx, s.w_origin[k] + dy,
+                      s.w_origin[k] + dx + dy})
+      fits &= c < kLimit && c > -kLimit;
+    fits &= s.step_x[k] < kLimit && s.step_x[k] > -kLimit && s.step_y[k] < kLimit &&
+            s.step_y[k] > -kLimit;
+    p.w[k] = int32_t(s.w_origin[k]);
+    p.step_x[k] = int32_t(s.step_x[k]);
+    p.step_y[k] = int32_t(s.step_y[k]);
+  }
+  p.bias1 = int32_t(s.bias[1]);
+  p.bias2 = int32_t(s.bias[2]);
+  p.z0 = s.z0;
+  p.a1 = s.a1;
+  p.a2 = s.a2;
+  p.z_lo = s.z_lo;
+  p.z_hi = s.z_hi;
+  p.id = s.id;
+  p.large = -1;
+#ifndef ZBUFFER_AVX512
+  fits = false;  // the scalar build draws every span from the full setup
+#endif
+  if (!fits) {
+    p.large = int32_t(large_.size());
+    large_.push_back(s);
+  }
+  poly_row_.push_back(s.y_min);
+  ++stats.polygons_inserted;
+  for (int k = 0; k < 3; ++k)
+    add_edge(s, k, t.v[(k + 1) % 3].y_fx, t.v[(k + 2) % 3].y_fx, poly, stats);
+}
+
+// General Polygons
+
+void ScanlineTables::add_polygon(const ScreenVertex* v, int n, int64_t area, int32_t id,
+                                 RenderStats& stats) {
+  // Rows: centres on the half-open range [min y, max y), the rows where an
+  // edge can cross (docs/rasterization.md).
+  int64_t y_lo = v[0].y_fx, y_hi = v[0].y_fx;
+  double z_min = v[0].z, z_max = v[0].z;
+  for (int i = 1; i < n; ++i) {
+    y_lo = std::min<int64_t>(y_lo, v[i].y_fx);
+    y_hi = std::max<int64_t>(y_hi, v[i].y_fx);
+    z_min = std::min(z_min, v[i].z);
+    z_max = std::max(z_max, v[i].z);
+  }
+  const int64_t first = std::max<int64_t>(first_pixel_at_or_after(y_lo), 0);
+  const int64_t last = std::min<int64_t>(first_pixel_at_or_after(y_hi) - 1, height_ - 1);
+  if (first > last) return;
+
+  // Depth plane: the fan triangle (v0, v_k, v_k+1) of the largest area with
+  // the polygon's orientation (the first such k on a tie), oriented to
+  // area > 0 as assembly orients triangles; z clamped to the polygon's range.
+  const int64_t x0 = v[0].x_fx, y0 = v[0].y_fx;
+  int best = 1;
+  int64_t best_area = 0;
+  for (int k = 1; k + 1 < n; ++k) {
+    const int64_t a = (int64_t(v[k].x_fx) - x0) * (int64_t(v[k + 1].y_fx) - y0) -
+                      (int64_t(v[k].y_fx) - y0) * (int64_t(v[k + 1].x_fx) - x0);
+    const int64_t oriented = area > 0 ? a : -a;
+    if (oriented > best_area) {
+      best_area = oriented;
+      best = k;
+    }
+  }
+  ScreenTriangle t;
+  t.v[0] = v[0];
+  t.v[1] = area > 0 ? v[best] : v[best + 1];
+  t.v[2] = area > 0 ? v[best + 1] : v[best];
+  t.area = best_area;
+  t.id = id;
+  const int32_t poly = int32_t(gpolys_.size());
+  ScanGeneralPolygon& g = gpolys_.emplace_back();
+  g.plane = setup_triangle(t, width_, height_);
+  g.plane.z_lo = float(z_min);
+  g.plane.z_hi = float(z_max);
+  g.last_row = int32_t(last);
+  gpoly_row_.push_back(int32_t(first));
+  ++stats.polygons_inserted;
+
+  // Edge Table: every non-horizontal edge, from its upper end t to its lower
+  // end u, on the rows with centres in [y_t, y_u). Its crossing on row y is
+  // the first pixel whose centre is at or right of the edge:
+  //   x_first = ceil(C / D),  C = (x_u - x_t)(py - y_t) - (y_u - y_t)(128 - x_t),
+  //   D = 256 (y_u - y_t),    py = 256 y + 128;
+  // q = floor(N / D) with N = C + D - 1, and N grows by 256 (x_u - x_t) a row.
+  for (int i = 0; i < n; ++i) {
+    const ScreenVertex& a = v[i];
+    const ScreenVertex& b = v[i + 1 < n ? i + 1 : 0];
+    if (a.y_fx == b.y_fx) continue;  // horizontal: crosses no row
+    const ScreenVertex& top = a.y_fx < b.y_fx ? a : b;
+    const ScreenVertex& bottom = a.y_fx < b.y_fx ? b : a;
+    const int64_t e_first = std::max<int64_t>(first_pixel_at_or_after(top.y_fx), 0);
+    const int64_t e_last =
+        std::min<int64_t>(first_pixel_at_or_after(bottom.y_fx) - 1, height_ - 1);
+    if (e_first > e_last) continue;
+    const int64_t dx = int64_t(bottom.x_fx) - top.x_fx, dy = int64_t(bottom.y_fx) - top.y_fx;
+    const int64_t c = dx * (pixel_centre_fx(e_first) - top.y_fx) - dy * (kHalfPixel - top.x_fx);
+    ScanEdge& e = gedges_.emplace_back();
+    e.div = dy * kSubpixelScale;
+    int64_t q, dq;
+    floor_divmod(c + e.div - 1, e.div, q, e.r);
+    floor_divmod(dx * kSubpixelScale, e.div, dq, e.dr);
+    e.q = int32_t(q);    // within the edge's x range on its rows: fits
+    e.dq = int32_t(dq);  // |dq| <= |dx| + 1 < 2^25
+    e.slot = poly;
+    e.last_row = int32_t(e_last);
+    gedge_row_.push_back(int32_t(e_first));
+    ++stats.edges_inserted;
+  }
+}
+
+// Spans
+
+// Pixels [lo, hi] of row y of polygon p (none if lo > hi), into the row
+// buffer: the raster core's span, with the edge values at (lo, y) stepped
+// from the box's first pixel in exact (wrapping) int32 arithmetic.
+inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int hi,
+                                      Counts& counts) {
+  if (p.large >= 0) {  // rare: a triangle too big for int32 edge values
+    if (lo <= hi) {
+      RenderStats s;
+      rasterize_span(large_[size_t(p.large)], y, lo, hi, depth_row_.data(), id_row_.data(), s);
+      counts.tested += s.pixels_tested;
+      counts.covered += s.pixels_covered;
+      counts.written += s.pixels_written;
+    }
+    return;
+  }
+#ifdef ZBUFFER_AVX512
+  // No branch on an empty span: it runs with an empty mask at a valid
+  // address (the polygon's first column).
+  int width = hi - lo + 1;
+  lo = width > 0 ? lo : p.x_min;
+  width = width > 0 ? width : 0;
+  const uint32_t dx = uint32_t(lo - p.x_min), dy = uint32_t(y - p.y_min);
+  __m512i w[3];
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t v = uint32_t(p.w[k]) + dx * uint32_t(p.step_x[k]) + dy * uint32_t(p.step_y[k]);
+    w[k] = simd::row16(int32_t(v), p.step_x[k]);
+  }
+  const simd::DepthPlane16 plane(p.z0, p.a1, p.a2, p.z_lo, p.z_hi);
+  const __m512i id = _mm512_set1_epi32(p.id);
+  const __m512i bias1 = _mm512_set1_epi32(p.bias1), bias2 = _mm512_set1_epi32(p.bias2);
+  float* d = depth_row_.data() + lo;
+  int32_t* ids = id_row_.data() + lo;
+  __mmask16 win;
+  __mmask16 inside = simd::span16(__mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width, 16)))),
+                                  w[0], w[1], w[2], bias1, bias2, plane, id, d, ids, win);
+  int64_t covered = __builtin_popcount(inside), written = __builtin_popcount(win);
+  for (int x = 16; x < width; x += 16) {  // spans longer than 16 pixels
+    for (int k = 0; k < 3; ++k)
+      w[k] = _mm512_add_epi32(w[k], _mm512_set1_epi32(int32_t(16u * uint32_t(p.step_x[k]))));
+    const __mmask16 in_span = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width - x, 16))));
+    inside = simd::span16(in_span, w[0], w[1], w[2], bias1, bias2, plane, id, d + x, ids + x, win);
+    covered += __builtin_popcount(inside);
+    written += __builtin_popcount(win);
+  }
+  counts.tested += width;
+  counts.covered += covered;
+  counts.written += written;
+#endif
+}
+
+// The Row Walk
+
+void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
+  const int width = target.width, height = target.height;
+
+  // Sorted Polygon Table and Edge Table
+  bucket_by_row(poly_row_, height, poly_start_, position_);
+  poly_table_.resize(polys_.size());
+  for (size_t i = 0; i < polys_.size(); ++i) poly_table_[size_t(position_[i])] = int32_t(i);
+  bucket_by_row(edge_row_, height, edge_start_, position_);
+  edge_table_.resize(edges_.size());
+  for (size_t i = 0; i < edges_.size(); ++i) edge_table_[size_t(position_[i])] = edges_[i];
+
+  bucket_by_row(gpoly_row_, height, gpoly_start_, position_);
+  gpoly_table_.resize(gpolys_.size());
+  for (size_t i = 0; i < gpolys_.size(); ++i) gpoly_table_[size_t(position_[i])] = int32_t(i);
+  bucket_by_row(gedge_row_, height, gedge_start_, position_);
+  gedge_table_.resize(gedges_.size());
+  for (size_t i = 0; i < gedges_.size(); ++i) gedge_table_[size_t(position_[i])] = gedges_[i];
+  active_gpolys_.clear();
+  active_gedges_.clear();
+
+  bounds_.resize(2 * polys_.size());
+  active_polys_.clear();
+  active_edges_.clear();
+  depth_row_.assign(size_t(width), std::numeric_limits<float>::infinity());
+  id_row_.assign(size_t(width), -1);
+  stats.depth_storage_bytes = int64_t(width) * int64_t(sizeof(float));
+  Counts counts;
+
+  for (int y = 0; y < height; ++y) {
+    // Polygons and edges entering at this row
+    for (int32_t i = poly_start_[size_t(y)]; i < poly_start_[size_t(y) + 1]; ++i) {
+      const int32_t p = poly_table_[size_t(i)];
+      active_polys_.push_back(p);
+      bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
+      bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
+    }
+    for (int32_t i = edge_start_[size_t(y)]; i < edge_start_[size_t(y) + 1]; ++i)
+      start_edge(edge_table_[size_t(i)], y, active_edges_.emplace_back());
+    // The polygons entering two rows down, into cache meanwhile: the store
+    // is in arrival order, so they are scattered over it.
+    if (y + 2 < height)
+      for (int32_t i = poly_start_[size_t(y) + 2]; i < poly_start_[size_t(y) + 3]; ++i) {
+        const char* rec = reinterpret_cast<const char*>(&polys_[size_t(poly_table_[size_t(i)])]);
+        prefetch(rec);
+        prefetch(rec + sizeof(ScanPolygon) - 1);
+      }
+    for (int32_t i = gpoly_start_[size_t(y)]; i < gpoly_start_[size_t(y) + 1]; ++i)
+      active_gpolys_.push_back(gpoly_table_[size_t(i)]);
+    active_gedges_.insert(active_gedges_.end(), gedge_table_.begin() + gedge_start_[size_t(y)],
+                          gedge_table_.begin() + gedge_start_[size_t(y) + 1]);
+    ++stats.scanline_rows;
+    const int64_t n_polys = int64_t(active_polys_.size() + active_gpolys_.size());
+    const int64_t n_edges = int64_t(active_edges_.size() + active_gedges_.size());
+    stats.active_polygons_sum += n_polys;
+    stats.active_edges_sum += n_edges;
+    stats.active_polygons_max = std::max(stats.active_polygons_max, n_polys);
+    stats.active_edges_max = std::max(stats.active_edges_max, n_edges);
+    if (n_polys == 0) continue;
+    int touched_lo = width, touched_hi = -1;
+
+    // General polygons: the crossings of their active edges, sorted by
+    // polygon then x and paired (even-odd): each pair [x_a, x_b) is a span
+    if (!active_gpolys_.empty()) {
+      crossings_.clear();
+      size_t kept_edges = 0;
+      for (size_t i = 0; i < active_gedges_.size(); ++i) {
+        ScanEdge e = active_gedges_[i];
+        crossings_.push_back((uint64_t(uint32_t(e.slot)) << 32) |
+                             uint64_t(uint32_t(e.q) ^ 0x80000000u));  // x + 2^31
+        if (e.last_row == y) continue;
+        e.step();
+        active_gedges_[kept_edges++] = e;
+      }
+      active_gedges_.resize(kept_edges);
+      std::sort(crossings_.begin(), crossings_.end());
+      for (size_t i = 0; i + 1 < crossings_.size(); i += 2) {
+        const TriangleSetup& plane = gpolys_[size_t(crossings_[i] >> 32)].plane;
+        const int64_t x_a = int64_t(uint32_t(crossings_[i])) - (int64_t(1) << 31);
+        const int64_t x_b = int64_t(uint32_t(crossings_[i + 1])) - (int64_t(1) << 31);
+        const int lo = int(std::max<int64_t>(x_a, 0));
+        const int hi = int(std::min<int64_t>(x_b - 1, width - 1));
+        if (lo > hi) continue;
+        RenderStats s;
+        rasterize_span_covered(plane, y, lo, hi, depth_row_.data(), id_row_.data(), s);
+        counts.tested += s.pixels_tested;
+        counts.covered += s.pixels_covered;
+        counts.written += s.pixels_written;
+        ++stats.spans_drawn;
+        touched_lo = std::min(touched_lo, lo);
+        touched_hi = std::max(touched_hi, hi);
+      }
+      size_t kept_polys = 0;
+      for (int32_t g : active_gpolys_)
+        if (gpolys_[size_t(g)].last_row != y) active_gpolys_[kept_polys++] = g;
+      active_gpolys_.resize(kept_polys);
+    }
+
+    // Active edges: tighten their polygons' spans, step to the next row,
+    // drop those that end here. Branch-free: left and right edges, and
+    // edges ending or not, are mixed at random.
+    // (Field by field: copying the struct whole after changing two fields
+    // stalled on store forwarding and cost a third of the row walk.)
+    size_t kept = 0;
+    ScanEdge* const edges = active_edges_.data();
+    for (size_t i = 0; i < active_edges_.size(); ++i) {
+      const int64_t div = edges[i].div, dr = edges[i].dr;
+      const int32_t q = edges[i].q, dq = edges[i].dq;
+      const int32_t slot = edges[i].slot, last_row = edges[i].last_row;
+      int32_t& b = bounds_[size_t(slot)];
+      b = std::max(b, q);
+      // ScanEdge::step(), written out
+      int64_t r = edges[i].r + dr;
+      const bool carry = r >= div;
+      r -= carry ? div : 0;
+      ScanEdge& out = edges[kept];
+      out.r = r;
+      out.div = div;
+      out.dr = dr;
+      out.q = q + dq + int32_t(carry);
+      out.dq = dq;
+      out.slot = slot;
+      out.last_row = last_row;
+      kept += last_row != y;
+    }
+    active_edges_.resize(kept);
+
+    // Active polygons: draw their spans into the row, drop those that end
+    // here (branch-free, likewise)
+    kept = 0;
+    for (size_t i = 0; i < active_polys_.size(); ++i) {
+      const int32_t p = active_polys_[i];
+      const ScanPolygon& poly = polys_[size_t(p)];
+      const int lo = bounds_[2 * size_t(p)], hi = -bounds_[2 * size_t(p) + 1];
+      draw_span(poly, y, lo, hi, counts);
+      const bool drawn = lo <= hi;
+      stats.spans_drawn += drawn;
+      touched_lo = std::min(touched_lo, drawn ? lo : width);
+      touched_hi = std::max(touched_hi, drawn ? hi : -1);
+      bounds_[2 * size_t(p)] = poly.x_min;
+      bounds_[2 * size_t(p) + 1] = -poly.x_max;
+      active_polys_[kept] = p;
+      kept += poly.y_max != y;
+    }
+    active_polys_.resize(kept);
+
+    // The finished row into the image; the row buffer cleared behind it
+    if (touched_lo <= touched_hi) {
+      const size_t n = size_t(touched_hi - touched_lo + 1);
+      const size_t base = size_t(y) * size_t(width) + size_t(touched_lo);
+      std::memcpy(target.depth + base, depth_row_.data() + touched_lo, n * sizeof(float));
+      std::memcpy(target.triangle_id + base, id_row_.data() + touched_lo, n * sizeof(int32_t));
+      std::fill_n(depth_row_.data() + touched_lo, n, std::numeric_limits<float>::infinity());
+      std::fill_n(id_row_.data() + touched_lo, n, int32_t(-1));
+    }
+  }
+  stats.pixels_tested += counts.tested;
+  stats.pixels_covered += counts.covered;
+  stats.pixels_written += counts.written;
+}
+
+// The Algorithm
+
+void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
+  const Viewport vp(target.width, target.height);
+
+  // Vertex stage: shared with every algorithm, each vertex once.
+  auto t0 = std::chrono::steady_clock::now();
+  thread_local ScreenVertices screen;
+  transform_vertices(input.mesh, input.mvp, vp, screen);
+  stats.vertex_ms += ms_since(t0);
+
+  // Assembly into the tables, then the row walk.
+  t0 = std::chrono::steady_clock::now();
+  thread_local ScanlineTables tables;
+  tables.reset(target.width, target.height);
+  auto add_faces = [&](int64_t begin, int64_t end) {
+    for (int64_t f = begin; f < end; ++f)
+      assemble_triangle(input.mesh, input.mvp, vp, screen, f, input.cull_backfaces, stats,
+                        [&](const ScreenTriangle& t) {
+                          ++stats.rasterized;
+                          tables.add_triangle(t, stats);
+                        });
+  };
+  const PolygonView& polys = input.polygons;
+  if (polys.n_polygons == 0) {
+    add_faces(0, input.mesh.n_faces);
+  } else {
+    // Polygons (docs/rasterization.md, "Polygons"). Each decision about a
+    // polygon counts all its size - 2 triangles, so that the triangle
+    // counters add up as for any algorithm.
+    std::vector<ScreenVertex> v;
+    int64_t face = 0;  // the polygon's first triangle
+    for (int64_t p = 0; p < polys.n_polygons; ++p) {
+      const int32_t* idx = polys.indices + polys.offsets[p];
+      const int n = int(polys.offsets[p + 1] - polys.offsets[p]);
+      const int64_t triangles = n - 2, next_face = face + triangles;
+      uint32_t any_out = 0, all_out = ~0u;
+      for (int i = 0; i < n; ++i) {
+        any_out |= screen.outcode[size_t(idx[i])];
+        all_out &= screen.outcode[size_t(idx[i])];
+      }
+      if (any_out & kOutInvalid) {
+        stats.culled_invalid += triangles;
+      } else if (all_out & kOutView) {
+        stats.culled_frustum += triangles;
+      } else if ((any_out & kOutClip) || n > kMaxScanPolygonCorners) {
+        add_faces(face, next_face);  // clipped: drawn as its triangles
+      } else {
+        v.resize(size_t(n));
+        for (int i = 0; i < n; ++i) v[size_t(i)] = screen[idx[i]];
+        // Twice the signed area, as the fan (v0, v_k, v_k+1) sums it: exact.
+        int64_t area = 0;
+        for (int k = 1; k + 1 < n; ++k)
+          area += (int64_t(v[size_t(k)].x_fx) - v[0].x_fx) * (int64_t(v[size_t(k) + 1].y_fx) - v[0].y_fx) -
+                  (int64_t(v[size_t(k)].y_fx) - v[0].y_fx) * (int64_t(v[size_t(k) + 1].x_fx) - v[0].x_fx);
+        if (area == 0) {
+          stats.culled_degenerate += triangles;
+        } else if (area > 0 && input.cull_backfaces) {
+          stats.culled_backface += triangles;
+        } else {
+          stats.rasterized += triangles;
+          tables.add_polygon(v.data(), n, area, input.mesh.id(face), stats);
+        }
+      }
+      face = next_face;
+    }
+  }
+  tables.render(target, stats);
+  stats.raster_ms += ms_since(t0);
+}
+
+}  // namespace zbuffer
