@@ -51,6 +51,8 @@ def test_one_tree_many_cameras_equals_the_reference(algo, options):
         assert_same_visibility(res, ref)
         assert_same_counters(res.stats, ref.stats)
         assert (res.stats["build_ms"] > 0) == (k == 0)  # built by the first render only
+        # The depth buffer and the pyramid levels kept above it (8x8 cells up).
+        assert res.stats["depth_storage_bytes"] > 4 * 80 * 64
         assert res.stats["culled_in_nodes"] > 0  # whole nodes were culled
     assert scene.tree_info(algo)["faces"] == len(mesh.faces)
 

@@ -23,11 +23,7 @@ void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stat
   ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true);
   render_faces_batched(input, target, stats, &pyramid, TriangleBatch::kCapacity,
                        /*lazy_upkeep=*/true);
-  // Depth storage: the W x H buffer and the pyramid levels kept above it.
-  int64_t cells = int64_t(target.width) * target.height;
-  for (int k = pyramid.first_level(); k < pyramid.levels(); ++k)
-    cells += int64_t(pyramid.width(k)) * pyramid.height(k);
-  stats.depth_storage_bytes = cells * int64_t(sizeof(float));
+  stats.depth_storage_bytes = pyramid.storage_bytes();
 }
 
 }  // namespace zbuffer

@@ -462,6 +462,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   }
   flush();
   stats.culled_in_nodes += tree.n_input_faces - reached;
+  stats.depth_storage_bytes = pyramid.storage_bytes();
 
   // Temporal coherence: record the clusters with a pixel in this frame.
   // Every other row is enough: the set only decides what is drawn first

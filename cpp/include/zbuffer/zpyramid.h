@@ -36,6 +36,13 @@ class ZPyramid {
   // Cells of a kept level (0, or first_level() and up).
   const float* level(int k) const { return k == 0 ? depth_ : cells_[k].data(); }
 
+  // Bytes of depth storage: the W x H buffer and the levels kept above it.
+  int64_t storage_bytes() const {
+    int64_t cells = int64_t(widths_[0]) * heights_[0];
+    for (int k = first_; k < levels(); ++k) cells += int64_t(widths_[k]) * heights_[k];
+    return cells * int64_t(sizeof(float));
+  }
+
   // Recompute every cell from level 0 (after the depth buffer was rewritten).
   void rebuild();
 
