@@ -12,6 +12,41 @@ GUARD_BAND_PX: float
 MIN_CLIP_W: float
 MAX_CLIP_VERTICES: int
 RASTER_BACKEND: str
+MAX_OCTREE_DEPTH: int
+DEFAULT_OCTREE_LEAF_SIZE: int
+DEFAULT_OCTREE_MAX_DEPTH: int
+DEFAULT_BVH_LEAF_SIZE: int
+
+class ObjectTree:
+    """A built octree or BVH with the state of its last frame."""
+
+    kind: str
+    build_ms: float
+    n_nodes: int
+    n_clusters: int
+    n_references: int
+    n_faces: int
+    memory_bytes: int
+    def render(
+        self,
+        mvp: npt.NDArray[np.float64],
+        width: int,
+        height: int,
+        cull_backfaces: bool = False,
+        temporal: bool = False,
+    ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.int32], Dict[str, Union[int, float]]]: ...
+    def nodes(self) -> Dict[str, np.ndarray]: ...
+
+def build_octree(
+    positions: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.int32],
+    leaf_size: int = ...,
+    max_depth: int = ...,
+    rule: str = "smallest",
+) -> ObjectTree: ...
+def build_bvh(
+    positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32], leaf_size: int = ...
+) -> ObjectTree: ...
 
 def algorithms() -> List[Tuple[str, str]]: ...
 def polygon_algorithms() -> List[str]: ...
