@@ -25,18 +25,15 @@ an orbit. Nothing here asserts a speed.
 from __future__ import annotations
 
 import argparse
-import datetime as dt
-import json
 import math
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 import zbuffer
-from bench_render import HERE, MODELS, machine
+from bench_render import HERE, MODELS, new_report, write_report
 
 ALGOS = ["zbuffer", "hiz", "hiz_octree", "hiz_bvh"]
 TREES = ["hiz_octree", "hiz_bvh"]
@@ -212,12 +209,8 @@ def main(argv=None) -> int:
     size = 128 if args.quick else 1024
     base, label = spot(args.quick)
 
-    report = {
-        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": machine(),
-        "command": " ".join(["python benchmarks/bench_hiz.py", *(argv or sys.argv[1:])]),
-        "scene": f"5 x 5 x N copies of {label}", "size": size, "grid": [],
-    }
+    report = {**new_report("bench_hiz.py", argv),
+              "scene": f"5 x 5 x N copies of {label}", "size": size, "grid": []}
 
     def record(case):
         report["grid"].append(case)
@@ -288,11 +281,7 @@ def main(argv=None) -> int:
     print(f"orbit: {report['temporal']['without']['fps']:.1f} fps without, "
           f"{report['temporal']['with']['fps']:.1f} fps with temporal coherence", flush=True)
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "hiz.json").write_text(json.dumps(report, indent=2) + "\n")
-    (out / "hiz.md").write_text(markdown(report))
-    print(f"wrote {out / 'hiz.json'} and {out / 'hiz.md'}")
+    write_report(args.out, "hiz", report, markdown(report))
     return 0
 
 

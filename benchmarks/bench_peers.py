@@ -18,18 +18,15 @@ one thread too. Nothing here asserts a speed.
 from __future__ import annotations
 
 import argparse
-import datetime as dt
-import json
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 import zbuffer
 from bench_hiz import grid_camera, spot
-from bench_render import HERE, MODELS, machine
+from bench_render import HERE, MODELS, new_report, write_report
 
 
 def pixel_rays(result: zbuffer.RenderResult):
@@ -167,10 +164,7 @@ def main(argv=None) -> int:
     except Exception as err:  # not installed, or a system library missing
         print(f"Open3D unavailable ({err}): nothing to compare with", flush=True)
         version = None
-    report = {"date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-              "machine": machine(), "size": size, "runs": runs,
-              "command": " ".join(["python benchmarks/bench_peers.py", *(argv or sys.argv[1:])]),
-              "cases": []}
+    report = {**new_report("bench_peers.py", argv), "size": size, "runs": runs, "cases": []}
     if version:
         report["open3d"] = version
     base, label = spot(args.quick)
@@ -196,11 +190,7 @@ def main(argv=None) -> int:
                       f"{ours['hiz_octree_build_ms']:6.0f} ms, frame {ours['hiz_octree_built_once_ms']:6.1f} ms"
                       f" | mismatch {o['agreement']['coverage_mismatch']}", flush=True)
             report["cases"].append(case)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "peers.json").write_text(json.dumps(report, indent=2) + "\n")
-    (out / "peers.md").write_text(markdown(report))
-    print(f"wrote {out / 'peers.json'} and {out / 'peers.md'}")
+    write_report(args.out, "peers", report, markdown(report))
     return 0
 
 

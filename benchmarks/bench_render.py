@@ -71,6 +71,24 @@ def machine() -> dict:
             "numpy": np.__version__, "platform": platform.platform(), "commit": commit}
 
 
+def new_report(script: str, argv) -> dict:
+    """The header every benchmark report starts with: date, machine, command."""
+    return {
+        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": machine(),
+        "command": " ".join([f"python benchmarks/{script}", *(argv if argv is not None else sys.argv[1:])]),
+    }
+
+
+def write_report(out_dir, stem: str, report: dict, text: str) -> None:
+    """Write <out_dir>/<stem>.json (everything measured) and <stem>.md (the tables)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{stem}.json").write_text(json.dumps(report, indent=2) + "\n")
+    (out / f"{stem}.md").write_text(text)
+    print(f"wrote {out / (stem + '.json')} and {out / (stem + '.md')}")
+
+
 def load_case(name: str, quick: bool):
     path = MODELS / name
     if path.is_file():
@@ -193,12 +211,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     runs = args.runs or (3 if args.quick else 21)
 
-    report = {
-        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": machine(),
-        "command": " ".join(["python benchmarks/bench_render.py", *(argv or sys.argv[1:])]),
-        "cases": [],
-    }
+    report = {**new_report("bench_render.py", argv), "cases": []}
     for name, width, height, shading, algo, target in CASES:
         if args.quick:
             width, height = width // 4, height // 4
@@ -246,11 +259,7 @@ def main(argv=None) -> int:
                   f"{res.stats['depth_storage_bytes']:>12,} bytes", flush=True)
         report["depth_storage"] = {"mesh": label, "size": f"{width}x{height}", "algorithms": rows}
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "render.json").write_text(json.dumps(report, indent=2) + "\n")
-    (out / "render.md").write_text(markdown(report))
-    print(f"wrote {out / 'render.json'} and {out / 'render.md'}")
+    write_report(args.out, "render", report, markdown(report))
     return 0
 
 

@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import zbuffer
-from test_properties import MVP, SIZE, SUB, grid_coord, render_core, render_reference
+from test_properties import SIZE, SUB, grid_coord, render_core, render_reference
 
 # A small pool of vertices whose y takes few values, so that many edges are
 # horizontal and many triangles share vertices and edges. Positions are

@@ -69,10 +69,7 @@ class BvhBuilder {
                                  [bit](uint32_t c) { return !(c & bit); }) -
             codes_.begin();
     }
-    const int32_t first = int32_t(tree_.nodes.size());
-    tree_.nodes.resize(tree_.nodes.size() + 2);  // invalidates references
-    tree_.nodes[size_t(index)].first_child = first;
-    tree_.nodes[size_t(index)].n_children = 2;
+    const int32_t first = add_children(tree_, index, 2);
     build_node(first, b, mid, depth + 1);
     build_node(first + 1, mid, e, depth + 1);
     merge_child_bounds(tree_, index);

@@ -207,10 +207,7 @@ class FrameOctree {
       const int64_t k = index + 1 + c * size_[level + 1];
       if (b_.start[size_t(k + size_[level + 1])] > b_.start[size_t(k)]) child_index[n++] = k;
     }
-    const int32_t first = int32_t(tree_.nodes.size());
-    tree_.nodes.resize(tree_.nodes.size() + size_t(n));  // invalidates references
-    tree_.nodes[size_t(i)].first_child = first;
-    tree_.nodes[size_t(i)].n_children = n;
+    const int32_t first = add_children(tree_, i, n);
     for (int k = 0; k < n; ++k) build_node(first + k, child_index[k], level + 1);
     if (own_end > b) set_bounds(tree_.nodes[size_t(i)], grid_, lo, hi);
     merge_child_bounds(tree_, i);
@@ -273,10 +270,7 @@ class FrameBvh {
     const size_t mid = size_t(std::partition_point(used_.begin() + long(u0), used_.begin() + long(u1),
                                                    [bit](uint32_t k) { return !(k & bit); }) -
                               used_.begin());
-    const int32_t first = int32_t(tree_.nodes.size());
-    tree_.nodes.resize(tree_.nodes.size() + 2);  // invalidates references
-    tree_.nodes[size_t(i)].first_child = first;
-    tree_.nodes[size_t(i)].n_children = 2;
+    const int32_t first = add_children(tree_, i, 2);
     build_node(first, u0, mid, depth + 1);
     build_node(first + 1, mid, u1, depth + 1);
     merge_child_bounds(tree_, i);

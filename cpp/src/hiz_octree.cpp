@@ -2,8 +2,6 @@
 // (Greene, Kass and Miller 1993, section 4). Through the registry the octree
 // is built for the frame (frame_tree.h: the build is part of the frame
 // time) and rendered once; zbuffer.Scene builds octree.h's instead, once.
-#include <chrono>
-
 #include "zbuffer/algorithms.h"
 #include "zbuffer/frame_tree.h"
 #include "zbuffer/object_tree.h"
@@ -11,14 +9,9 @@
 namespace zbuffer {
 
 void render_hiz_octree(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
-  const auto t0 = std::chrono::steady_clock::now();
-  // Rebuilt every frame into the same memory: this thread's last tree.
-  thread_local ObjectTree tree;
-  build_octree_for_frame(input.mesh, OctreeParams{}, tree);
-  stats.build_ms +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  thread_local TreeFrame frame;
-  render_object_tree(tree, input, target, stats, frame);
+  render_built_per_frame(input, target, stats, [](const MeshView& mesh, ObjectTree& tree) {
+    build_octree_for_frame(mesh, OctreeParams{}, tree);
+  });
 }
 
 }  // namespace zbuffer

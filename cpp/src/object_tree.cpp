@@ -143,6 +143,14 @@ void merge_child_bounds(ObjectTree& tree, int32_t i) {
   }
 }
 
+int32_t add_children(ObjectTree& tree, int32_t parent, int n) {
+  const int32_t first = int32_t(tree.nodes.size());
+  tree.nodes.resize(tree.nodes.size() + size_t(n));
+  tree.nodes[size_t(parent)].first_child = first;
+  tree.nodes[size_t(parent)].n_children = n;
+  return first;
+}
+
 // Node Test
 
 namespace {
@@ -185,16 +193,9 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
   const __m512d y = _mm512_mask_blend_pd(0xCC, _mm512_set1_pd(node.lo[1]), _mm512_set1_pd(node.hi[1]));
   const __m512d z = _mm512_mask_blend_pd(0xF0, _mm512_set1_pd(node.lo[2]), _mm512_set1_pd(node.hi[2]));
   __m512d clip[4];
-  for (int r = 0; r < 4; ++r) {
-    const __m512d xy = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(mvp[4 * r]), x),
-                                     _mm512_mul_pd(_mm512_set1_pd(mvp[4 * r + 1]), y));
-    clip[r] = _mm512_add_pd(_mm512_add_pd(xy, _mm512_mul_pd(_mm512_set1_pd(mvp[4 * r + 2]), z)),
-                            _mm512_set1_pd(mvp[4 * r + 3]));
-  }
+  simd::transform8(mvp, x, y, z, clip);
   const __m512d cx = clip[0], cy = clip[1], cz = clip[2], cw = clip[3];
-  constexpr int kNanOrInf = 0x01 | 0x80 | 0x08 | 0x10;
-  const __mmask8 invalid = _mm512_fpclass_pd_mask(cx, kNanOrInf) | _mm512_fpclass_pd_mask(cy, kNanOrInf) |
-                           _mm512_fpclass_pd_mask(cz, kNanOrInf) | _mm512_fpclass_pd_mask(cw, kNanOrInf);
+  const __mmask8 invalid = simd::nonfinite8(clip);
   const __m512d zero = _mm512_setzero_pd();
   auto below = [&](__m512d v) { return __mmask8(_mm512_cmp_pd_mask(v, zero, _CMP_LT_OQ) & ~invalid); };
   // Wholly outside one plane of the view volume (an invalid corner is
@@ -500,6 +501,16 @@ void render_tree_frame(const ObjectTree& tree, const RenderInput& input, DepthTa
   stats.triangles_in += tree.n_input_faces;
   render_object_tree(tree, input, target, stats, frame, temporal);
   stats.total_ms += ms_between(start, Clock::now());
+}
+
+void render_built_per_frame(const RenderInput& input, DepthTarget& target, RenderStats& stats,
+                            void (*build)(const MeshView& mesh, ObjectTree& tree)) {
+  const auto t0 = Clock::now();
+  thread_local ObjectTree tree;
+  build(input.mesh, tree);
+  stats.build_ms += ms_between(t0, Clock::now());
+  thread_local TreeFrame frame;
+  render_object_tree(tree, input, target, stats, frame);
 }
 
 }  // namespace zbuffer

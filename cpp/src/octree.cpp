@@ -127,10 +127,7 @@ class OctreeBuilder {
           keys_.begin();
     }
     start[n] = e;
-    const int32_t first = int32_t(tree_.nodes.size());
-    tree_.nodes.resize(tree_.nodes.size() + size_t(n));  // invalidates references
-    tree_.nodes[size_t(index)].first_child = first;
-    tree_.nodes[size_t(index)].n_children = n;
+    const int32_t first = add_children(tree_, index, n);
     for (int k = 0; k < n; ++k) build_node(first + k, start[k], start[k + 1], level + 1);
     merge_child_bounds(tree_, index);
   }

@@ -31,6 +31,26 @@ namespace zbuffer {
 namespace simd {
 
 #ifdef ZBUFFER_AVX512
+// The vertex stage's transform (vertex_stage.h: transform_point) for 8
+// points: clip = mvp * (p, 1), each row summed left to right.
+ZBUFFER_INLINE void transform8(const double* m, __m512d x, __m512d y, __m512d z, __m512d* clip) {
+  for (int r = 0; r < 4; ++r) {
+    const __m512d xy = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(m[4 * r]), x),
+                                     _mm512_mul_pd(_mm512_set1_pd(m[4 * r + 1]), y));
+    clip[r] = _mm512_add_pd(_mm512_add_pd(xy, _mm512_mul_pd(_mm512_set1_pd(m[4 * r + 2]), z)),
+                            _mm512_set1_pd(m[4 * r + 3]));
+  }
+}
+
+// Lanes where any of the four clip coordinates is NaN or infinite.
+ZBUFFER_INLINE __mmask8 nonfinite8(const __m512d* clip) {
+  constexpr int kNanOrInf = 0x01 | 0x80 | 0x08 | 0x10;  // QNaN, SNaN, +inf, -inf
+  return _mm512_fpclass_pd_mask(clip[0], kNanOrInf) | _mm512_fpclass_pd_mask(clip[1], kNanOrInf) |
+         _mm512_fpclass_pd_mask(clip[2], kNanOrInf) | _mm512_fpclass_pd_mask(clip[3], kNanOrInf);
+}
+#endif
+
+#ifdef ZBUFFER_AVX512
 // The raster core (raster.h) in vector form: coverage, the depth formula and
 // the depth write, for 16 pixels at a time. Every vector loop goes through
 // these, so that the rules live in one place per instruction set.

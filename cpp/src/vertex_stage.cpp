@@ -45,21 +45,12 @@ void transform_8(const double* p, const double* m, const Viewport& vp, int32_t* 
       _mm512_permutex2var_pd(a, _mm512_set_epi64(0, 0, 0, 14, 11, 8, 5, 2), b),
       _mm512_set_epi64(15, 12, 9, 4, 3, 2, 1, 0), c);
 
-  // clip = mvp * (p, 1), each row summed left to right.
   __m512d clip[4];
-  for (int r = 0; r < 4; ++r) {
-    const __m512d xy = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(m[4 * r]), x),
-                                     _mm512_mul_pd(_mm512_set1_pd(m[4 * r + 1]), y));
-    clip[r] = _mm512_add_pd(_mm512_add_pd(xy, _mm512_mul_pd(_mm512_set1_pd(m[4 * r + 2]), z)),
-                            _mm512_set1_pd(m[4 * r + 3]));
-  }
+  simd::transform8(m, x, y, z, clip);
   const __m512d cx = clip[0], cy = clip[1], cz = clip[2], cw = clip[3];
 
   // Outcodes, as outcode() computes them.
-  constexpr int kNanOrInf = 0x01 | 0x80 | 0x08 | 0x10;  // QNaN, SNaN, +inf, -inf
-  const __mmask8 invalid =
-      _mm512_fpclass_pd_mask(cx, kNanOrInf) | _mm512_fpclass_pd_mask(cy, kNanOrInf) |
-      _mm512_fpclass_pd_mask(cz, kNanOrInf) | _mm512_fpclass_pd_mask(cw, kNanOrInf);
+  const __mmask8 invalid = simd::nonfinite8(clip);
   const __m512d zero = _mm512_setzero_pd();
   const __m512d gxw = _mm512_mul_pd(_mm512_set1_pd(vp.guard_x), cw);
   const __m512d gyw = _mm512_mul_pd(_mm512_set1_pd(vp.guard_y), cw);

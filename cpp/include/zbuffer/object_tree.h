@@ -102,6 +102,10 @@ class ClusterBuilder {
 // Bounds of node `i` from its cluster and its children (children first).
 void merge_child_bounds(ObjectTree& tree, int32_t i);
 
+// Appends n (empty) children to node `parent` and returns the index of the
+// first. Invalidates references into tree.nodes.
+int32_t add_children(ObjectTree& tree, int32_t parent, int n);
+
 // What happened to a node in the last render.
 enum NodeFate : uint8_t {
   kNodeNotReached = 0,  // an ancestor was culled (or the tree was not rendered)
@@ -142,5 +146,11 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
 // render, time the whole call. input.mesh is not used.
 void render_tree_frame(const ObjectTree& tree, const RenderInput& input, DepthTarget& target,
                        RenderStats& stats, TreeFrame& frame, bool temporal = false);
+
+// A registry algorithm's body: build a tree of input.mesh with `build` (into
+// this thread's tree of the last frame, reusing its memory), count the time
+// in build_ms, render it.
+void render_built_per_frame(const RenderInput& input, DepthTarget& target, RenderStats& stats,
+                            void (*build)(const MeshView& mesh, ObjectTree& tree));
 
 }  // namespace zbuffer
