@@ -1,15 +1,19 @@
 """zbuffer against the tools people use instead, in one run: Open3D's
-RaycastingScene (a BVH ray caster) on the same meshes, camera and pixels.
+RaycastingScene (a BVH ray caster) and VTK's offscreen OpenGL rendering
+(through pyvista) on the same meshes, camera and pixels.
 
     python benchmarks/bench_peers.py                 # -> benchmarks/results/peers.{json,md}
     python benchmarks/bench_peers.py --grid 10 80    # values of N for the spot grid
     python benchmarks/bench_peers.py --quick         # smoke mode (skips what is not installed)
 
-Open3D is optional (``pip install open3d``; on Debian it needs libusb-1.0-0).
-Each peer casts one ray per pixel centre of our camera (the same pixel
-centres zbuffer samples), and its depth map is compared with ours: pixels
-where one sees the mesh and the other does not, and the relative difference
-of the distance along the ray where both do. Times: median of --runs frames;
+Open3D is optional (``pip install open3d``; on Debian it needs libusb-1.0-0);
+VTK comes with pyvista and renders offscreen through EGL (Mesa's software
+OpenGL on these machines). Open3D casts one ray per pixel centre of our
+camera (the pixel centres zbuffer samples); VTK gets our camera (position,
+target, up, field of view or parallel scale, near and far). Each peer's depth
+map is compared with ours: pixels where one sees the mesh and the other does
+not, and the relative difference of the distance (along the ray for Open3D,
+along the view axis for VTK) where both do. Times: median of --runs frames;
 Open3D's build is the scene construction plus its first cast (it builds its
 BVH lazily), on its default thread count (2 here) and, for the frames, on
 one thread too. Nothing here asserts a speed.
@@ -94,6 +98,40 @@ def bench_open3d(mesh, result, runs):
     return out
 
 
+def bench_vtk(mesh, camera, result, runs):
+    """VTK offscreen: build = the first frame (upload and first draw), frames
+    = render() + get_image_depth(), on VTK's defaults."""
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    size = result.depth.shape[1], result.depth.shape[0]
+    t0 = time.perf_counter()
+    faces = np.hstack([np.full((len(mesh.faces), 1), 3), mesh.faces]).ravel()
+    plotter = pv.Plotter(off_screen=True, window_size=size)
+    plotter.add_mesh(pv.PolyData(mesh.vertices, faces))
+    cam = plotter.camera
+    cam.position, cam.focal_point, cam.up = tuple(camera.eye), tuple(camera.target), tuple(camera.up)
+    if camera.projection == "orthographic":
+        plotter.enable_parallel_projection()
+        cam.parallel_scale = camera.ortho_height / 2
+    else:
+        cam.view_angle = camera.fov_y
+    cam.clipping_range = (camera.near, camera.far)
+    plotter.show(auto_close=False)
+    depth = plotter.get_image_depth(reset_camera_clipping_range=False)
+    build_ms = (time.perf_counter() - t0) * 1e3
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        plotter.render()
+        depth = plotter.get_image_depth(reset_camera_clipping_range=False)
+        times.append((time.perf_counter() - t0) * 1e3)
+    plotter.close()
+    theirs = np.where(np.isfinite(depth), np.abs(depth), np.inf).astype(np.float64)
+    return {"build_ms": build_ms, "frame_ms": statistics.median(times),
+            "agreement": agreement(result.eye_depth().astype(np.float64), theirs)}
+
+
 def bench_ours(mesh, camera, size, runs):
     out = {}
     render = lambda algo: zbuffer.render(mesh, algo=algo, camera=camera, width=size, height=size,
@@ -145,6 +183,22 @@ def markdown(report) -> str:
             f"{o['build_ms'] / c['hiz_octree_build_ms']:.1f}x | "
             f"{a['coverage_mismatch']:,} of {a['pixels']:,} | "
             f"{a['depth_rel_median']:.1e} / {a['depth_rel_p99']:.1e} |")
+    vtk = [c for c in report["cases"] if c.get("vtk")]
+    if vtk:
+        lines += ["", "VTK offscreen (pyvista `render()` + `get_image_depth()`, Mesa's software "
+                  "OpenGL through EGL here), same cameras:", "",
+                  "| scene | projection | VTK first frame ms | VTK frame ms | zbuffer ms "
+                  "| hiz_octree built once ms | VTK / hiz_octree | coverage mismatch "
+                  "| rel. depth diff (median / p99) |",
+                  "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+        for c in vtk:
+            v, a = c["vtk"], c["vtk"]["agreement"]
+            lines.append(
+                f"| {c['scene']} | {c['projection']} | {v['build_ms']:.0f} | {v['frame_ms']:.1f} | "
+                f"{c['zbuffer_ms']:.1f} | {c['hiz_octree_built_once_ms']:.1f} | "
+                f"{v['frame_ms'] / c['hiz_octree_built_once_ms']:.0f}x | "
+                f"{a['coverage_mismatch']:,} of {a['pixels']:,} | "
+                f"{a['depth_rel_median']:.1e} / {a['depth_rel_p99']:.1e} |")
     return "\n".join(lines) + "\n"
 
 
@@ -189,6 +243,13 @@ def main(argv=None) -> int:
                       f"zbuffer {ours['zbuffer_ms']:7.1f} ms, hiz_octree build "
                       f"{ours['hiz_octree_build_ms']:6.0f} ms, frame {ours['hiz_octree_built_once_ms']:6.1f} ms"
                       f" | mismatch {o['agreement']['coverage_mismatch']}", flush=True)
+            try:
+                case["vtk"] = bench_vtk(mesh, camera, result, runs)
+                print(f"{'':28s} {projection:12s} VTK first frame {case['vtk']['build_ms']:8.0f} ms, "
+                      f"frame {case['vtk']['frame_ms']:8.1f} ms | mismatch "
+                      f"{case['vtk']['agreement']['coverage_mismatch']}", flush=True)
+            except Exception as err:  # no pyvista, or no OpenGL context here
+                print(f"VTK skipped: {err}", flush=True)
             report["cases"].append(case)
     write_report(args.out, "peers", report, markdown(report))
     return 0
