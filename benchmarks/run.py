@@ -1,7 +1,7 @@
 """Run the benchmark suites and record them: one command.
 
     python benchmarks/run.py                     # every suite -> benchmarks/results/
-    python benchmarks/run.py hiz peers           # some suites
+    python benchmarks/run.py hiz peers           # some suites (render hiz scaling peers)
     python benchmarks/run.py --quick --out DIR   # smoke mode (CI), somewhere else
 
 Suites (each also runs alone, see its docstring):
@@ -10,8 +10,11 @@ Suites (each also runs alone, see its docstring):
   depth only and shaded, with VTK offscreen for scale (``bench_render.py``);
 - ``hiz``: the 5 x 5 x N spot grid, per frame and built once, octree rules,
   leaf sizes, temporal coherence, unoccluded meshes (``bench_hiz.py``);
-- ``peers``: Open3D ray casting on the same meshes, camera and pixels, with
-  the agreement of its depth maps and ours (``bench_peers.py``).
+- ``scaling``: image size 256^2 ... 4096^2, triangle count 6 k ... 10 M, peak
+  memory (``bench_scaling.py``);
+- ``peers``: Open3D ray casting and VTK offscreen rendering on the same
+  meshes, camera and pixels, with the agreement of their depth maps and ours
+  (``bench_peers.py``).
 
 Each suite writes ``<suite>.json`` and ``<suite>.md`` into the output folder;
 this script adds ``<date>-<host>.json`` (all of them, with the machine, the
@@ -33,9 +36,10 @@ from pathlib import Path
 import bench_hiz
 import bench_peers
 import bench_render
+import bench_scaling
 from bench_render import HERE, new_report
 
-SUITES = {"render": bench_render, "hiz": bench_hiz, "peers": bench_peers}
+SUITES = {"render": bench_render, "hiz": bench_hiz, "scaling": bench_scaling, "peers": bench_peers}
 
 
 def results_markdown(out: Path, names) -> str:
