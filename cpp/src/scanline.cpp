@@ -318,6 +318,151 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 #endif
 }
 
+// The Active Polygon List, 16 at a Time
+
+// Copy polygon p (int32 form), entering at its first row y = y_min, into
+// the vector active list.
+void ScanlineTables::enter_polygon(int32_t p, int y) {
+  const ScanPolygon& poly = polys_[size_t(p)];
+  const size_t i = n_active_++;
+  auto bits = [](float f) {
+    int32_t b;
+    std::memcpy(&b, &f, sizeof b);
+    return b;
+  };
+  (void)y;
+  active_[kIndex][i] = p;
+  active_[kXMin][i] = poly.x_min;
+  active_[kXMax][i] = poly.x_max;
+  active_[kYMax][i] = poly.y_max;
+  for (int k = 0; k < 3; ++k) {
+    active_[kW0 + k][i] = poly.w[k];
+    active_[kSx0 + k][i] = poly.step_x[k];
+    active_[kSy0 + k][i] = poly.step_y[k];
+  }
+  active_[kBias1][i] = poly.bias1;
+  active_[kBias2][i] = poly.bias2;
+  active_[kZ0][i] = bits(poly.z0);
+  active_[kA1][i] = bits(poly.a1);
+  active_[kA2][i] = bits(poly.a2);
+  active_[kZLo][i] = bits(poly.z_lo);
+  active_[kZHi][i] = bits(poly.z_hi);
+  active_[kId][i] = poly.id;
+}
+
+// Draw row y of every polygon in the vector active list (their bounds
+// narrowed by the active edges), reset their bounds, step their edge values
+// to the next row and drop those that end here.
+void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& touched_lo,
+                                 int& touched_hi) {
+#ifdef ZBUFFER_AVX512
+  // Spans up to this long are drawn a pixel per lane; longer ones (rare in
+  // a detailed mesh) one span at a time, 16 pixels per pass.
+  constexpr int kLaneSpan = 8;
+  const __m512i one = _mm512_set1_epi32(1);
+  int32_t* bounds = bounds_.data();
+  const size_t n = n_active_;
+  size_t kept = 0;
+  __m512i lo_min = _mm512_set1_epi32(width_), hi_max = _mm512_set1_epi32(-1);
+  for (size_t i = 0; i < n; i += 16) {
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min<size_t>(n - i, 16))));
+    __m512i f[kActiveFields];
+    for (int k = 0; k < kActiveFields; ++k)
+      f[k] = _mm512_maskz_loadu_epi32(live, active_[k].data() + i);
+
+    // Spans: the bounds the edges left, then reset for the next row
+    const __m512i slot = _mm512_add_epi32(f[kIndex], f[kIndex]);
+    const __m512i slot_hi = _mm512_add_epi32(slot, one);
+    const __m512i lo = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), live, slot, bounds, 4);
+    const __m512i hi = _mm512_sub_epi32(
+        _mm512_setzero_si512(),
+        _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), live, slot_hi, bounds, 4));
+    _mm512_mask_i32scatter_epi32(bounds, live, slot, f[kXMin], 4);
+    _mm512_mask_i32scatter_epi32(bounds, live, slot_hi,
+                                 _mm512_sub_epi32(_mm512_setzero_si512(), f[kXMax]), 4);
+    const __m512i width = _mm512_add_epi32(_mm512_sub_epi32(hi, lo), one);
+    const __mmask16 drawn = _mm512_mask_cmpgt_epi32_mask(live, width, _mm512_setzero_si512());
+    spans += __builtin_popcount(drawn);
+    counts.tested += _mm512_mask_reduce_add_epi32(drawn, width);
+    lo_min = _mm512_mask_min_epi32(lo_min, drawn, lo_min, lo);
+    hi_max = _mm512_mask_max_epi32(hi_max, drawn, hi_max, hi);
+
+    // Short spans a pixel per lane: lane k draws pixel lo_k + j in pass j.
+    // Lanes starting at one column would write one pixel in one scatter:
+    // all but the first of them go the one-span way.
+    const __mmask16 short_span =
+        _mm512_mask_cmple_epi32_mask(drawn, width, _mm512_set1_epi32(kLaneSpan));
+    const __m512i earlier_same =
+        _mm512_and_si512(_mm512_maskz_conflict_epi32(short_span, lo),
+                         _mm512_set1_epi32(int32_t(short_span)));
+    const __mmask16 lanes = short_span & ~_mm512_test_epi32_mask(earlier_same, earlier_same);
+    if (lanes) {
+      const __m512i dx = _mm512_sub_epi32(lo, f[kXMin]);
+      __m512i w0 = _mm512_add_epi32(f[kW0], _mm512_mullo_epi32(dx, f[kSx0]));
+      __m512i w1 = _mm512_add_epi32(f[kW1], _mm512_mullo_epi32(dx, f[kSx1]));
+      __m512i w2 = _mm512_add_epi32(f[kW2], _mm512_mullo_epi32(dx, f[kSx2]));
+      const simd::DepthPlane16 plane(
+          _mm512_castsi512_ps(f[kZ0]), _mm512_castsi512_ps(f[kA1]), _mm512_castsi512_ps(f[kA2]),
+          _mm512_castsi512_ps(f[kZLo]), _mm512_castsi512_ps(f[kZHi]));
+      __m512i x = lo;
+      const int passes = _mm512_mask_reduce_max_epi32(lanes, width);
+      __m512i left = width;  // pixels left to draw in each lane
+      int64_t covered = 0, written = 0;
+      for (int j = 0; j < passes; ++j) {
+        const __mmask16 in_span = _mm512_mask_cmpgt_epi32_mask(lanes, left, _mm512_setzero_si512());
+        const __mmask16 inside = simd::covered16(in_span, w0, w1, w2);
+        const __m512 z =
+            simd::depth16(plane, _mm512_add_epi32(w1, f[kBias1]), _mm512_add_epi32(w2, f[kBias2]));
+        const __mmask16 win =
+            simd::write16_at(inside, z, f[kId], x, depth_row_.data(), id_row_.data());
+        covered += __builtin_popcount(inside);
+        written += __builtin_popcount(win);
+        w0 = _mm512_add_epi32(w0, f[kSx0]);
+        w1 = _mm512_add_epi32(w1, f[kSx1]);
+        w2 = _mm512_add_epi32(w2, f[kSx2]);
+        x = _mm512_add_epi32(x, one);
+        left = _mm512_sub_epi32(left, one);
+      }
+      counts.covered += covered;
+      counts.written += written;
+    }
+    // The others one span at a time
+    const __mmask16 one_by_one = drawn & ~lanes;
+    if (one_by_one) {
+      alignas(64) int32_t idx[16], los[16], his[16];
+      _mm512_store_si512(idx, f[kIndex]);
+      _mm512_store_si512(los, lo);
+      _mm512_store_si512(his, hi);
+      for (unsigned m = one_by_one; m; m &= m - 1) {
+        const int k = __builtin_ctz(m);
+        const int64_t tested = counts.tested;
+        draw_span(polys_[size_t(idx[k])], y, los[k], his[k], counts);
+        counts.tested = tested;  // counted above with the others
+      }
+    }
+
+    // Next row: step the edge values, keep the polygons that go on
+    f[kW0] = _mm512_add_epi32(f[kW0], f[kSy0]);
+    f[kW1] = _mm512_add_epi32(f[kW1], f[kSy1]);
+    f[kW2] = _mm512_add_epi32(f[kW2], f[kSy2]);
+    const __mmask16 keep =
+        _mm512_mask_cmpneq_epi32_mask(live, f[kYMax], _mm512_set1_epi32(y));
+    // Compress in registers, store whole vectors: the lanes past the kept
+    // ones land on entries of this group, already loaded.
+    for (int k = 0; k < kActiveFields; ++k)
+      _mm512_storeu_si512(active_[k].data() + kept, _mm512_maskz_compress_epi32(keep, f[k]));
+    kept += size_t(__builtin_popcount(keep));
+  }
+  n_active_ = kept;
+  if (n > 0) {
+    touched_lo = std::min(touched_lo, _mm512_reduce_min_epi32(lo_min));
+    touched_hi = std::max(touched_hi, _mm512_reduce_max_epi32(hi_max));
+  }
+#else
+  (void)y, (void)counts, (void)spans, (void)touched_lo, (void)touched_hi;
+#endif
+}
+
 // The Row Walk
 
 void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
@@ -341,6 +486,11 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   active_gedges_.clear();
 
   bounds_.resize(2 * polys_.size());
+  // Room for every polygon plus the 16 entries a vector store may write
+  // past the last one.
+  for (auto& field : active_)
+    if (field.size() < polys_.size() + 16) field.resize(polys_.size() + 16);
+  n_active_ = 0;
   active_polys_.clear();
   active_edges_.clear();
   depth_row_.assign(size_t(width), std::numeric_limits<float>::infinity());
@@ -352,7 +502,12 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     // Polygons and edges entering at this row
     for (int32_t i = poly_start_[size_t(y)]; i < poly_start_[size_t(y) + 1]; ++i) {
       const int32_t p = poly_table_[size_t(i)];
-      active_polys_.push_back(p);
+#ifdef ZBUFFER_AVX512
+      if (polys_[size_t(p)].large < 0)
+        enter_polygon(p, y);
+      else
+#endif
+        active_polys_.push_back(p);
       bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
       bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
     }
@@ -371,7 +526,7 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     active_gedges_.insert(active_gedges_.end(), gedge_table_.begin() + gedge_start_[size_t(y)],
                           gedge_table_.begin() + gedge_start_[size_t(y) + 1]);
     ++stats.scanline_rows;
-    const int64_t n_polys = int64_t(active_polys_.size() + active_gpolys_.size());
+    const int64_t n_polys = int64_t(n_active_ + active_polys_.size() + active_gpolys_.size());
     const int64_t n_edges = int64_t(active_edges_.size() + active_gedges_.size());
     stats.active_polygons_sum += n_polys;
     stats.active_edges_sum += n_edges;
@@ -447,7 +602,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     active_edges_.resize(kept);
 
     // Active polygons: draw their spans into the row, drop those that end
-    // here (branch-free, likewise)
+    // here: the vector list, then the large ones (branch-free, likewise)
+    draw_active(y, counts, stats.spans_drawn, touched_lo, touched_hi);
     kept = 0;
     for (size_t i = 0; i < active_polys_.size(); ++i) {
       const int32_t p = active_polys_[i];

@@ -190,6 +190,27 @@ class ScanlineTables {
   std::vector<ScanEdge> active_edges_;
   std::vector<int32_t> bounds_;
 
+  // The active polygon list of AVX-512 builds, for triangles in the int32
+  // form: one array per field (kActiveFields), 16 polygons per step, a
+  // polygon in each lane (active_polys_ then keeps only the large ones).
+  // Design decision: what a span needs is copied out of the store when the
+  // polygon enters, and the edge values at (x_min, y) are stepped by
+  // step_y from row to row and kept here. Good: a row's polygons are loaded
+  // by plain vector loads, drawn 16 at a time pixel by pixel (lane k at
+  // pixel lo_k + j: a span of 2 pixels fills 2 passes of 16 lanes, not 2
+  // lanes of a 16-lane pass), and compacted by compress. Bad: 88 bytes a
+  // polygon copied once, and long spans (and spans starting at one column
+  // in one group, whose pixels would collide in a scatter) are drawn by the
+  // one-span loop instead.
+  enum ActiveField {
+    kIndex, kXMin, kXMax, kYMax, kW0, kW1, kW2, kSx0, kSx1, kSx2, kSy0, kSy1, kSy2,
+    kBias1, kBias2, kZ0, kA1, kA2, kZLo, kZHi, kId, kActiveFields
+  };
+  std::vector<int32_t> active_[kActiveFields];  // floats stored by their bits
+  size_t n_active_ = 0;
+  void enter_polygon(int32_t p, int y);
+  void draw_active(int y, Counts& counts, int64_t& spans, int& touched_lo, int& touched_hi);
+
   // General polygons: their store, sorted table and edge table (full DDA
   // entries: polygon meshes are small), the active lists, and the sorted
   // crossings of the current row, keyed (polygon << 32) | (x + 2^31).
