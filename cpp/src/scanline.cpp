@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "setup16.h"
 #include "simd.h"
 #include "zbuffer/algorithms.h"
 
@@ -185,6 +186,160 @@ void ScanlineTables::add_triangle(const ScreenTriangle& t, RenderStats& stats) {
   for (int k = 0; k < 3; ++k)
     add_edge(s, k, t.v[(k + 1) % 3].y_fx, t.v[(k + 2) % 3].y_fx, poly, stats);
 }
+
+// Faces, 16 at a Time
+
+void ScanlineTables::add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                               const ScreenVertices& sv, int64_t begin, int64_t end,
+                               bool cull_backfaces, RenderStats& stats) {
+  int64_t f = begin;
+#ifdef ZBUFFER_AVX512
+  if (mesh.n_vertices > 0)
+    for (; f < end; f += 16)
+      add_16_faces(mesh, mvp, vp, sv, f, int(std::min<int64_t>(end - f, 16)), cull_backfaces,
+                   stats);
+#endif
+  for (; f < end; ++f)
+    assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats, [&](const ScreenTriangle& t) {
+      ++stats.rasterized;
+      add_triangle(t, stats);
+    });
+}
+
+#ifdef ZBUFFER_AVX512
+// add_triangle for the faces of 16 lanes: setup16.h's setup for those less
+// than 16 pixels across (int32 records), then add_triangle itself for the
+// others and the scalar assembly for those that need clipping.
+void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                                  const ScreenVertices& sv, int64_t first, int count,
+                                  bool cull_backfaces, RenderStats& stats) {
+  simd::Faces16 f;
+  simd::assemble16(mesh, sv, first, count, cull_backfaces, stats, f);
+  simd::Box16 box;
+  simd::box16(f, width_, height_, box);
+  const __mmask16 vector_setup = f.draw & box.nonempty & box.small;
+  const __mmask16 scalar_setup = f.draw & box.nonempty & ~box.small;
+
+  if (vector_setup) {
+    simd::Setup16 s;
+    simd::setup16(f, box, s);
+    // Everything a polygon record and its edge entries need, one array per
+    // field, the faces of vector_setup in order.
+    const __mmask16 m = vector_setup;
+    enum { kX0, kX1, kY0, kY1, kW, kSx = kW + 3, kSy = kSx + 3, kB1 = kSy + 3, kB2, kZ0, kA1, kA2,
+           kLo, kHi, kId, kFields };
+    alignas(64) int32_t rec[kFields][16];
+    alignas(64) int32_t edge_first[3][16], edge_last[3][16], edge_kind[3][16], edge_in[3][16];
+    auto put = [&](int32_t* dst, __m512i v) {
+      _mm512_store_si512(dst, _mm512_maskz_compress_epi32(m, v));
+    };
+    put(rec[kX0], box.i0);
+    put(rec[kX1], box.i1);
+    put(rec[kY0], box.j0);
+    put(rec[kY1], box.j1);
+    for (int k = 0; k < 3; ++k) {
+      put(rec[kW + k], _mm512_sub_epi32(s.w[k], s.bias[k]));  // biased
+      put(rec[kSx + k], s.sx[k]);
+      put(rec[kSy + k], s.sy[k]);
+    }
+    put(rec[kB1], s.bias[1]);
+    put(rec[kB2], s.bias[2]);
+    put(rec[kZ0], _mm512_castps_si512(s.z0));
+    put(rec[kA1], _mm512_castps_si512(s.a1));
+    put(rec[kA2], _mm512_castps_si512(s.a2));
+    put(rec[kLo], _mm512_castps_si512(s.lo));
+    put(rec[kHi], _mm512_castps_si512(s.hi));
+    put(rec[kId], simd::ids16(mesh, first, f.live));
+
+    // Edge table entries (add_edge): edge k, from vertex k+1 to k+2, on
+    // the rows whose centres lie on its closed y range within the box; a
+    // horizontal top edge needs none, a horizontal bottom edge one that
+    // kills its row.
+    const __m512i half = _mm512_set1_epi32(kHalfPixel);
+    const __m512i round_up = _mm512_set1_epi32(kHalfPixel - (kSubpixelScale - 1));
+    const __m512i zero = _mm512_setzero_si512();
+    for (int k = 0; k < 3; ++k) {
+      const __m512i ya = f.y[(k + 1) % 3], yb = f.y[(k + 2) % 3];
+      const __m512i e_first = _mm512_max_epi32(
+          _mm512_srai_epi32(_mm512_sub_epi32(_mm512_min_epi32(ya, yb), round_up), kSubpixelBits),
+          box.j0);
+      const __m512i e_last = _mm512_min_epi32(
+          _mm512_srai_epi32(_mm512_sub_epi32(_mm512_max_epi32(ya, yb), half), kSubpixelBits),
+          box.j1);
+      const __mmask16 horizontal = _mm512_cmpeq_epi32_mask(s.sx[k], zero);
+      const __mmask16 top = horizontal & _mm512_cmpeq_epi32_mask(s.bias[k], zero);
+      const __mmask16 in = _mm512_cmple_epi32_mask(e_first, e_last) & ~top;
+      put(edge_first[k], e_first);
+      put(edge_last[k], e_last);
+      put(edge_kind[k], _mm512_mask_blend_epi32(horizontal, _mm512_set1_epi32(k),
+                                                _mm512_set1_epi32(EdgeEntry::kKillRow)));
+      put(edge_in[k], _mm512_maskz_set1_epi32(in, 1));
+    }
+
+    // Append the records and entries (branch-free: whether an edge gets an
+    // entry is random)
+    const int n = __builtin_popcount(m);
+    const size_t base = polys_.size();
+    polys_.resize(base + size_t(n));
+    poly_row_.resize(base + size_t(n));
+    size_t ne = edges_.size();
+    edges_.resize(ne + 3 * size_t(n));
+    edge_row_.resize(ne + 3 * size_t(n));
+    const size_t ne0 = ne;
+    for (int j = 0; j < n; ++j) {
+      ScanPolygon& p = polys_[base + size_t(j)];
+      p.x_min = rec[kX0][j];
+      p.x_max = rec[kX1][j];
+      p.y_min = rec[kY0][j];
+      p.y_max = rec[kY1][j];
+      for (int k = 0; k < 3; ++k) {
+        p.w[k] = rec[kW + k][j];
+        p.step_x[k] = rec[kSx + k][j];
+        p.step_y[k] = rec[kSy + k][j];
+      }
+      p.bias1 = rec[kB1][j];
+      p.bias2 = rec[kB2][j];
+      std::memcpy(&p.z0, &rec[kZ0][j], 4);
+      std::memcpy(&p.a1, &rec[kA1][j], 4);
+      std::memcpy(&p.a2, &rec[kA2][j], 4);
+      std::memcpy(&p.z_lo, &rec[kLo][j], 4);
+      std::memcpy(&p.z_hi, &rec[kHi][j], 4);
+      p.id = rec[kId][j];
+      p.large = -1;  // under 16 pixels across: every edge value fits int32
+      poly_row_[base + size_t(j)] = rec[kY0][j];
+      for (int k = 0; k < 3; ++k) {
+        EdgeEntry& e = edges_[ne];
+        e.poly = int32_t(base) + j;
+        e.last_row = edge_last[k][j];
+        e.k = edge_kind[k][j];
+        edge_row_[ne] = edge_first[k][j];
+        ne += size_t(edge_in[k][j]);
+      }
+    }
+    edges_.resize(ne);
+    edge_row_.resize(ne);
+    stats.polygons_inserted += n;
+    stats.edges_inserted += int64_t(ne - ne0);
+  }
+
+  if (scalar_setup) {
+    // Large faces: the scalar setup from the assembled triangle.
+    const simd::Lanes16 lanes(f);
+    for (unsigned m = scalar_setup; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      add_triangle(lanes.triangle(lane, mesh.id(first + lane)), stats);
+    }
+  }
+
+  // Faces that need clipping: the scalar assembly.
+  for (unsigned m = f.clip; m; m &= m - 1)
+    assemble_triangle(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces, stats,
+                      [&](const ScreenTriangle& t) {
+                        ++stats.rasterized;
+                        add_triangle(t, stats);
+                      });
+}
+#endif
 
 // General Polygons
 
@@ -652,12 +807,7 @@ void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats&
   thread_local ScanlineTables tables;
   tables.reset(target.width, target.height);
   auto add_faces = [&](int64_t begin, int64_t end) {
-    for (int64_t f = begin; f < end; ++f)
-      assemble_triangle(input.mesh, input.mvp, vp, screen, f, input.cull_backfaces, stats,
-                        [&](const ScreenTriangle& t) {
-                          ++stats.rasterized;
-                          tables.add_triangle(t, stats);
-                        });
+    tables.add_faces(input.mesh, input.mvp, vp, screen, begin, end, input.cull_backfaces, stats);
   };
   const PolygonView& polys = input.polygons;
   if (polys.n_polygons == 0) {

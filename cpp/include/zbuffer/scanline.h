@@ -131,6 +131,16 @@ class ScanlineTables {
   // whose box holds no pixel centre of the image is not inserted.
   void add_triangle(const ScreenTriangle& t, RenderStats& stats);
 
+  // Assemble faces [begin, end) of the mesh (vertex_stage.h: culling,
+  // clipping, orientation) and insert the triangles that survive, counting
+  // them in stats. AVX-512 builds assemble and set up 16 faces per
+  // instruction (setup16.h); the tables end up with the same entries as
+  // through assemble_triangle and add_triangle, in another order where
+  // faces need clipping or are 16 pixels or more across.
+  void add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                 const ScreenVertices& sv, int64_t begin, int64_t end, bool cull_backfaces,
+                 RenderStats& stats);
+
   // Insert one polygon face (n >= 3 snapped vertices, none needing
   // clipping) with twice its signed area `area` (!= 0), drawn with id `id`
   // (docs/rasterization.md, "Polygons").
@@ -144,6 +154,9 @@ class ScanlineTables {
   void add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb, int32_t poly,
                 RenderStats& stats);
   void start_edge(const EdgeEntry& entry, int y, ScanEdge& e) const;
+  void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                    const ScreenVertices& sv, int64_t first, int count, bool cull_backfaces,
+                    RenderStats& stats);
   struct Counts {
     int64_t tested = 0, covered = 0, written = 0;
   };
