@@ -73,6 +73,9 @@ struct ScanEdge {
 // and sorting it moves little memory. Bad: the division that starts the
 // DDA happens during the row walk rather than before it.
 struct EdgeEntry {
+  // Left uninitialised: the vector path grows the table by resize() and
+  // fills every field (zeroing it first cost 3% of the render).
+  EdgeEntry() {}
   int32_t poly;      // index in the polygon store
   int32_t last_row;  // active through this row
   int32_t k;         // edge k of the triangle, or kKillRow
@@ -89,6 +92,7 @@ struct EdgeEntry {
 // arithmetic. Bad: two forms of one triangle; the int32 one is only a
 // faster evaluation of the same exact integers.
 struct ScanPolygon {
+  ScanPolygon() {}  // uninitialised, as EdgeEntry: every field is written
   int32_t x_min, x_max, y_min, y_max;  // pixel box, inside the image
   int32_t w[3];                        // biased edge values at (x_min, y_min)
   int32_t step_x[3], step_y[3];
