@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <limits>
 
@@ -618,6 +619,155 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
 #endif
 }
 
+// The Active Edge List, 16 at a Time
+
+// Start the DDAs of edge table entries [begin, end), all entering at row y
+// (start_edge, 16 lanes at a time): those of int32-form triangles into the
+// vector list, the others into active_edges_.
+void ScanlineTables::enter_edges(int y, int32_t begin, int32_t end) {
+#ifdef ZBUFFER_AVX512
+  static_assert(sizeof(EdgeEntry) == 3 * sizeof(int32_t), "entries are read as 3 ints");
+  static_assert(sizeof(ScanPolygon) == 22 * sizeof(int32_t), "records are gathered as 22 ints");
+  const int32_t* table = reinterpret_cast<const int32_t*>(edge_table_.data());
+  const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
+  constexpr int kWOff = offsetof(ScanPolygon, w) / 4, kSxOff = offsetof(ScanPolygon, step_x) / 4,
+                kSyOff = offsetof(ScanPolygon, step_y) / 4,
+                kYMinOff = offsetof(ScanPolygon, y_min) / 4,
+                kLargeOff = offsetof(ScanPolygon, large) / 4;
+  const __m512i zero = _mm512_setzero_si512();
+  for (int32_t i = begin; i < end; i += 16) {
+    const int count = std::min(end - i, 16);
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(count)));
+    // The entries (poly, last_row, k), deinterleaved
+    auto lanes = [](int n) { return __mmask16(n >= 16 ? 0xFFFF : n <= 0 ? 0 : (1u << n) - 1); };
+    const int32_t* fp = table + 3 * size_t(i);
+    const __m512i a = _mm512_maskz_loadu_epi32(lanes(3 * count), fp),
+                  b = _mm512_maskz_loadu_epi32(lanes(3 * count - 16), fp + 16),
+                  c = _mm512_maskz_loadu_epi32(lanes(3 * count - 32), fp + 32);
+    __m512i field[3];
+    for (int k = 0; k < 3; ++k)
+      field[k] = _mm512_permutex2var_epi32(
+          _mm512_permutex2var_epi32(a, _mm512_load_si512(simd::kDeinterleave.ab[k]), b),
+          _mm512_load_si512(simd::kDeinterleave.tc[k]), c);
+    const __m512i poly = field[0], last = field[1], k = field[2];
+    const __m512i rec = _mm512_mullo_epi32(poly, _mm512_set1_epi32(22));
+    const __m512i large = _mm512_mask_i32gather_epi32(
+        zero, live, _mm512_add_epi32(rec, _mm512_set1_epi32(kLargeOff)), recs, 4);
+    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, large, zero);
+    for (unsigned m = live & ~vec; m; m &= m - 1)  // large triangles: int64 DDAs
+      start_edge(edge_table_[size_t(i) + __builtin_ctz(m)], y, active_edges_.emplace_back());
+    if (!vec) continue;
+    const __mmask16 kill = _mm512_mask_cmpeq_epi32_mask(vec, k, _mm512_set1_epi32(EdgeEntry::kKillRow));
+    const __mmask16 edge = vec & ~kill;
+
+    // q = floor(N / div), N = -wb0 + div - 1, wb0 the biased edge value at
+    // pixel (0, y); dq, dr from -step_y. In binary64, exact: every value
+    // is an integer below 2^53; the quotient, within one of the true one,
+    // is corrected once each way (floor_divmod).
+    auto gather = [&](int off, __m512i plus) {
+      return _mm512_mask_i32gather_epi32(
+          zero, edge, _mm512_add_epi32(_mm512_add_epi32(rec, plus), _mm512_set1_epi32(off)), recs, 4);
+    };
+    const __m512i x_min = gather(0, zero), y_min = gather(kYMinOff, zero);
+    const __m512i w = gather(kWOff, k), sx = gather(kSxOff, k), sy = gather(kSyOff, k);
+    __m512i q32[2], r32[2], dq32[2], dr32[2];
+    for (int h = 0; h < 2; ++h) {
+      auto half = [&](__m512i v) {
+        return _mm512_cvtepi32_pd(h ? _mm512_extracti64x4_epi64(v, 1) : _mm512_castsi512_si256(v));
+      };
+      const __m512d sxd = half(sx), syd = half(sy);
+      const __m512d wb0 = _mm512_add_pd(
+          _mm512_sub_pd(half(w), _mm512_mul_pd(half(x_min), sxd)),
+          _mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(double(y)), half(y_min)), syd));
+      const __m512d div = _mm512_abs_pd(sxd);
+      const __m512d div_safe = _mm512_max_pd(div, _mm512_set1_pd(1.0));  // masked-off lanes
+      auto divmod = [&](__m512d n, __m512i& q_out, __m512i& r_out) {
+        __m512d q = _mm512_roundscale_pd(_mm512_div_pd(n, div_safe), _MM_FROUND_TO_NEG_INF);
+        __m512d r = _mm512_sub_pd(n, _mm512_mul_pd(q, div_safe));
+        const __mmask8 low = _mm512_cmp_pd_mask(r, _mm512_setzero_pd(), _CMP_LT_OQ);
+        q = _mm512_mask_sub_pd(q, low, q, _mm512_set1_pd(1.0));
+        r = _mm512_mask_add_pd(r, low, r, div_safe);
+        const __mmask8 high = _mm512_cmp_pd_mask(r, div_safe, _CMP_GE_OQ);
+        q = _mm512_mask_add_pd(q, high, q, _mm512_set1_pd(1.0));
+        r = _mm512_mask_sub_pd(r, high, r, div_safe);
+        q_out = _mm512_castsi256_si512(_mm512_cvtpd_epi32(q));
+        r_out = _mm512_castsi256_si512(_mm512_cvtpd_epi32(r));
+      };
+      divmod(_mm512_sub_pd(_mm512_add_pd(_mm512_sub_pd(_mm512_setzero_pd(), wb0), div_safe),
+                           _mm512_set1_pd(1.0)),
+             q32[h], r32[h]);
+      divmod(_mm512_sub_pd(_mm512_setzero_pd(), syd), dq32[h], dr32[h]);
+    }
+    auto join = [](const __m512i* v) {
+      return _mm512_inserti64x4(v[0], _mm512_castsi512_si256(v[1]), 1);
+    };
+    // A kill entry: a left bound beyond any column, for its one row.
+    const __m512i slot = _mm512_add_epi32(
+        _mm512_add_epi32(poly, poly),
+        _mm512_maskz_set1_epi32(edge & _mm512_cmple_epi32_mask(sx, zero), 1));
+    __m512i f[kEdgeFields];
+    f[kER] = _mm512_maskz_mov_epi32(edge, join(r32));
+    f[kEDiv] = _mm512_mask_blend_epi32(edge, _mm512_set1_epi32(1), _mm512_abs_epi32(sx));
+    f[kEDr] = _mm512_maskz_mov_epi32(edge, join(dr32));
+    f[kEQ] = _mm512_mask_blend_epi32(edge, _mm512_set1_epi32(int32_t(1) << 30), join(q32));
+    f[kEDq] = _mm512_maskz_mov_epi32(edge, join(dq32));
+    f[kESlot] = slot;
+    f[kELast] = last;
+    for (int j = 0; j < kEdgeFields; ++j)
+      _mm512_storeu_si512(aedge_[j].data() + n_aedges_, _mm512_maskz_compress_epi32(vec, f[j]));
+    n_aedges_ += size_t(__builtin_popcount(vec));
+  }
+#else
+  (void)y, (void)begin, (void)end;
+#endif
+}
+
+// The vector active edge list on row y: tighten the bounds of their
+// polygons' spans, step to the next row, drop those that end here.
+void ScanlineTables::step_edges(int y) {
+#ifdef ZBUFFER_AVX512
+  int32_t* bounds = bounds_.data();
+  const size_t n = n_aedges_;
+  size_t kept = 0;
+  const __m512i one = _mm512_set1_epi32(1);
+  for (size_t i = 0; i < n; i += 16) {
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min<size_t>(n - i, 16))));
+    __m512i f[kEdgeFields];
+    for (int j = 0; j < kEdgeFields; ++j)
+      f[j] = _mm512_maskz_loadu_epi32(live, aedge_[j].data() + i);
+    // Bounds: max(bound, q), by gather and scatter where no two lanes
+    // share a bound, else lane by lane
+    const __m512i same = _mm512_and_si512(_mm512_maskz_conflict_epi32(live, f[kESlot]),
+                                          _mm512_set1_epi32(int32_t(live)));
+    if (!_mm512_test_epi32_mask(same, same)) {
+      const __m512i b = _mm512_mask_i32gather_epi32(f[kEQ], live, f[kESlot], bounds, 4);
+      _mm512_mask_i32scatter_epi32(bounds, live, f[kESlot], _mm512_max_epi32(b, f[kEQ]), 4);
+    } else {
+      alignas(64) int32_t slots[16], qs[16];
+      _mm512_store_si512(slots, f[kESlot]);
+      _mm512_store_si512(qs, f[kEQ]);
+      for (unsigned m = live; m; m &= m - 1) {
+        const int k = __builtin_ctz(m);
+        bounds[slots[k]] = std::max(bounds[slots[k]], qs[k]);
+      }
+    }
+    // ScanEdge::step(), 16 lanes
+    __m512i r = _mm512_add_epi32(f[kER], f[kEDr]);
+    const __mmask16 carry = _mm512_cmpge_epi32_mask(r, f[kEDiv]);
+    f[kER] = _mm512_mask_sub_epi32(r, carry, r, f[kEDiv]);
+    const __m512i q = _mm512_add_epi32(f[kEQ], f[kEDq]);
+    f[kEQ] = _mm512_mask_add_epi32(q, carry, q, one);
+    const __mmask16 keep = _mm512_mask_cmpneq_epi32_mask(live, f[kELast], _mm512_set1_epi32(y));
+    for (int j = 0; j < kEdgeFields; ++j)
+      _mm512_storeu_si512(aedge_[j].data() + kept, _mm512_maskz_compress_epi32(keep, f[j]));
+    kept += size_t(__builtin_popcount(keep));
+  }
+  n_aedges_ = kept;
+#else
+  (void)y;
+#endif
+}
+
 // The Row Walk
 
 void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
@@ -646,6 +796,9 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   for (auto& field : active_)
     if (field.size() < polys_.size() + 16) field.resize(polys_.size() + 16);
   n_active_ = 0;
+  for (auto& field : aedge_)
+    if (field.size() < edges_.size() + 16) field.resize(edges_.size() + 16);
+  n_aedges_ = 0;
   active_polys_.clear();
   active_edges_.clear();
   depth_row_.assign(size_t(width), std::numeric_limits<float>::infinity());
@@ -666,8 +819,12 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
       bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
       bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
     }
+#ifdef ZBUFFER_AVX512
+    enter_edges(y, edge_start_[size_t(y)], edge_start_[size_t(y) + 1]);
+#else
     for (int32_t i = edge_start_[size_t(y)]; i < edge_start_[size_t(y) + 1]; ++i)
       start_edge(edge_table_[size_t(i)], y, active_edges_.emplace_back());
+#endif
     // The polygons entering two rows down, into cache meanwhile: the store
     // is in arrival order, so they are scattered over it.
     if (y + 2 < height)
@@ -682,7 +839,7 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
                           gedge_table_.begin() + gedge_start_[size_t(y) + 1]);
     ++stats.scanline_rows;
     const int64_t n_polys = int64_t(n_active_ + active_polys_.size() + active_gpolys_.size());
-    const int64_t n_edges = int64_t(active_edges_.size() + active_gedges_.size());
+    const int64_t n_edges = int64_t(n_aedges_ + active_edges_.size() + active_gedges_.size());
     stats.active_polygons_sum += n_polys;
     stats.active_edges_sum += n_edges;
     stats.active_polygons_max = std::max(stats.active_polygons_max, n_polys);
@@ -727,8 +884,10 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
       active_gpolys_.resize(kept_polys);
     }
 
+    step_edges(y);
+
     // Active edges: tighten their polygons' spans, step to the next row,
-    // drop those that end here. Branch-free: left and right edges, and
+    // drop those that end here: the vector list, then the large triangles'. Branch-free: left and right edges, and
     // edges ending or not, are mixed at random.
     // (Field by field: copying the struct whole after changing two fields
     // stalled on store forwarding and cost a third of the row walk.)

@@ -225,6 +225,22 @@ class ScanlineTables {
   };
   std::vector<int32_t> active_[kActiveFields];  // floats stored by their bits
   size_t n_active_ = 0;
+
+  // The active edge list of AVX-512 builds, for the edges of triangles in
+  // the int32 form (active_edges_ then keeps those of the large ones).
+  // Design decision: ScanEdge's fields in int32, one array per field, 16
+  // edges started, applied to their bounds (gather, max, scatter) and
+  // stepped per instruction. int32 holds the DDA of these edges: div =
+  // |step_x| < 2^30, so r + dr < 2^31. Good: 28 bytes an edge instead of
+  // 40, no branch, and the two divisions that start a DDA done 16 lanes at
+  // a time. Bad: two edges of one polygon tightening one bound in the same
+  // group of 16 (a vertex exactly on a row of centres) need a scalar pass
+  // for that group, found by a conflict test on every group.
+  enum EdgeField { kER, kEDiv, kEDr, kEQ, kEDq, kESlot, kELast, kEdgeFields };
+  std::vector<int32_t> aedge_[kEdgeFields];
+  size_t n_aedges_ = 0;
+  void enter_edges(int y, int32_t begin, int32_t end);
+  void step_edges(int y);
   void enter_polygon(int32_t p, int y);
   void draw_active(int y, Counts& counts, int64_t& spans, int& touched_lo, int& touched_hi);
 
