@@ -102,12 +102,14 @@ ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* 
 // The depth write for 16 pixels anywhere in one row buffer: lane k at
 // column x[k]. The lanes of `inside` must name distinct columns (a gather
 // reads all lanes before the scatter writes any: two lanes at one pixel
-// would both compare against its old depth).
+// would both compare against its old depth). The stored ids are gathered
+// only where the depths tie (rarely): wins16 reads no other lane of them.
 ZBUFFER_INLINE __mmask16 write16_at(__mmask16 inside, __m512 z, __m512i id, __m512i x,
                                     float* depth_row, int32_t* id_row) {
   const __m512 d = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), inside, x, depth_row, 4);
-  const __m512i ids =
-      _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), inside, x, id_row, 4);
+  const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ);
+  const __m512i ids = tie ? _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), tie, x, id_row, 4)
+                          : _mm512_setzero_si512();
   const __mmask16 win = wins16(inside, z, id, d, ids);
   _mm512_mask_i32scatter_ps(depth_row, win, x, z, 4);
   _mm512_mask_i32scatter_epi32(id_row, win, x, id, 4);
