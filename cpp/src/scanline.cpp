@@ -476,34 +476,63 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 
 // The Active Polygon List, 16 at a Time
 
-// Copy polygon p (int32 form), entering at its first row y = y_min, into
-// the vector active list.
-void ScanlineTables::enter_polygon(int32_t p, int y) {
-  const ScanPolygon& poly = polys_[size_t(p)];
-  const size_t i = n_active_++;
-  auto bits = [](float f) {
-    int32_t b;
-    std::memcpy(&b, &f, sizeof b);
-    return b;
-  };
-  (void)y;
-  active_[kIndex][i] = p;
-  active_[kXMin][i] = poly.x_min;
-  active_[kXMax][i] = poly.x_max;
-  active_[kYMax][i] = poly.y_max;
-  for (int k = 0; k < 3; ++k) {
-    active_[kW0 + k][i] = poly.w[k];
-    active_[kSx0 + k][i] = poly.step_x[k];
-    active_[kSy0 + k][i] = poly.step_y[k];
+// Polygon table entries [begin, end), entering at row y: their span bounds
+// start as their boxes; those in the int32 form are copied into the vector
+// active list, 16 records gathered at a time, the others listed in
+// active_polys_.
+void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
+#ifdef ZBUFFER_AVX512
+  const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
+  // The record's int32 fields in the order of the active list's fields.
+  static constexpr int kFrom[kActiveFields] = {
+      -1,  // kIndex: the store index itself
+      int(offsetof(ScanPolygon, x_min) / 4), int(offsetof(ScanPolygon, x_max) / 4),
+      int(offsetof(ScanPolygon, y_max) / 4), int(offsetof(ScanPolygon, w) / 4),
+      int(offsetof(ScanPolygon, w) / 4) + 1, int(offsetof(ScanPolygon, w) / 4) + 2,
+      int(offsetof(ScanPolygon, step_x) / 4), int(offsetof(ScanPolygon, step_x) / 4) + 1,
+      int(offsetof(ScanPolygon, step_x) / 4) + 2, int(offsetof(ScanPolygon, step_y) / 4),
+      int(offsetof(ScanPolygon, step_y) / 4) + 1, int(offsetof(ScanPolygon, step_y) / 4) + 2,
+      int(offsetof(ScanPolygon, bias1) / 4), int(offsetof(ScanPolygon, bias2) / 4),
+      int(offsetof(ScanPolygon, z0) / 4), int(offsetof(ScanPolygon, a1) / 4),
+      int(offsetof(ScanPolygon, a2) / 4), int(offsetof(ScanPolygon, z_lo) / 4),
+      int(offsetof(ScanPolygon, z_hi) / 4), int(offsetof(ScanPolygon, id) / 4)};
+  const __m512i zero = _mm512_setzero_si512();
+  int32_t* bounds = bounds_.data();
+  for (int32_t i = begin; i < end; i += 16) {
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(end - i, 16))));
+    const __m512i p = _mm512_maskz_loadu_epi32(live, poly_table_.data() + i);
+    const __m512i rec = _mm512_mullo_epi32(p, _mm512_set1_epi32(22));
+    auto gather = [&](__mmask16 m, int off) {
+      return _mm512_mask_i32gather_epi32(zero, m, _mm512_add_epi32(rec, _mm512_set1_epi32(off)),
+                                         recs, 4);
+    };
+    const __m512i x_min = gather(live, kFrom[kXMin]), x_max = gather(live, kFrom[kXMax]);
+    const __m512i slot = _mm512_add_epi32(p, p);
+    _mm512_mask_i32scatter_epi32(bounds, live, slot, x_min, 4);
+    _mm512_mask_i32scatter_epi32(bounds, live, _mm512_add_epi32(slot, _mm512_set1_epi32(1)),
+                                 _mm512_sub_epi32(zero, x_max), 4);
+    const __m512i large = gather(live, int(offsetof(ScanPolygon, large) / 4));
+    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, large, zero);
+    if (vec != live) {
+      alignas(64) int32_t idx[16];
+      _mm512_store_si512(idx, p);
+      for (unsigned m = live & ~vec; m; m &= m - 1) active_polys_.push_back(idx[__builtin_ctz(m)]);
+    }
+    for (int k = 0; k < kActiveFields; ++k) {
+      const __m512i v = k == kIndex ? p : k == kXMin ? x_min : k == kXMax ? x_max
+                                                                          : gather(vec, kFrom[k]);
+      _mm512_storeu_si512(active_[k].data() + n_active_, _mm512_maskz_compress_epi32(vec, v));
+    }
+    n_active_ += size_t(__builtin_popcount(vec));
   }
-  active_[kBias1][i] = poly.bias1;
-  active_[kBias2][i] = poly.bias2;
-  active_[kZ0][i] = bits(poly.z0);
-  active_[kA1][i] = bits(poly.a1);
-  active_[kA2][i] = bits(poly.a2);
-  active_[kZLo][i] = bits(poly.z_lo);
-  active_[kZHi][i] = bits(poly.z_hi);
-  active_[kId][i] = poly.id;
+#else
+  for (int32_t i = begin; i < end; ++i) {
+    const int32_t p = poly_table_[size_t(i)];
+    active_polys_.push_back(p);
+    bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
+    bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
+  }
+#endif
 }
 
 // Draw row y of every polygon in the vector active list (their bounds
@@ -808,17 +837,7 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
 
   for (int y = 0; y < height; ++y) {
     // Polygons and edges entering at this row
-    for (int32_t i = poly_start_[size_t(y)]; i < poly_start_[size_t(y) + 1]; ++i) {
-      const int32_t p = poly_table_[size_t(i)];
-#ifdef ZBUFFER_AVX512
-      if (polys_[size_t(p)].large < 0)
-        enter_polygon(p, y);
-      else
-#endif
-        active_polys_.push_back(p);
-      bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
-      bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
-    }
+    enter_polygons(poly_start_[size_t(y)], poly_start_[size_t(y) + 1]);
 #ifdef ZBUFFER_AVX512
     enter_edges(y, edge_start_[size_t(y)], edge_start_[size_t(y) + 1]);
 #else

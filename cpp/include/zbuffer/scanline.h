@@ -241,7 +241,7 @@ class ScanlineTables {
   size_t n_aedges_ = 0;
   void enter_edges(int y, int32_t begin, int32_t end);
   void step_edges(int y);
-  void enter_polygon(int32_t p, int y);
+  void enter_polygons(int32_t begin, int32_t end);
   void draw_active(int y, Counts& counts, int64_t& spans, int& touched_lo, int& touched_hi);
 
   // General polygons: their store, sorted table and edge table (full DDA
