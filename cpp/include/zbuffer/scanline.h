@@ -11,6 +11,13 @@
 // stepped from row to row by an integer DDA (quotient and remainder), never
 // from a float x += dx; depth comes from the shared formula of the exact
 // edge values at each pixel, never from a float z += dz/dx.
+//
+// AVX-512 builds run the same steps 16 at a time: faces assembled and set
+// up 16 per instruction (setup16.h, shared with TriangleBatch), edges
+// started, applied and stepped 16 per instruction, and a row's active
+// polygons drawn 16 at a time, a polygon per lane (draw_active). The
+// structures and their order of events are the same; tests hold these
+// paths to the scalar ones (cpp/tests/test_scanline.cpp).
 #pragma once
 
 #include <cstdint>
@@ -71,7 +78,8 @@ struct ScanEdge {
 // which is in cache then (the polygon entered on the same row or earlier).
 // Good: the table that holds every edge of the frame is small, so filling
 // and sorting it moves little memory. Bad: the division that starts the
-// DDA happens during the row walk rather than before it.
+// DDA happens during the row walk rather than before it (in AVX-512 builds
+// 16 edges at a time, in binary64: enter_edges).
 struct EdgeEntry {
   // Left uninitialised: the vector path grows the table by resize() and
   // fills every field (zeroing it first cost 3% of the render).
@@ -90,7 +98,10 @@ struct EdgeEntry {
 // edge value in the box fits (nearly always); the full setup, kept apart,
 // otherwise. Good: 88 bytes instead of 136, and a span needs no int64
 // arithmetic. Bad: two forms of one triangle; the int32 one is only a
-// faster evaluation of the same exact integers.
+// faster evaluation of the same exact integers. AVX-512 builds write the
+// records of faces under 16 pixels across from setup16.h's vector setup
+// (the same integers and floats as setup_triangle's, tested), all others
+// through setup_triangle.
 struct ScanPolygon {
   ScanPolygon() {}  // uninitialised, as EdgeEntry: every field is written
   int32_t x_min, x_max, y_min, y_max;  // pixel box, inside the image
@@ -194,7 +205,9 @@ class ScanlineTables {
   std::vector<int32_t> edge_start_;   // (height + 1) bucket offsets
   std::vector<int32_t> position_;     // scratch of the counting sorts
 
-  // Active polygon list and active edge list.
+  // Active polygon list and active edge list: all of them in the scalar
+  // build; in AVX-512 builds only the large triangles' (int64 setups), the
+  // others are in the vector lists below.
   // Design decision: plain arrays compacted in place once per row (entries
   // whose last row was the current one are dropped while the row is
   // processed, without a branch); the span of each active polygon lives in
