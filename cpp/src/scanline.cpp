@@ -544,6 +544,16 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
   // Spans up to this long are drawn a pixel per lane; longer ones (rare in
   // a detailed mesh) one span at a time, 16 pixels per pass.
   constexpr int kLaneSpan = 8;
+  // Dword permutations between 16 lanes and 8 + 8 (a, b) pairs.
+  alignas(64) static constexpr int32_t kEven[16] = {0, 2, 4, 6, 8, 10, 12, 14,
+                                                    16, 18, 20, 22, 24, 26, 28, 30};
+  alignas(64) static constexpr int32_t kOdd[16] = {1, 3, 5, 7, 9, 11, 13, 15,
+                                                   17, 19, 21, 23, 25, 27, 29, 31};
+  alignas(64) static constexpr int32_t kPairsLo[16] = {0, 16, 1, 17, 2, 18, 3, 19,
+                                                       4, 20, 5, 21, 6, 22, 7, 23};
+  alignas(64) static constexpr int32_t kPairsHi[16] = {8, 24, 9, 25, 10, 26, 11, 27,
+                                                       12, 28, 13, 29, 14, 30, 15, 31};
+  const __m512i zero = _mm512_setzero_si512();
   const __m512i one = _mm512_set1_epi32(1);
   int32_t* bounds = bounds_.data();
   const size_t n = n_active_;
@@ -555,16 +565,24 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
     for (int k = 0; k < kActiveFields; ++k)
       f[k] = _mm512_maskz_loadu_epi32(live, active_[k].data() + i);
 
-    // Spans: the bounds the edges left, then reset for the next row
-    const __m512i slot = _mm512_add_epi32(f[kIndex], f[kIndex]);
-    const __m512i slot_hi = _mm512_add_epi32(slot, one);
-    const __m512i lo = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), live, slot, bounds, 4);
+    // Spans: the bounds the edges left, then reset for the next row. A
+    // polygon's two bounds are adjacent: gathered and scattered as one
+    // 64-bit pair (first pixel, minus the last), half the elements.
+    const __m256i index_lo = _mm512_castsi512_si256(f[kIndex]);
+    const __m256i index_hi = _mm512_extracti64x4_epi64(f[kIndex], 1);
+    const __mmask8 live_lo = __mmask8(live), live_hi = __mmask8(live >> 8);
+    const __m512i pairs_lo = _mm512_mask_i32gather_epi64(zero, live_lo, index_lo, bounds, 8);
+    const __m512i pairs_hi = _mm512_mask_i32gather_epi64(zero, live_hi, index_hi, bounds, 8);
+    const __m512i lo = _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kEven), pairs_hi);
     const __m512i hi = _mm512_sub_epi32(
-        _mm512_setzero_si512(),
-        _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), live, slot_hi, bounds, 4));
-    _mm512_mask_i32scatter_epi32(bounds, live, slot, f[kXMin], 4);
-    _mm512_mask_i32scatter_epi32(bounds, live, slot_hi,
-                                 _mm512_sub_epi32(_mm512_setzero_si512(), f[kXMax]), 4);
+        zero, _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kOdd), pairs_hi));
+    const __m512i neg_x_max = _mm512_sub_epi32(zero, f[kXMax]);
+    _mm512_mask_i32scatter_epi64(
+        bounds, live_lo, index_lo,
+        _mm512_permutex2var_epi32(f[kXMin], _mm512_load_si512(kPairsLo), neg_x_max), 8);
+    _mm512_mask_i32scatter_epi64(
+        bounds, live_hi, index_hi,
+        _mm512_permutex2var_epi32(f[kXMin], _mm512_load_si512(kPairsHi), neg_x_max), 8);
     const __m512i width = _mm512_add_epi32(_mm512_sub_epi32(hi, lo), one);
     const __mmask16 drawn = _mm512_mask_cmpgt_epi32_mask(live, width, _mm512_setzero_si512());
     spans += __builtin_popcount(drawn);
