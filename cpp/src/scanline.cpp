@@ -476,8 +476,8 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 
 // The Active Polygon List, 16 at a Time
 
-// Polygon table entries [begin, end), entering at row y: their span bounds
-// start as their boxes; those in the int32 form are copied into the vector
+// Polygon table entries [begin, end), those entering at the current row:
+// their span bounds start as their boxes; those in the int32 form are copied into the vector
 // active list, 16 records gathered at a time, the others listed in
 // active_polys_.
 void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
