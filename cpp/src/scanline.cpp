@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <limits>
 
+#include "setup16.h"
 #include "simd.h"
 #include "zbuffer/algorithms.h"
 
@@ -186,6 +188,160 @@ void ScanlineTables::add_triangle(const ScreenTriangle& t, RenderStats& stats) {
     add_edge(s, k, t.v[(k + 1) % 3].y_fx, t.v[(k + 2) % 3].y_fx, poly, stats);
 }
 
+// Faces, 16 at a Time
+
+void ScanlineTables::add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                               const ScreenVertices& sv, int64_t begin, int64_t end,
+                               bool cull_backfaces, RenderStats& stats) {
+  int64_t f = begin;
+#ifdef ZBUFFER_AVX512
+  if (mesh.n_vertices > 0)
+    for (; f < end; f += 16)
+      add_16_faces(mesh, mvp, vp, sv, f, int(std::min<int64_t>(end - f, 16)), cull_backfaces,
+                   stats);
+#endif
+  for (; f < end; ++f)
+    assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats, [&](const ScreenTriangle& t) {
+      ++stats.rasterized;
+      add_triangle(t, stats);
+    });
+}
+
+#ifdef ZBUFFER_AVX512
+// add_triangle for the faces of 16 lanes: setup16.h's setup for those less
+// than 16 pixels across (int32 records), then add_triangle itself for the
+// others and the scalar assembly for those that need clipping.
+void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                                  const ScreenVertices& sv, int64_t first, int count,
+                                  bool cull_backfaces, RenderStats& stats) {
+  simd::Faces16 f;
+  simd::assemble16(mesh, sv, first, count, cull_backfaces, stats, f);
+  simd::Box16 box;
+  simd::box16(f, width_, height_, box);
+  const __mmask16 vector_setup = f.draw & box.nonempty & box.small;
+  const __mmask16 scalar_setup = f.draw & box.nonempty & ~box.small;
+
+  if (vector_setup) {
+    simd::Setup16 s;
+    simd::setup16(f, box, s);
+    // Everything a polygon record and its edge entries need, one array per
+    // field, the faces of vector_setup in order.
+    const __mmask16 m = vector_setup;
+    enum { kX0, kX1, kY0, kY1, kW, kSx = kW + 3, kSy = kSx + 3, kB1 = kSy + 3, kB2, kZ0, kA1, kA2,
+           kLo, kHi, kId, kFields };
+    alignas(64) int32_t rec[kFields][16];
+    alignas(64) int32_t edge_first[3][16], edge_last[3][16], edge_kind[3][16], edge_in[3][16];
+    auto put = [&](int32_t* dst, __m512i v) {
+      _mm512_store_si512(dst, _mm512_maskz_compress_epi32(m, v));
+    };
+    put(rec[kX0], box.i0);
+    put(rec[kX1], box.i1);
+    put(rec[kY0], box.j0);
+    put(rec[kY1], box.j1);
+    for (int k = 0; k < 3; ++k) {
+      put(rec[kW + k], _mm512_sub_epi32(s.w[k], s.bias[k]));  // biased
+      put(rec[kSx + k], s.sx[k]);
+      put(rec[kSy + k], s.sy[k]);
+    }
+    put(rec[kB1], s.bias[1]);
+    put(rec[kB2], s.bias[2]);
+    put(rec[kZ0], _mm512_castps_si512(s.z0));
+    put(rec[kA1], _mm512_castps_si512(s.a1));
+    put(rec[kA2], _mm512_castps_si512(s.a2));
+    put(rec[kLo], _mm512_castps_si512(s.lo));
+    put(rec[kHi], _mm512_castps_si512(s.hi));
+    put(rec[kId], simd::ids16(mesh, first, f.live));
+
+    // Edge table entries (add_edge): edge k, from vertex k+1 to k+2, on
+    // the rows whose centres lie on its closed y range within the box; a
+    // horizontal top edge needs none, a horizontal bottom edge one that
+    // kills its row.
+    const __m512i half = _mm512_set1_epi32(kHalfPixel);
+    const __m512i round_up = _mm512_set1_epi32(kHalfPixel - (kSubpixelScale - 1));
+    const __m512i zero = _mm512_setzero_si512();
+    for (int k = 0; k < 3; ++k) {
+      const __m512i ya = f.y[(k + 1) % 3], yb = f.y[(k + 2) % 3];
+      const __m512i e_first = _mm512_max_epi32(
+          _mm512_srai_epi32(_mm512_sub_epi32(_mm512_min_epi32(ya, yb), round_up), kSubpixelBits),
+          box.j0);
+      const __m512i e_last = _mm512_min_epi32(
+          _mm512_srai_epi32(_mm512_sub_epi32(_mm512_max_epi32(ya, yb), half), kSubpixelBits),
+          box.j1);
+      const __mmask16 horizontal = _mm512_cmpeq_epi32_mask(s.sx[k], zero);
+      const __mmask16 top = horizontal & _mm512_cmpeq_epi32_mask(s.bias[k], zero);
+      const __mmask16 in = _mm512_cmple_epi32_mask(e_first, e_last) & ~top;
+      put(edge_first[k], e_first);
+      put(edge_last[k], e_last);
+      put(edge_kind[k], _mm512_mask_blend_epi32(horizontal, _mm512_set1_epi32(k),
+                                                _mm512_set1_epi32(EdgeEntry::kKillRow)));
+      put(edge_in[k], _mm512_maskz_set1_epi32(in, 1));
+    }
+
+    // Append the records and entries (branch-free: whether an edge gets an
+    // entry is random)
+    const int n = __builtin_popcount(m);
+    const size_t base = polys_.size();
+    polys_.resize(base + size_t(n));
+    poly_row_.resize(base + size_t(n));
+    size_t ne = edges_.size();
+    edges_.resize(ne + 3 * size_t(n));
+    edge_row_.resize(ne + 3 * size_t(n));
+    const size_t ne0 = ne;
+    for (int j = 0; j < n; ++j) {
+      ScanPolygon& p = polys_[base + size_t(j)];
+      p.x_min = rec[kX0][j];
+      p.x_max = rec[kX1][j];
+      p.y_min = rec[kY0][j];
+      p.y_max = rec[kY1][j];
+      for (int k = 0; k < 3; ++k) {
+        p.w[k] = rec[kW + k][j];
+        p.step_x[k] = rec[kSx + k][j];
+        p.step_y[k] = rec[kSy + k][j];
+      }
+      p.bias1 = rec[kB1][j];
+      p.bias2 = rec[kB2][j];
+      std::memcpy(&p.z0, &rec[kZ0][j], 4);
+      std::memcpy(&p.a1, &rec[kA1][j], 4);
+      std::memcpy(&p.a2, &rec[kA2][j], 4);
+      std::memcpy(&p.z_lo, &rec[kLo][j], 4);
+      std::memcpy(&p.z_hi, &rec[kHi][j], 4);
+      p.id = rec[kId][j];
+      p.large = -1;  // under 16 pixels across: every edge value fits int32
+      poly_row_[base + size_t(j)] = rec[kY0][j];
+      for (int k = 0; k < 3; ++k) {
+        EdgeEntry& e = edges_[ne];
+        e.poly = int32_t(base) + j;
+        e.last_row = edge_last[k][j];
+        e.k = edge_kind[k][j];
+        edge_row_[ne] = edge_first[k][j];
+        ne += size_t(edge_in[k][j]);
+      }
+    }
+    edges_.resize(ne);
+    edge_row_.resize(ne);
+    stats.polygons_inserted += n;
+    stats.edges_inserted += int64_t(ne - ne0);
+  }
+
+  if (scalar_setup) {
+    // Large faces: the scalar setup from the assembled triangle.
+    const simd::Lanes16 lanes(f);
+    for (unsigned m = scalar_setup; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      add_triangle(lanes.triangle(lane, mesh.id(first + lane)), stats);
+    }
+  }
+
+  // Faces that need clipping: the scalar assembly.
+  for (unsigned m = f.clip; m; m &= m - 1)
+    assemble_triangle(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces, stats,
+                      [&](const ScreenTriangle& t) {
+                        ++stats.rasterized;
+                        add_triangle(t, stats);
+                      });
+}
+#endif
+
 // General Polygons
 
 void ScanlineTables::add_polygon(const ScreenVertex* v, int n, int64_t area, int32_t id,
@@ -318,6 +474,347 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 #endif
 }
 
+// The Active Polygon List, 16 at a Time
+
+// Polygon table entries [begin, end), those entering at the current row:
+// their span bounds start as their boxes; those in the int32 form are copied into the vector
+// active list, 16 records gathered at a time, the others listed in
+// active_polys_.
+void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
+#ifdef ZBUFFER_AVX512
+  const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
+  // The record's int32 fields in the order of the active list's fields.
+  static constexpr int kFrom[kActiveFields] = {
+      -1,  // kIndex: the store index itself
+      int(offsetof(ScanPolygon, x_min) / 4), int(offsetof(ScanPolygon, x_max) / 4),
+      int(offsetof(ScanPolygon, y_max) / 4), int(offsetof(ScanPolygon, w) / 4),
+      int(offsetof(ScanPolygon, w) / 4) + 1, int(offsetof(ScanPolygon, w) / 4) + 2,
+      int(offsetof(ScanPolygon, step_x) / 4), int(offsetof(ScanPolygon, step_x) / 4) + 1,
+      int(offsetof(ScanPolygon, step_x) / 4) + 2, int(offsetof(ScanPolygon, step_y) / 4),
+      int(offsetof(ScanPolygon, step_y) / 4) + 1, int(offsetof(ScanPolygon, step_y) / 4) + 2,
+      int(offsetof(ScanPolygon, bias1) / 4), int(offsetof(ScanPolygon, bias2) / 4),
+      int(offsetof(ScanPolygon, z0) / 4), int(offsetof(ScanPolygon, a1) / 4),
+      int(offsetof(ScanPolygon, a2) / 4), int(offsetof(ScanPolygon, z_lo) / 4),
+      int(offsetof(ScanPolygon, z_hi) / 4), int(offsetof(ScanPolygon, id) / 4)};
+  const __m512i zero = _mm512_setzero_si512();
+  int32_t* bounds = bounds_.data();
+  for (int32_t i = begin; i < end; i += 16) {
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(end - i, 16))));
+    const __m512i p = _mm512_maskz_loadu_epi32(live, poly_table_.data() + i);
+    const __m512i rec = _mm512_mullo_epi32(p, _mm512_set1_epi32(22));
+    auto gather = [&](__mmask16 m, int off) {
+      return _mm512_mask_i32gather_epi32(zero, m, _mm512_add_epi32(rec, _mm512_set1_epi32(off)),
+                                         recs, 4);
+    };
+    const __m512i x_min = gather(live, kFrom[kXMin]), x_max = gather(live, kFrom[kXMax]);
+    const __m512i slot = _mm512_add_epi32(p, p);
+    _mm512_mask_i32scatter_epi32(bounds, live, slot, x_min, 4);
+    _mm512_mask_i32scatter_epi32(bounds, live, _mm512_add_epi32(slot, _mm512_set1_epi32(1)),
+                                 _mm512_sub_epi32(zero, x_max), 4);
+    const __m512i large = gather(live, int(offsetof(ScanPolygon, large) / 4));
+    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, large, zero);
+    if (vec != live) {
+      alignas(64) int32_t idx[16];
+      _mm512_store_si512(idx, p);
+      for (unsigned m = live & ~vec; m; m &= m - 1) active_polys_.push_back(idx[__builtin_ctz(m)]);
+    }
+    for (int k = 0; k < kActiveFields; ++k) {
+      const __m512i v = k == kIndex ? p : k == kXMin ? x_min : k == kXMax ? x_max
+                                                                          : gather(vec, kFrom[k]);
+      _mm512_storeu_si512(active_[k].data() + n_active_, _mm512_maskz_compress_epi32(vec, v));
+    }
+    n_active_ += size_t(__builtin_popcount(vec));
+  }
+#else
+  for (int32_t i = begin; i < end; ++i) {
+    const int32_t p = poly_table_[size_t(i)];
+    active_polys_.push_back(p);
+    bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
+    bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
+  }
+#endif
+}
+
+// Draw row y of every polygon in the vector active list (their bounds
+// narrowed by the active edges), reset their bounds, step their edge values
+// to the next row and drop those that end here.
+void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& touched_lo,
+                                 int& touched_hi) {
+#ifdef ZBUFFER_AVX512
+  // Spans up to this long are drawn a pixel per lane; longer ones (rare in
+  // a detailed mesh) one span at a time, 16 pixels per pass.
+  constexpr int kLaneSpan = 8;
+  // Dword permutations between 16 lanes and 8 + 8 (a, b) pairs.
+  alignas(64) static constexpr int32_t kEven[16] = {0, 2, 4, 6, 8, 10, 12, 14,
+                                                    16, 18, 20, 22, 24, 26, 28, 30};
+  alignas(64) static constexpr int32_t kOdd[16] = {1, 3, 5, 7, 9, 11, 13, 15,
+                                                   17, 19, 21, 23, 25, 27, 29, 31};
+  alignas(64) static constexpr int32_t kPairsLo[16] = {0, 16, 1, 17, 2, 18, 3, 19,
+                                                       4, 20, 5, 21, 6, 22, 7, 23};
+  alignas(64) static constexpr int32_t kPairsHi[16] = {8, 24, 9, 25, 10, 26, 11, 27,
+                                                       12, 28, 13, 29, 14, 30, 15, 31};
+  const __m512i zero = _mm512_setzero_si512();
+  const __m512i one = _mm512_set1_epi32(1);
+  int32_t* bounds = bounds_.data();
+  const size_t n = n_active_;
+  size_t kept = 0;
+  __m512i lo_min = _mm512_set1_epi32(width_), hi_max = _mm512_set1_epi32(-1);
+  for (size_t i = 0; i < n; i += 16) {
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min<size_t>(n - i, 16))));
+    __m512i f[kActiveFields];
+    for (int k = 0; k < kActiveFields; ++k)
+      f[k] = _mm512_maskz_loadu_epi32(live, active_[k].data() + i);
+
+    // Spans: the bounds the edges left, then reset for the next row. A
+    // polygon's two bounds are adjacent: gathered and scattered as one
+    // 64-bit pair (first pixel, minus the last), half the elements.
+    const __m256i index_lo = _mm512_castsi512_si256(f[kIndex]);
+    const __m256i index_hi = _mm512_extracti64x4_epi64(f[kIndex], 1);
+    const __mmask8 live_lo = __mmask8(live), live_hi = __mmask8(live >> 8);
+    const __m512i pairs_lo = _mm512_mask_i32gather_epi64(zero, live_lo, index_lo, bounds, 8);
+    const __m512i pairs_hi = _mm512_mask_i32gather_epi64(zero, live_hi, index_hi, bounds, 8);
+    const __m512i lo = _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kEven), pairs_hi);
+    const __m512i hi = _mm512_sub_epi32(
+        zero, _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kOdd), pairs_hi));
+    const __m512i neg_x_max = _mm512_sub_epi32(zero, f[kXMax]);
+    _mm512_mask_i32scatter_epi64(
+        bounds, live_lo, index_lo,
+        _mm512_permutex2var_epi32(f[kXMin], _mm512_load_si512(kPairsLo), neg_x_max), 8);
+    _mm512_mask_i32scatter_epi64(
+        bounds, live_hi, index_hi,
+        _mm512_permutex2var_epi32(f[kXMin], _mm512_load_si512(kPairsHi), neg_x_max), 8);
+    const __m512i width = _mm512_add_epi32(_mm512_sub_epi32(hi, lo), one);
+    const __mmask16 drawn = _mm512_mask_cmpgt_epi32_mask(live, width, _mm512_setzero_si512());
+    spans += __builtin_popcount(drawn);
+    counts.tested += _mm512_mask_reduce_add_epi32(drawn, width);
+    lo_min = _mm512_mask_min_epi32(lo_min, drawn, lo_min, lo);
+    hi_max = _mm512_mask_max_epi32(hi_max, drawn, hi_max, hi);
+
+    // Short spans a pixel per lane: lane k draws pixel lo_k + j in pass j.
+    // Lanes starting at one column would write one pixel in one scatter:
+    // all but the first of them go the one-span way.
+    const __mmask16 short_span =
+        _mm512_mask_cmple_epi32_mask(drawn, width, _mm512_set1_epi32(kLaneSpan));
+    const __m512i earlier_same =
+        _mm512_and_si512(_mm512_maskz_conflict_epi32(short_span, lo),
+                         _mm512_set1_epi32(int32_t(short_span)));
+    const __mmask16 lanes = short_span & ~_mm512_test_epi32_mask(earlier_same, earlier_same);
+    if (lanes) {
+      const __m512i dx = _mm512_sub_epi32(lo, f[kXMin]);
+      __m512i w0 = _mm512_add_epi32(f[kW0], _mm512_mullo_epi32(dx, f[kSx0]));
+      __m512i w1 = _mm512_add_epi32(f[kW1], _mm512_mullo_epi32(dx, f[kSx1]));
+      __m512i w2 = _mm512_add_epi32(f[kW2], _mm512_mullo_epi32(dx, f[kSx2]));
+      const simd::DepthPlane16 plane(
+          _mm512_castsi512_ps(f[kZ0]), _mm512_castsi512_ps(f[kA1]), _mm512_castsi512_ps(f[kA2]),
+          _mm512_castsi512_ps(f[kZLo]), _mm512_castsi512_ps(f[kZHi]));
+      __m512i x = lo;
+      const int passes = _mm512_mask_reduce_max_epi32(lanes, width);
+      __m512i left = width;  // pixels left to draw in each lane
+      int64_t covered = 0, written = 0;
+      for (int j = 0; j < passes; ++j) {
+        const __mmask16 in_span = _mm512_mask_cmpgt_epi32_mask(lanes, left, _mm512_setzero_si512());
+        const __mmask16 inside = simd::covered16(in_span, w0, w1, w2);
+        const __m512 z =
+            simd::depth16(plane, _mm512_add_epi32(w1, f[kBias1]), _mm512_add_epi32(w2, f[kBias2]));
+        const __mmask16 win =
+            simd::write16_at(inside, z, f[kId], x, depth_row_.data(), id_row_.data());
+        covered += __builtin_popcount(inside);
+        written += __builtin_popcount(win);
+        w0 = _mm512_add_epi32(w0, f[kSx0]);
+        w1 = _mm512_add_epi32(w1, f[kSx1]);
+        w2 = _mm512_add_epi32(w2, f[kSx2]);
+        x = _mm512_add_epi32(x, one);
+        left = _mm512_sub_epi32(left, one);
+      }
+      counts.covered += covered;
+      counts.written += written;
+    }
+    // The others one span at a time
+    const __mmask16 one_by_one = drawn & ~lanes;
+    if (one_by_one) {
+      alignas(64) int32_t idx[16], los[16], his[16];
+      _mm512_store_si512(idx, f[kIndex]);
+      _mm512_store_si512(los, lo);
+      _mm512_store_si512(his, hi);
+      for (unsigned m = one_by_one; m; m &= m - 1) {
+        const int k = __builtin_ctz(m);
+        const int64_t tested = counts.tested;
+        draw_span(polys_[size_t(idx[k])], y, los[k], his[k], counts);
+        counts.tested = tested;  // counted above with the others
+      }
+    }
+
+    // Next row: step the edge values, keep the polygons that go on
+    f[kW0] = _mm512_add_epi32(f[kW0], f[kSy0]);
+    f[kW1] = _mm512_add_epi32(f[kW1], f[kSy1]);
+    f[kW2] = _mm512_add_epi32(f[kW2], f[kSy2]);
+    const __mmask16 keep =
+        _mm512_mask_cmpneq_epi32_mask(live, f[kYMax], _mm512_set1_epi32(y));
+    // Compress in registers, store whole vectors: the lanes past the kept
+    // ones land on entries of this group, already loaded.
+    for (int k = 0; k < kActiveFields; ++k)
+      _mm512_storeu_si512(active_[k].data() + kept, _mm512_maskz_compress_epi32(keep, f[k]));
+    kept += size_t(__builtin_popcount(keep));
+  }
+  n_active_ = kept;
+  if (n > 0) {
+    touched_lo = std::min(touched_lo, _mm512_reduce_min_epi32(lo_min));
+    touched_hi = std::max(touched_hi, _mm512_reduce_max_epi32(hi_max));
+  }
+#else
+  (void)y, (void)counts, (void)spans, (void)touched_lo, (void)touched_hi;
+#endif
+}
+
+// The Active Edge List, 16 at a Time
+
+// Start the DDAs of edge table entries [begin, end), all entering at row y
+// (start_edge, 16 lanes at a time): those of int32-form triangles into the
+// vector list, the others into active_edges_.
+void ScanlineTables::enter_edges(int y, int32_t begin, int32_t end) {
+#ifdef ZBUFFER_AVX512
+  static_assert(sizeof(EdgeEntry) == 3 * sizeof(int32_t), "entries are read as 3 ints");
+  static_assert(sizeof(ScanPolygon) == 22 * sizeof(int32_t), "records are gathered as 22 ints");
+  const int32_t* table = reinterpret_cast<const int32_t*>(edge_table_.data());
+  const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
+  constexpr int kWOff = offsetof(ScanPolygon, w) / 4, kSxOff = offsetof(ScanPolygon, step_x) / 4,
+                kSyOff = offsetof(ScanPolygon, step_y) / 4,
+                kYMinOff = offsetof(ScanPolygon, y_min) / 4,
+                kLargeOff = offsetof(ScanPolygon, large) / 4;
+  const __m512i zero = _mm512_setzero_si512();
+  for (int32_t i = begin; i < end; i += 16) {
+    const int count = std::min(end - i, 16);
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(count)));
+    // The entries (poly, last_row, k), deinterleaved
+    auto lanes = [](int n) { return __mmask16(n >= 16 ? 0xFFFF : n <= 0 ? 0 : (1u << n) - 1); };
+    const int32_t* fp = table + 3 * size_t(i);
+    const __m512i a = _mm512_maskz_loadu_epi32(lanes(3 * count), fp),
+                  b = _mm512_maskz_loadu_epi32(lanes(3 * count - 16), fp + 16),
+                  c = _mm512_maskz_loadu_epi32(lanes(3 * count - 32), fp + 32);
+    __m512i field[3];
+    for (int k = 0; k < 3; ++k)
+      field[k] = _mm512_permutex2var_epi32(
+          _mm512_permutex2var_epi32(a, _mm512_load_si512(simd::kDeinterleave.ab[k]), b),
+          _mm512_load_si512(simd::kDeinterleave.tc[k]), c);
+    const __m512i poly = field[0], last = field[1], k = field[2];
+    const __m512i rec = _mm512_mullo_epi32(poly, _mm512_set1_epi32(22));
+    const __m512i large = _mm512_mask_i32gather_epi32(
+        zero, live, _mm512_add_epi32(rec, _mm512_set1_epi32(kLargeOff)), recs, 4);
+    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, large, zero);
+    for (unsigned m = live & ~vec; m; m &= m - 1)  // large triangles: int64 DDAs
+      start_edge(edge_table_[size_t(i) + __builtin_ctz(m)], y, active_edges_.emplace_back());
+    if (!vec) continue;
+    const __mmask16 kill = _mm512_mask_cmpeq_epi32_mask(vec, k, _mm512_set1_epi32(EdgeEntry::kKillRow));
+    const __mmask16 edge = vec & ~kill;
+
+    // q = floor(N / div), N = -wb0 + div - 1, wb0 the biased edge value at
+    // pixel (0, y); dq, dr from -step_y. In binary64, exact: every value
+    // is an integer below 2^53; the quotient, within one of the true one,
+    // is corrected once each way (floor_divmod).
+    auto gather = [&](int off, __m512i plus) {
+      return _mm512_mask_i32gather_epi32(
+          zero, edge, _mm512_add_epi32(_mm512_add_epi32(rec, plus), _mm512_set1_epi32(off)), recs, 4);
+    };
+    const __m512i x_min = gather(0, zero), y_min = gather(kYMinOff, zero);
+    const __m512i w = gather(kWOff, k), sx = gather(kSxOff, k), sy = gather(kSyOff, k);
+    __m512i q32[2], r32[2], dq32[2], dr32[2];
+    for (int h = 0; h < 2; ++h) {
+      auto half = [&](__m512i v) {
+        return _mm512_cvtepi32_pd(h ? _mm512_extracti64x4_epi64(v, 1) : _mm512_castsi512_si256(v));
+      };
+      const __m512d sxd = half(sx), syd = half(sy);
+      const __m512d wb0 = _mm512_add_pd(
+          _mm512_sub_pd(half(w), _mm512_mul_pd(half(x_min), sxd)),
+          _mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(double(y)), half(y_min)), syd));
+      const __m512d div = _mm512_abs_pd(sxd);
+      const __m512d div_safe = _mm512_max_pd(div, _mm512_set1_pd(1.0));  // masked-off lanes
+      auto divmod = [&](__m512d n, __m512i& q_out, __m512i& r_out) {
+        __m512d q = _mm512_roundscale_pd(_mm512_div_pd(n, div_safe), _MM_FROUND_TO_NEG_INF);
+        __m512d r = _mm512_sub_pd(n, _mm512_mul_pd(q, div_safe));
+        const __mmask8 low = _mm512_cmp_pd_mask(r, _mm512_setzero_pd(), _CMP_LT_OQ);
+        q = _mm512_mask_sub_pd(q, low, q, _mm512_set1_pd(1.0));
+        r = _mm512_mask_add_pd(r, low, r, div_safe);
+        const __mmask8 high = _mm512_cmp_pd_mask(r, div_safe, _CMP_GE_OQ);
+        q = _mm512_mask_add_pd(q, high, q, _mm512_set1_pd(1.0));
+        r = _mm512_mask_sub_pd(r, high, r, div_safe);
+        q_out = _mm512_castsi256_si512(_mm512_cvtpd_epi32(q));
+        r_out = _mm512_castsi256_si512(_mm512_cvtpd_epi32(r));
+      };
+      divmod(_mm512_sub_pd(_mm512_add_pd(_mm512_sub_pd(_mm512_setzero_pd(), wb0), div_safe),
+                           _mm512_set1_pd(1.0)),
+             q32[h], r32[h]);
+      divmod(_mm512_sub_pd(_mm512_setzero_pd(), syd), dq32[h], dr32[h]);
+    }
+    auto join = [](const __m512i* v) {
+      return _mm512_inserti64x4(v[0], _mm512_castsi512_si256(v[1]), 1);
+    };
+    // A kill entry: a left bound beyond any column, for its one row.
+    const __m512i slot = _mm512_add_epi32(
+        _mm512_add_epi32(poly, poly),
+        _mm512_maskz_set1_epi32(edge & _mm512_cmple_epi32_mask(sx, zero), 1));
+    __m512i f[kEdgeFields];
+    f[kER] = _mm512_maskz_mov_epi32(edge, join(r32));
+    f[kEDiv] = _mm512_mask_blend_epi32(edge, _mm512_set1_epi32(1), _mm512_abs_epi32(sx));
+    f[kEDr] = _mm512_maskz_mov_epi32(edge, join(dr32));
+    f[kEQ] = _mm512_mask_blend_epi32(edge, _mm512_set1_epi32(int32_t(1) << 30), join(q32));
+    f[kEDq] = _mm512_maskz_mov_epi32(edge, join(dq32));
+    f[kESlot] = slot;
+    f[kELast] = last;
+    for (int j = 0; j < kEdgeFields; ++j)
+      _mm512_storeu_si512(aedge_[j].data() + n_aedges_, _mm512_maskz_compress_epi32(vec, f[j]));
+    n_aedges_ += size_t(__builtin_popcount(vec));
+  }
+#else
+  (void)y, (void)begin, (void)end;
+#endif
+}
+
+// The vector active edge list on row y: tighten the bounds of their
+// polygons' spans, step to the next row, drop those that end here.
+void ScanlineTables::step_edges(int y) {
+#ifdef ZBUFFER_AVX512
+  int32_t* bounds = bounds_.data();
+  const size_t n = n_aedges_;
+  size_t kept = 0;
+  const __m512i one = _mm512_set1_epi32(1);
+  for (size_t i = 0; i < n; i += 16) {
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min<size_t>(n - i, 16))));
+    __m512i f[kEdgeFields];
+    for (int j = 0; j < kEdgeFields; ++j)
+      f[j] = _mm512_maskz_loadu_epi32(live, aedge_[j].data() + i);
+    // Bounds: max(bound, q), by gather and scatter where no two lanes
+    // share a bound, else lane by lane
+    const __m512i same = _mm512_and_si512(_mm512_maskz_conflict_epi32(live, f[kESlot]),
+                                          _mm512_set1_epi32(int32_t(live)));
+    if (!_mm512_test_epi32_mask(same, same)) {
+      const __m512i b = _mm512_mask_i32gather_epi32(f[kEQ], live, f[kESlot], bounds, 4);
+      _mm512_mask_i32scatter_epi32(bounds, live, f[kESlot], _mm512_max_epi32(b, f[kEQ]), 4);
+    } else {
+      alignas(64) int32_t slots[16], qs[16];
+      _mm512_store_si512(slots, f[kESlot]);
+      _mm512_store_si512(qs, f[kEQ]);
+      for (unsigned m = live; m; m &= m - 1) {
+        const int k = __builtin_ctz(m);
+        bounds[slots[k]] = std::max(bounds[slots[k]], qs[k]);
+      }
+    }
+    // ScanEdge::step(), 16 lanes
+    __m512i r = _mm512_add_epi32(f[kER], f[kEDr]);
+    const __mmask16 carry = _mm512_cmpge_epi32_mask(r, f[kEDiv]);
+    f[kER] = _mm512_mask_sub_epi32(r, carry, r, f[kEDiv]);
+    const __m512i q = _mm512_add_epi32(f[kEQ], f[kEDq]);
+    f[kEQ] = _mm512_mask_add_epi32(q, carry, q, one);
+    const __mmask16 keep = _mm512_mask_cmpneq_epi32_mask(live, f[kELast], _mm512_set1_epi32(y));
+    for (int j = 0; j < kEdgeFields; ++j)
+      _mm512_storeu_si512(aedge_[j].data() + kept, _mm512_maskz_compress_epi32(keep, f[j]));
+    kept += size_t(__builtin_popcount(keep));
+  }
+  n_aedges_ = kept;
+#else
+  (void)y;
+#endif
+}
+
 // The Row Walk
 
 void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
@@ -341,6 +838,14 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   active_gedges_.clear();
 
   bounds_.resize(2 * polys_.size());
+  // Room for every polygon plus the 16 entries a vector store may write
+  // past the last one.
+  for (auto& field : active_)
+    if (field.size() < polys_.size() + 16) field.resize(polys_.size() + 16);
+  n_active_ = 0;
+  for (auto& field : aedge_)
+    if (field.size() < edges_.size() + 16) field.resize(edges_.size() + 16);
+  n_aedges_ = 0;
   active_polys_.clear();
   active_edges_.clear();
   depth_row_.assign(size_t(width), std::numeric_limits<float>::infinity());
@@ -350,14 +855,13 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
 
   for (int y = 0; y < height; ++y) {
     // Polygons and edges entering at this row
-    for (int32_t i = poly_start_[size_t(y)]; i < poly_start_[size_t(y) + 1]; ++i) {
-      const int32_t p = poly_table_[size_t(i)];
-      active_polys_.push_back(p);
-      bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
-      bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
-    }
+    enter_polygons(poly_start_[size_t(y)], poly_start_[size_t(y) + 1]);
+#ifdef ZBUFFER_AVX512
+    enter_edges(y, edge_start_[size_t(y)], edge_start_[size_t(y) + 1]);
+#else
     for (int32_t i = edge_start_[size_t(y)]; i < edge_start_[size_t(y) + 1]; ++i)
       start_edge(edge_table_[size_t(i)], y, active_edges_.emplace_back());
+#endif
     // The polygons entering two rows down, into cache meanwhile: the store
     // is in arrival order, so they are scattered over it.
     if (y + 2 < height)
@@ -371,8 +875,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     active_gedges_.insert(active_gedges_.end(), gedge_table_.begin() + gedge_start_[size_t(y)],
                           gedge_table_.begin() + gedge_start_[size_t(y) + 1]);
     ++stats.scanline_rows;
-    const int64_t n_polys = int64_t(active_polys_.size() + active_gpolys_.size());
-    const int64_t n_edges = int64_t(active_edges_.size() + active_gedges_.size());
+    const int64_t n_polys = int64_t(n_active_ + active_polys_.size() + active_gpolys_.size());
+    const int64_t n_edges = int64_t(n_aedges_ + active_edges_.size() + active_gedges_.size());
     stats.active_polygons_sum += n_polys;
     stats.active_edges_sum += n_edges;
     stats.active_polygons_max = std::max(stats.active_polygons_max, n_polys);
@@ -417,8 +921,10 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
       active_gpolys_.resize(kept_polys);
     }
 
+    step_edges(y);
+
     // Active edges: tighten their polygons' spans, step to the next row,
-    // drop those that end here. Branch-free: left and right edges, and
+    // drop those that end here: the vector list, then the large triangles'. Branch-free: left and right edges, and
     // edges ending or not, are mixed at random.
     // (Field by field: copying the struct whole after changing two fields
     // stalled on store forwarding and cost a third of the row walk.)
@@ -447,7 +953,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     active_edges_.resize(kept);
 
     // Active polygons: draw their spans into the row, drop those that end
-    // here (branch-free, likewise)
+    // here: the vector list, then the large ones (branch-free, likewise)
+    draw_active(y, counts, stats.spans_drawn, touched_lo, touched_hi);
     kept = 0;
     for (size_t i = 0; i < active_polys_.size(); ++i) {
       const int32_t p = active_polys_[i];
@@ -496,12 +1003,7 @@ void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats&
   thread_local ScanlineTables tables;
   tables.reset(target.width, target.height);
   auto add_faces = [&](int64_t begin, int64_t end) {
-    for (int64_t f = begin; f < end; ++f)
-      assemble_triangle(input.mesh, input.mvp, vp, screen, f, input.cull_backfaces, stats,
-                        [&](const ScreenTriangle& t) {
-                          ++stats.rasterized;
-                          tables.add_triangle(t, stats);
-                        });
+    tables.add_faces(input.mesh, input.mvp, vp, screen, begin, end, input.cull_backfaces, stats);
   };
   const PolygonView& polys = input.polygons;
   if (polys.n_polygons == 0) {

@@ -74,6 +74,9 @@ struct DepthPlane16 {
   DepthPlane16(float z0_, float a1_, float a2_, float lo_, float hi_)
       : z0(_mm512_set1_ps(z0_)), a1(_mm512_set1_ps(a1_)), a2(_mm512_set1_ps(a2_)),
         lo(_mm512_set1_ps(lo_)), hi(_mm512_set1_ps(hi_)) {}
+  // A different triangle's plane in each lane.
+  DepthPlane16(__m512 z0_, __m512 a1_, __m512 a2_, __m512 lo_, __m512 hi_)
+      : z0(z0_), a1(a1_), a2(a2_), lo(lo_), hi(hi_) {}
 };
 
 // The depth formula: z0 + (float(w1) * a1 + float(w2) * a2), clamped, for
@@ -113,6 +116,23 @@ ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* 
   const __mmask16 win = wins16(inside, z, id, d, ids);
   _mm512_mask_storeu_ps(d_ptr, win, z);
   _mm512_mask_storeu_epi32(id_ptr, win, id);
+  return win;
+}
+
+// The depth write for 16 pixels anywhere in one row buffer: lane k at
+// column x[k]. The lanes of `inside` must name distinct columns (a gather
+// reads all lanes before the scatter writes any: two lanes at one pixel
+// would both compare against its old depth). The stored ids are gathered
+// only where the depths tie (rarely): wins16 reads no other lane of them.
+ZBUFFER_INLINE __mmask16 write16_at(__mmask16 inside, __m512 z, __m512i id, __m512i x,
+                                    float* depth_row, int32_t* id_row) {
+  const __m512 d = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), inside, x, depth_row, 4);
+  const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ);
+  const __m512i ids = tie ? _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), tie, x, id_row, 4)
+                          : _mm512_setzero_si512();
+  const __mmask16 win = wins16(inside, z, id, d, ids);
+  _mm512_mask_i32scatter_ps(depth_row, win, x, z, 4);
+  _mm512_mask_i32scatter_epi32(id_row, win, x, id, 4);
   return win;
 }
 

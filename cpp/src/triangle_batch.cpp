@@ -11,6 +11,7 @@
 #include <cstring>
 #include <limits>
 
+#include "setup16.h"
 #include "simd.h"
 
 namespace zbuffer {
@@ -456,184 +457,24 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
   }
 }
 
-namespace {
-
-// Lane permutations that split 48 interleaved face indices (i0 i1 i2 i0 ...)
-// held in three vectors a, b, c into the 16 first, second and third indices.
-struct Deinterleave {
-  alignas(64) int32_t ab[3][16];  // from a (0..15) and b (16..31)
-  alignas(64) int32_t tc[3][16];  // from that (0..15) and c (16..31)
-  constexpr Deinterleave() : ab{}, tc{} {
-    for (int k = 0; k < 3; ++k)
-      for (int lane = 0; lane < 16; ++lane) {
-        const int global = 3 * lane + k;  // position in the 48 indices
-        ab[k][lane] = global < 32 ? global : 0;
-        tc[k][lane] = global < 32 ? lane : 16 + (global - 32);
-      }
-  }
-};
-constexpr Deinterleave kDeinterleave;
-
-inline __m512i load_i32(const int32_t* p) { return _mm512_load_si512(p); }
-
-// The 16 int64 products a * b of the sign-extended int32 lanes, as two halves.
-inline void mul_wide(__m512i a, __m512i b, __m512i& lo, __m512i& hi) {
-  lo = _mm512_mul_epi32(_mm512_cvtepi32_epi64(_mm512_castsi512_si256(a)),
-                        _mm512_cvtepi32_epi64(_mm512_castsi512_si256(b)));
-  hi = _mm512_mul_epi32(_mm512_cvtepi32_epi64(_mm512_extracti64x4_epi64(a, 1)),
-                        _mm512_cvtepi32_epi64(_mm512_extracti64x4_epi64(b, 1)));
-}
-
-inline __m512 join(__m256 lo, __m256 hi) {
-  return _mm512_insertf32x8(_mm512_castps256_ps512(lo), hi, 1);
-}
-
-}  // namespace
-
 void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                                  const ScreenVertices& sv, int64_t first, bool cull_backfaces,
                                  int count) {
+  static_assert(kSmallFx == simd::kSmallFx && kNarrowFx == simd::kNarrowFx,
+                "the scalar and vector paths sort faces into the same groups");
   if (n_small_ + kSlack > capacity_ || large_.size() + 16 > size_t(capacity_)) flush();
 
-  // Gather the three vertices of `count` faces; lanes past them load index 0
-  // (a valid vertex) and are masked off below.
-  const __mmask16 live = __mmask16((1u << count) - 1);
-  const int ints = 3 * count;
-  auto first_lanes = [](int n) { return __mmask16(n >= 16 ? 0xFFFF : n <= 0 ? 0 : (1u << n) - 1); };
-  const int32_t* fp = mesh.faces + 3 * first;
-  const __m512i a = _mm512_maskz_loadu_epi32(first_lanes(ints), fp),
-                b = _mm512_maskz_loadu_epi32(first_lanes(ints - 16), fp + 16),
-                c = _mm512_maskz_loadu_epi32(first_lanes(ints - 32), fp + 32);
-  __m512i idx[3], x[3], y[3];
-  __m512d z_lo[3], z_hi[3];
-  __m512i oc[3];
-  for (int k = 0; k < 3; ++k) {
-    idx[k] = _mm512_permutex2var_epi32(
-        _mm512_permutex2var_epi32(a, load_i32(kDeinterleave.ab[k]), b),
-        load_i32(kDeinterleave.tc[k]), c);
-    x[k] = _mm512_i32gather_epi32(idx[k], sv.x_fx.data(), 4);
-    y[k] = _mm512_i32gather_epi32(idx[k], sv.y_fx.data(), 4);
-    oc[k] = _mm512_i32gather_epi32(idx[k], sv.outcode.data(), 4);
-    z_lo[k] = _mm512_i32gather_pd(_mm512_castsi512_si256(idx[k]), sv.z.data(), 8);
-    z_hi[k] = _mm512_i32gather_pd(_mm512_extracti64x4_epi64(idx[k], 1), sv.z.data(), 8);
-  }
-
-  // Culling and clipping decisions, as assemble_triangle makes them.
-  const __m512i any_out = _mm512_ternarylogic_epi32(oc[0], oc[1], oc[2], 0xFE);  // a | b | c
-  const __m512i all_out = _mm512_ternarylogic_epi32(oc[0], oc[1], oc[2], 0x80);  // a & b & c
-  const __mmask16 invalid =
-      live & _mm512_test_epi32_mask(any_out, _mm512_set1_epi32(int(kOutInvalid)));
-  const __mmask16 outside =
-      live & _mm512_test_epi32_mask(all_out, _mm512_set1_epi32(int(kOutView))) & ~invalid;
-  const __mmask16 clip =
-      live & _mm512_test_epi32_mask(any_out, _mm512_set1_epi32(int(kOutClip))) & ~invalid & ~outside;
-  const __mmask16 simple = live & __mmask16(~(invalid | outside | clip));
-  stats_.culled_invalid += __builtin_popcount(invalid);
-  stats_.culled_frustum += __builtin_popcount(outside);
-
-  // Exact integer area (int64 halves): area > 0 is clockwise in NDC.
-  __m512i p_lo, p_hi, q_lo, q_hi;
-  mul_wide(_mm512_sub_epi32(x[1], x[0]), _mm512_sub_epi32(y[2], y[0]), p_lo, p_hi);
-  mul_wide(_mm512_sub_epi32(y[1], y[0]), _mm512_sub_epi32(x[2], x[0]), q_lo, q_hi);
-  const __m512i area_lo = _mm512_sub_epi64(p_lo, q_lo), area_hi = _mm512_sub_epi64(p_hi, q_hi);
-  const __m512i zero64 = _mm512_setzero_si512();
-  const __mmask16 degenerate = _mm512_kunpackb(_mm512_cmpeq_epi64_mask(area_hi, zero64),
-                                               _mm512_cmpeq_epi64_mask(area_lo, zero64));
-  const __mmask16 back = _mm512_kunpackb(_mm512_cmpgt_epi64_mask(area_hi, zero64),
-                                         _mm512_cmpgt_epi64_mask(area_lo, zero64));
-  const __mmask16 front_lo = _mm512_cmplt_epi64_mask(area_lo, zero64);
-  const __mmask16 front_hi = _mm512_cmplt_epi64_mask(area_hi, zero64);
-  const __mmask16 front = __mmask16(front_lo | (front_hi << 8));
-  const __mmask16 culled_back = cull_backfaces ? __mmask16(simple & back & ~degenerate) : 0;
-  const __mmask16 draw = simple & ~degenerate & ~culled_back;
-  stats_.culled_degenerate += __builtin_popcount(simple & degenerate);
-  stats_.culled_backface += __builtin_popcount(culled_back);
-  stats_.rasterized += __builtin_popcount(draw);
-
-  // Front faces swap vertices 1 and 2 so that area > 0.
-  {
-    const __m512i x1 = x[1], y1 = y[1];
-    x[1] = _mm512_mask_blend_epi32(front, x[1], x[2]);
-    x[2] = _mm512_mask_blend_epi32(front, x[2], x1);
-    y[1] = _mm512_mask_blend_epi32(front, y[1], y[2]);
-    y[2] = _mm512_mask_blend_epi32(front, y[2], y1);
-    const __m512d zl = z_lo[1], zh = z_hi[1];
-    z_lo[1] = _mm512_mask_blend_pd(__mmask8(front_lo), z_lo[1], z_lo[2]);
-    z_lo[2] = _mm512_mask_blend_pd(__mmask8(front_lo), z_lo[2], zl);
-    z_hi[1] = _mm512_mask_blend_pd(__mmask8(front_hi), z_hi[1], z_hi[2]);
-    z_hi[2] = _mm512_mask_blend_pd(__mmask8(front_hi), z_hi[2], zh);
-  }
-  const __m512i abs_lo = _mm512_abs_epi64(area_lo), abs_hi = _mm512_abs_epi64(area_hi);
-
-  // Pixel box, and which faces are small enough for the int32 groups.
-  const __m512i min_x = _mm512_min_epi32(x[0], _mm512_min_epi32(x[1], x[2]));
-  const __m512i max_x = _mm512_max_epi32(x[0], _mm512_max_epi32(x[1], x[2]));
-  const __m512i min_y = _mm512_min_epi32(y[0], _mm512_min_epi32(y[1], y[2]));
-  const __m512i max_y = _mm512_max_epi32(y[0], _mm512_max_epi32(y[1], y[2]));
-  const __m512i half = _mm512_set1_epi32(kHalfPixel);
-  const __m512i round_up = _mm512_set1_epi32(kHalfPixel - (kSubpixelScale - 1));
-  const __m512i zero = _mm512_setzero_si512();
-  const __m512i i0 =
-      _mm512_max_epi32(_mm512_srai_epi32(_mm512_sub_epi32(min_x, round_up), kSubpixelBits), zero);
-  const __m512i i1 = _mm512_min_epi32(_mm512_srai_epi32(_mm512_sub_epi32(max_x, half), kSubpixelBits),
-                                      _mm512_set1_epi32(target_.width - 1));
-  const __m512i j0 =
-      _mm512_max_epi32(_mm512_srai_epi32(_mm512_sub_epi32(min_y, round_up), kSubpixelBits), zero);
-  const __m512i j1 = _mm512_min_epi32(_mm512_srai_epi32(_mm512_sub_epi32(max_y, half), kSubpixelBits),
-                                      _mm512_set1_epi32(target_.height - 1));
-  const __m512i box_w = _mm512_add_epi32(_mm512_sub_epi32(i1, i0), _mm512_set1_epi32(1));
-  const __m512i box_h = _mm512_add_epi32(_mm512_sub_epi32(j1, j0), _mm512_set1_epi32(1));
-  const __mmask16 nonempty = _mm512_cmpgt_epi32_mask(box_w, zero) &
-                             _mm512_cmpgt_epi32_mask(box_h, zero);
-  // Extents compared unsigned: they are never negative, and a wrapped one
-  // could only come from coordinates the vertex stage never produces.
-  const __m512i extent_x = _mm512_sub_epi32(max_x, min_x);
-  const __mmask16 small =
-      _mm512_cmplt_epu32_mask(extent_x, _mm512_set1_epi32(kSmallFx)) &
-      _mm512_cmplt_epu32_mask(_mm512_sub_epi32(max_y, min_y), _mm512_set1_epi32(kSmallFx));
-  const __mmask16 narrow = _mm512_cmplt_epu32_mask(extent_x, _mm512_set1_epi32(kNarrowFx));
-  const __mmask16 vector_setup = draw & nonempty & small;
-  const __mmask16 scalar_setup = draw & nonempty & ~small;
+  // Assembly and pixel boxes (setup16.h)
+  simd::Faces16 f;
+  simd::assemble16(mesh, sv, first, count, cull_backfaces, stats_, f);
+  simd::Box16 box;
+  simd::box16(f, target_.width, target_.height, box);
+  const __mmask16 vector_setup = f.draw & box.nonempty & box.small;
+  const __mmask16 scalar_setup = f.draw & box.nonempty & ~box.small;
 
   if (vector_setup) {
-    // Edge functions at the centre of the box's first pixel (raster.h), exact
-    // in int32 for faces less than 16 pixels across. Edge 1 runs from vertex 2 to 0, edge 2 from 0
-    // to 1, edge 0 from 1 to 2.
-    const __m512i px = _mm512_add_epi32(_mm512_slli_epi32(i0, kSubpixelBits), half);
-    const __m512i py = _mm512_add_epi32(_mm512_slli_epi32(j0, kSubpixelBits), half);
-    auto edge = [&](int from, int to, __m512i& w, __m512i& bias, __m512i& sx, __m512i& sy) {
-      const __m512i dx = _mm512_sub_epi32(x[to], x[from]), dy = _mm512_sub_epi32(y[to], y[from]);
-      w = _mm512_sub_epi32(_mm512_mullo_epi32(dx, _mm512_sub_epi32(py, y[from])),
-                           _mm512_mullo_epi32(dy, _mm512_sub_epi32(px, x[from])));
-      // Top-left: dy < 0, or dy == 0 and dx > 0. Bias 1 for the others.
-      const __mmask16 top_left =
-          _mm512_cmplt_epi32_mask(dy, zero) |
-          (_mm512_cmpeq_epi32_mask(dy, zero) & _mm512_cmpgt_epi32_mask(dx, zero));
-      bias = _mm512_maskz_set1_epi32(__mmask16(~top_left), 1);
-      sx = _mm512_slli_epi32(_mm512_sub_epi32(zero, dy), kSubpixelBits);
-      sy = _mm512_slli_epi32(dx, kSubpixelBits);
-    };
-    __m512i w1, w2, w0_unused, bias0, bias1, bias2, sx1, sx2, sy1, sy2, sx0, sy0;
-    edge(1, 2, w0_unused, bias0, sx0, sy0);
-    edge(2, 0, w1, bias1, sx1, sy1);
-    edge(0, 1, w2, bias2, sx2, sy2);
-    const __m512i area32 = _mm512_inserti64x4(
-        _mm512_castsi256_si512(_mm512_cvtepi64_epi32(abs_lo)), _mm512_cvtepi64_epi32(abs_hi), 1);
-
-    // Depth coefficients: binary64, rounded once to binary32 (raster.h).
-    const __m512d one = _mm512_set1_pd(1.0);
-    auto coefficients = [&](__m512i area64, const __m512d* z, __m256& z0f, __m256& a1f,
-                            __m256& a2f, __m256& lo, __m256& hi) {
-      const __m512d inv_area = _mm512_div_pd(one, _mm512_cvtepi64_pd(area64));
-      a1f = _mm512_cvtpd_ps(_mm512_mul_pd(_mm512_sub_pd(z[1], z[0]), inv_area));
-      a2f = _mm512_cvtpd_ps(_mm512_mul_pd(_mm512_sub_pd(z[2], z[0]), inv_area));
-      z0f = _mm512_cvtpd_ps(z[0]);
-      lo = _mm512_cvtpd_ps(_mm512_min_pd(z[0], _mm512_min_pd(z[1], z[2])));
-      hi = _mm512_cvtpd_ps(_mm512_max_pd(z[0], _mm512_max_pd(z[1], z[2])));
-    };
-    __m256 z0l, a1l, a2l, lol, hil, z0h, a1h, a2h, loh, hih;
-    coefficients(abs_lo, z_lo, z0l, a1l, a2l, lol, hil);
-    coefficients(abs_hi, z_hi, z0h, a1h, a2h, loh, hih);
+    simd::Setup16 s;
+    simd::setup16(f, box, s);
 
     // Append the vector-set-up faces to the structure of arrays.
     const int n = n_small_;
@@ -644,32 +485,30 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     auto put_f = [&](float* dst, __m512 v) {
       _mm512_storeu_ps(dst + n, _mm512_maskz_compress_ps(m, v));
     };
-    put(x0_, i0);
-    put(y0_, j0);
-    put(box_w_, box_w);
-    put(box_h_, box_h);
-    put(w1_, w1);
-    put(w2_, w2);
-    put(area_b0_, _mm512_sub_epi32(area32, bias0));
-    put(sx1_, sx1);
-    put(sx2_, sx2);
-    put(sy1_, sy1);
-    put(sy2_, sy2);
-    put(bias1_, bias1);
-    put(bias2_, bias2);
-    put_f(z0_, join(z0l, z0h));
-    put_f(a1_, join(a1l, a1h));
-    put_f(a2_, join(a2l, a2h));
-    put_f(z_lo_, join(lol, loh));
-    put_f(z_hi_, join(hil, hih));
-    const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
-    put(id_, mesh.face_ids ? _mm512_maskz_loadu_epi32(live, mesh.face_ids + first)
-                           : _mm512_add_epi32(_mm512_set1_epi32(int32_t(first)), lane));
-    small_tested_ += _mm512_mask_reduce_add_epi32(m, _mm512_mullo_epi32(box_w, box_h));
+    put(x0_, box.i0);
+    put(y0_, box.j0);
+    put(box_w_, box.box_w);
+    put(box_h_, box.box_h);
+    put(w1_, s.w[1]);
+    put(w2_, s.w[2]);
+    put(area_b0_, _mm512_sub_epi32(s.area32, s.bias[0]));
+    put(sx1_, s.sx[1]);
+    put(sx2_, s.sx[2]);
+    put(sy1_, s.sy[1]);
+    put(sy2_, s.sy[2]);
+    put(bias1_, s.bias[1]);
+    put(bias2_, s.bias[2]);
+    put_f(z0_, s.z0);
+    put_f(a1_, s.a1);
+    put_f(a2_, s.a2);
+    put_f(z_lo_, s.lo);
+    put_f(z_hi_, s.hi);
+    put(id_, simd::ids16(mesh, first, f.live));
+    small_tested_ += _mm512_mask_reduce_add_epi32(m, _mm512_mullo_epi32(box.box_w, box.box_h));
     // Groups: narrow ones from 0, wide ones from kWideGroups, by row pairs.
     const __m512i group = _mm512_add_epi32(
-        _mm512_maskz_set1_epi32(__mmask16(~narrow), kWideGroups),
-        _mm512_srai_epi32(_mm512_sub_epi32(box_h, _mm512_set1_epi32(1)), 1));
+        _mm512_maskz_set1_epi32(__mmask16(~box.narrow), kWideGroups),
+        _mm512_srai_epi32(_mm512_sub_epi32(box.box_h, _mm512_set1_epi32(1)), 1));
     alignas(64) int32_t groups[16];
     _mm512_store_si512(groups, _mm512_maskz_compress_epi32(m, group));
     const int count = __builtin_popcount(m);
@@ -682,29 +521,16 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
 
   if (scalar_setup) {
     // Large faces: the scalar setup from the assembled triangle.
-    alignas(64) int32_t xs[3][16], ys[3][16];
-    alignas(64) double zs[3][16];
-    alignas(64) int64_t areas[16];
-    for (int k = 0; k < 3; ++k) {
-      _mm512_store_si512(xs[k], x[k]);
-      _mm512_store_si512(ys[k], y[k]);
-      _mm512_store_pd(zs[k], z_lo[k]);
-      _mm512_store_pd(zs[k] + 8, z_hi[k]);
-    }
-    _mm512_store_si512(areas, abs_lo);
-    _mm512_store_si512(areas + 8, abs_hi);
+    const simd::Lanes16 lanes(f);
     for (unsigned m = scalar_setup; m; m &= m - 1) {
       const int lane = __builtin_ctz(m);
-      ScreenTriangle t;
-      for (int k = 0; k < 3; ++k) t.v[k] = {xs[k][lane], ys[k][lane], 0u, zs[k][lane]};
-      t.area = areas[lane];
-      t.id = mesh.id(first + lane);
-      large_.push_back(setup_triangle(t, target_.width, target_.height));
+      large_.push_back(setup_triangle(lanes.triangle(lane, mesh.id(first + lane)),
+                                      target_.width, target_.height));
     }
   }
 
   // Faces that need clipping: the scalar assembly.
-  for (unsigned m = clip; m; m &= m - 1)
+  for (unsigned m = f.clip; m; m &= m - 1)
     add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces);
 }
 

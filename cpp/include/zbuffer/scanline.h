@@ -11,6 +11,13 @@
 // stepped from row to row by an integer DDA (quotient and remainder), never
 // from a float x += dx; depth comes from the shared formula of the exact
 // edge values at each pixel, never from a float z += dz/dx.
+//
+// AVX-512 builds run the same steps 16 at a time: faces assembled and set
+// up 16 per instruction (setup16.h, shared with TriangleBatch), edges
+// started, applied and stepped 16 per instruction, and a row's active
+// polygons drawn 16 at a time, a polygon per lane (draw_active). The
+// structures and their order of events are the same; tests hold these
+// paths to the scalar ones (cpp/tests/test_scanline.cpp).
 #pragma once
 
 #include <cstdint>
@@ -71,8 +78,12 @@ struct ScanEdge {
 // which is in cache then (the polygon entered on the same row or earlier).
 // Good: the table that holds every edge of the frame is small, so filling
 // and sorting it moves little memory. Bad: the division that starts the
-// DDA happens during the row walk rather than before it.
+// DDA happens during the row walk rather than before it (in AVX-512 builds
+// 16 edges at a time, in binary64: enter_edges).
 struct EdgeEntry {
+  // Left uninitialised: the vector path grows the table by resize() and
+  // fills every field (zeroing it first cost 3% of the render).
+  EdgeEntry() {}
   int32_t poly;      // index in the polygon store
   int32_t last_row;  // active through this row
   int32_t k;         // edge k of the triangle, or kKillRow
@@ -87,8 +98,12 @@ struct EdgeEntry {
 // edge value in the box fits (nearly always); the full setup, kept apart,
 // otherwise. Good: 88 bytes instead of 136, and a span needs no int64
 // arithmetic. Bad: two forms of one triangle; the int32 one is only a
-// faster evaluation of the same exact integers.
+// faster evaluation of the same exact integers. AVX-512 builds write the
+// records of faces under 16 pixels across from setup16.h's vector setup
+// (the same integers and floats as setup_triangle's, tested), all others
+// through setup_triangle.
 struct ScanPolygon {
+  ScanPolygon() {}  // uninitialised, as EdgeEntry: every field is written
   int32_t x_min, x_max, y_min, y_max;  // pixel box, inside the image
   int32_t w[3];                        // biased edge values at (x_min, y_min)
   int32_t step_x[3], step_y[3];
@@ -131,6 +146,16 @@ class ScanlineTables {
   // whose box holds no pixel centre of the image is not inserted.
   void add_triangle(const ScreenTriangle& t, RenderStats& stats);
 
+  // Assemble faces [begin, end) of the mesh (vertex_stage.h: culling,
+  // clipping, orientation) and insert the triangles that survive, counting
+  // them in stats. AVX-512 builds assemble and set up 16 faces per
+  // instruction (setup16.h); the tables end up with the same entries as
+  // through assemble_triangle and add_triangle, in another order where
+  // faces need clipping or are 16 pixels or more across.
+  void add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                 const ScreenVertices& sv, int64_t begin, int64_t end, bool cull_backfaces,
+                 RenderStats& stats);
+
   // Insert one polygon face (n >= 3 snapped vertices, none needing
   // clipping) with twice its signed area `area` (!= 0), drawn with id `id`
   // (docs/rasterization.md, "Polygons").
@@ -144,6 +169,9 @@ class ScanlineTables {
   void add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb, int32_t poly,
                 RenderStats& stats);
   void start_edge(const EdgeEntry& entry, int y, ScanEdge& e) const;
+  void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                    const ScreenVertices& sv, int64_t first, int count, bool cull_backfaces,
+                    RenderStats& stats);
   struct Counts {
     int64_t tested = 0, covered = 0, written = 0;
   };
@@ -177,7 +205,9 @@ class ScanlineTables {
   std::vector<int32_t> edge_start_;   // (height + 1) bucket offsets
   std::vector<int32_t> position_;     // scratch of the counting sorts
 
-  // Active polygon list and active edge list.
+  // Active polygon list and active edge list: all of them in the scalar
+  // build; in AVX-512 builds only the large triangles' (int64 setups), the
+  // others are in the vector lists below.
   // Design decision: plain arrays compacted in place once per row (entries
   // whose last row was the current one are dropped while the row is
   // processed, without a branch); the span of each active polygon lives in
@@ -189,6 +219,43 @@ class ScanlineTables {
   std::vector<int32_t> active_polys_;
   std::vector<ScanEdge> active_edges_;
   std::vector<int32_t> bounds_;
+
+  // The active polygon list of AVX-512 builds, for triangles in the int32
+  // form: one array per field (kActiveFields), 16 polygons per step, a
+  // polygon in each lane (active_polys_ then keeps only the large ones).
+  // Design decision: what a span needs is copied out of the store when the
+  // polygon enters, and the edge values at (x_min, y) are stepped by
+  // step_y from row to row and kept here. Good: a row's polygons are loaded
+  // by plain vector loads, drawn 16 at a time pixel by pixel (lane k at
+  // pixel lo_k + j: a span of 2 pixels fills 2 passes of 16 lanes, not 2
+  // lanes of a 16-lane pass), and compacted by compress. Bad: 88 bytes a
+  // polygon copied once, and long spans (and spans starting at one column
+  // in one group, whose pixels would collide in a scatter) are drawn by the
+  // one-span loop instead.
+  enum ActiveField {
+    kIndex, kXMin, kXMax, kYMax, kW0, kW1, kW2, kSx0, kSx1, kSx2, kSy0, kSy1, kSy2,
+    kBias1, kBias2, kZ0, kA1, kA2, kZLo, kZHi, kId, kActiveFields
+  };
+  std::vector<int32_t> active_[kActiveFields];  // floats stored by their bits
+  size_t n_active_ = 0;
+
+  // The active edge list of AVX-512 builds, for the edges of triangles in
+  // the int32 form (active_edges_ then keeps those of the large ones).
+  // Design decision: ScanEdge's fields in int32, one array per field, 16
+  // edges started, applied to their bounds (gather, max, scatter) and
+  // stepped per instruction. int32 holds the DDA of these edges: div =
+  // |step_x| < 2^30, so r + dr < 2^31. Good: 28 bytes an edge instead of
+  // 40, no branch, and the two divisions that start a DDA done 16 lanes at
+  // a time. Bad: two edges of one polygon tightening one bound in the same
+  // group of 16 (a vertex exactly on a row of centres) need a scalar pass
+  // for that group, found by a conflict test on every group.
+  enum EdgeField { kER, kEDiv, kEDr, kEQ, kEDq, kESlot, kELast, kEdgeFields };
+  std::vector<int32_t> aedge_[kEdgeFields];
+  size_t n_aedges_ = 0;
+  void enter_edges(int y, int32_t begin, int32_t end);
+  void step_edges(int y);
+  void enter_polygons(int32_t begin, int32_t end);
+  void draw_active(int y, Counts& counts, int64_t& spans, int& touched_lo, int& touched_hi);
 
   // General polygons: their store, sorted table and edge table (full DDA
   // entries: polygon meshes are small), the active lists, and the sorted
