@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "check.h"
+#include "frame.h"
 #include "zbuffer/raster.h"
 #include "zbuffer/triangle_batch.h"
 
@@ -14,17 +15,6 @@ using namespace zbuffer;
 
 namespace {
 
-struct Frame {
-  int w, h;
-  std::vector<float> depth;
-  std::vector<int32_t> ids;
-  DepthTarget target;
-  Frame(int w_, int h_)
-      : w(w_), h(h_), depth(size_t(w_) * h_, std::numeric_limits<float>::infinity()),
-        ids(size_t(w_) * h_, -1) {
-    target = {depth.data(), ids.data(), w, h};
-  }
-};
 
 ScreenVertex sv(int32_t x_fx, int32_t y_fx, double z) { return {x_fx, y_fx, 0u, z}; }
 
@@ -40,12 +30,6 @@ ScreenTriangle random_triangle(Lcg& next, int64_t cx, int64_t cy, int64_t r, int
   return tri;
 }
 
-bool same_pixels(const Frame& a, const Frame& b) {
-  bool same = true;
-  for (size_t p = 0; p < a.depth.size(); ++p)
-    same &= a.ids[p] == b.ids[p] && std::memcmp(&a.depth[p], &b.depth[p], sizeof(float)) == 0;
-  return same;
-}
 
 // Hand a triangle through the same assembly the algorithms use.
 void draw(Frame& fr, ScreenVertex a, ScreenVertex b, ScreenVertex c, int32_t id,

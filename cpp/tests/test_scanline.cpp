@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "check.h"
+#include "frame.h"
 #include "zbuffer/raster.h"
 #include "zbuffer/scanline.h"
 
@@ -14,24 +15,7 @@ using namespace zbuffer;
 
 namespace {
 
-struct Frame {
-  int w, h;
-  std::vector<float> depth;
-  std::vector<int32_t> ids;
-  DepthTarget target;
-  Frame(int w_, int h_)
-      : w(w_), h(h_), depth(size_t(w_) * h_, std::numeric_limits<float>::infinity()),
-        ids(size_t(w_) * h_, -1) {
-    target = {depth.data(), ids.data(), w, h};
-  }
-};
 
-bool same_pixels(const Frame& a, const Frame& b) {
-  bool same = true;
-  for (size_t p = 0; p < a.depth.size(); ++p)
-    same &= a.ids[p] == b.ids[p] && std::memcmp(&a.depth[p], &b.depth[p], sizeof(float)) == 0;
-  return same;
-}
 
 // A mesh of mostly small triangles, some large, some degenerate, some
 // behind the near plane (clipped); with `grid`, vertices on pixel centres
