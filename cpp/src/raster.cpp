@@ -72,6 +72,25 @@ void rasterize_span_scalar(const TriangleSetup& s, int y, int x0, int x1, float*
 
 namespace {
 
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+// True if every edge value over the rectangle, and every step the int32
+// loop takes, fits in int32 with room to spare. Edge functions are affine,
+// so their extremes over the rectangle are at its corners.
+ZBUFFER_INLINE bool fits_int32(const TriangleSetup& s, const int64_t row[3], int width, int height) {
+  constexpr int64_t kLimit = int64_t(1) << 30;
+  for (int k = 0; k < 3; ++k) {
+    const int64_t dx = int64_t(width - 1) * s.step_x[k], dy = int64_t(height - 1) * s.step_y[k];
+    const int64_t corners[4] = {row[k], row[k] + dx, row[k] + dy, row[k] + dx + dy};
+    for (int64_t c : corners)
+      if (c >= kLimit || c <= -kLimit) return false;
+    if (s.step_x[k] >= kLimit / 16 || s.step_x[k] <= -kLimit / 16) return false;
+    if (s.step_y[k] >= kLimit / 2 || s.step_y[k] <= -kLimit / 2) return false;
+  }
+  return true;
+}
+
+#endif
+
 #ifdef ZBUFFER_AVX512
 
 // The Vector Loops
@@ -230,22 +249,6 @@ ZBUFFER_INLINE void rasterize_rect_i64(const TriangleSetup& s, int x0, int y0, i
   stats.pixels_written += written;
 }
 
-// True if every edge value over the rectangle, and every step the int32
-// loop takes, fits in int32 with room to spare. Edge functions are affine,
-// so their extremes over the rectangle are at its corners.
-ZBUFFER_INLINE bool fits_int32(const TriangleSetup& s, const int64_t row[3], int width, int height) {
-  constexpr int64_t kLimit = int64_t(1) << 30;
-  for (int k = 0; k < 3; ++k) {
-    const int64_t dx = int64_t(width - 1) * s.step_x[k], dy = int64_t(height - 1) * s.step_y[k];
-    const int64_t corners[4] = {row[k], row[k] + dx, row[k] + dy, row[k] + dx + dy};
-    for (int64_t c : corners)
-      if (c >= kLimit || c <= -kLimit) return false;
-    if (s.step_x[k] >= kLimit / 16 || s.step_x[k] <= -kLimit / 16) return false;
-    if (s.step_y[k] >= kLimit / 2 || s.step_y[k] <= -kLimit / 2) return false;
-  }
-  return true;
-}
-
 ZBUFFER_INLINE void rasterize_rect_avx512(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                            DepthTarget& target, RenderStats& stats) {
   int64_t row[3];
@@ -306,12 +309,107 @@ ZBUFFER_INLINE void rasterize_span_avx512(const TriangleSetup& s, int y, int x0,
 }
 #endif
 
+#ifdef ZBUFFER_AVX2
+
+// The AVX2 loop: the same operations as the scalar loop, 8 pixels per
+// instruction with int32 edge values (triangles whose values do not fit take
+// the scalar loop). A box at most 4 pixels wide is walked two rows at a time
+// (lanes 0-3 row y, lanes 4-7 row y + 1), a wider one 8 pixels of a row at
+// a time. Loads and stores of 8 (or twice 4) pixels that lie inside the
+// image are whole (simd::write8); at the image's end they are masked.
+ZBUFFER_INLINE void rasterize_rect_avx2_i32(const TriangleSetup& s, int x0, int y0, int x1, int y1,
+                                            const int64_t row0[3], DepthTarget& target,
+                                            RenderStats& stats) {
+  const int width = x1 - x0 + 1;
+  const bool pairs = width <= 4;
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i col = pairs ? _mm256_and_si256(lane, _mm256_set1_epi32(3)) : lane;
+  const __m256i rowsel = pairs ? _mm256_srli_epi32(lane, 2) : _mm256_setzero_si256();
+  __m256i lane_w[3];
+  // Stepped with unsigned (wrapping) arithmetic, as in the AVX-512 loop:
+  // the lanes that leave the int32 range are masked off.
+  uint32_t row[3];
+  for (int k = 0; k < 3; ++k) {
+    lane_w[k] = _mm256_add_epi32(_mm256_mullo_epi32(col, _mm256_set1_epi32(int32_t(s.step_x[k]))),
+                                 _mm256_mullo_epi32(rowsel, _mm256_set1_epi32(int32_t(s.step_y[k]))));
+    row[k] = uint32_t(int32_t(row0[k]));
+  }
+  const __m256i bias1 = _mm256_set1_epi32(int32_t(s.bias[1]));
+  const __m256i bias2 = _mm256_set1_epi32(int32_t(s.bias[2]));
+  const simd::DepthPlane8 plane(s.z0, s.a1, s.a2, s.z_lo, s.z_hi);
+  const __m256i id = _mm256_set1_epi32(s.id);
+  const size_t pitch = size_t(target.width);
+  const size_t pixels = pitch * size_t(target.height);
+  int64_t covered = 0, written = 0;
+  auto edges = [&](int k) { return _mm256_add_epi32(_mm256_set1_epi32(int32_t(row[k])), lane_w[k]); };
+
+  if (pairs) {
+    const __m256i in_row = _mm256_cmpgt_epi32(_mm256_set1_epi32(width), col);
+    const __m256i first_row = _mm256_cmpgt_epi32(_mm256_set1_epi32(4), lane);
+    for (int y = y0; y <= y1; y += 2) {
+      const bool second = y + 1 <= y1;
+      const __m256i in_rect = second ? in_row : _mm256_and_si256(in_row, first_row);
+      const __m256i w0 = edges(0), w1 = edges(1), w2 = edges(2);
+      const __m256i inside = simd::covered8x32(in_rect, w0, w1, w2);
+      const __m256 z = simd::depth8x32(plane, _mm256_add_epi32(w1, bias1), _mm256_add_epi32(w2, bias2));
+      const size_t p0 = size_t(y) * pitch + size_t(x0), p1 = second ? p0 + pitch : p0;
+      const __m256i win = simd::write8_rows(inside, z, id, target.depth + p0, target.depth + p1,
+                                            target.triangle_id + p0, target.triangle_id + p1,
+                                            second, p1 + 4 <= pixels);
+      covered += simd::lanes8(inside);
+      written += simd::lanes8(win);
+      for (int k = 0; k < 3; ++k) row[k] += uint32_t(int32_t(2 * s.step_y[k]));
+    }
+  } else {
+    __m256i step8[3];
+    for (int k = 0; k < 3; ++k) step8[k] = _mm256_set1_epi32(int32_t(8 * s.step_x[k]));
+    for (int y = y0; y <= y1; ++y) {
+      __m256i w0 = edges(0), w1 = edges(1), w2 = edges(2);
+      const size_t p = size_t(y) * pitch + size_t(x0);
+      for (int x = 0; x < width; x += 8) {
+        const __m256i in_rect = _mm256_cmpgt_epi32(_mm256_set1_epi32(width - x), lane);
+        const __m256i inside = simd::covered8x32(in_rect, w0, w1, w2);
+        if (!_mm256_testz_si256(inside, inside)) {  // wide boxes have empty chunks
+          const __m256 z = simd::depth8x32(plane, _mm256_add_epi32(w1, bias1),
+                                           _mm256_add_epi32(w2, bias2));
+          const __m256i win = simd::write8(inside, z, id, target.depth + p + x,
+                                           target.triangle_id + p + x, p + x + 8 <= pixels);
+          covered += simd::lanes8(inside);
+          written += simd::lanes8(win);
+        }
+        w0 = _mm256_add_epi32(w0, step8[0]);
+        w1 = _mm256_add_epi32(w1, step8[1]);
+        w2 = _mm256_add_epi32(w2, step8[2]);
+      }
+      for (int k = 0; k < 3; ++k) row[k] += uint32_t(int32_t(s.step_y[k]));
+    }
+  }
+  stats.pixels_covered += covered;
+  stats.pixels_written += written;
+}
+
+ZBUFFER_INLINE void rasterize_rect_avx2(const TriangleSetup& s, int x0, int y0, int x1, int y1,
+                                        DepthTarget& target, RenderStats& stats) {
+  int64_t row[3];
+  rect_origin(s, x0, y0, row);
+  const int width = x1 - x0 + 1, height = y1 - y0 + 1;
+  if (fits_int32(s, row, width, height)) {
+    rasterize_rect_avx2_i32(s, x0, y0, x1, y1, row, target, stats);
+    stats.pixels_tested += int64_t(width) * height;
+  } else {
+    rasterize_rect_scalar(s, x0, y0, x1, y1, target, stats);
+  }
+}
+#endif
+
 }  // namespace
 
 
 const char* raster_backend() {
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512)
   return "avx512";
+#elif defined(ZBUFFER_AVX2)
+  return "avx2";
 #else
   return "scalar";
 #endif
@@ -319,8 +417,10 @@ const char* raster_backend() {
 
 void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                     DepthTarget& target, RenderStats& stats) {
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512)
   rasterize_rect_avx512(s, x0, y0, x1, y1, target, stats);
+#elif defined(ZBUFFER_AVX2)
+  rasterize_rect_avx2(s, x0, y0, x1, y1, target, stats);
 #else
   rasterize_rect_scalar(s, x0, y0, x1, y1, target, stats);
 #endif

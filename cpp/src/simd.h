@@ -3,7 +3,10 @@
 // vector loop shares.
 //
 // A build with AVX-512 F/DQ/VL/BW (e.g. -march=native on a recent x86) gets
-// the vector loops; any other build gets the scalar ones. Both perform the
+// the vector loops; a build with AVX2 but not AVX-512 (most AMD processors
+// before Zen 4, Intel's client cores) gets the AVX2 rectangle loop
+// (raster.cpp) and scalar code elsewhere; any other build gets the scalar
+// loops. Both perform the
 // same IEEE operations per pixel and per vertex, so they produce the same
 // bits; tests hold the vector loops to the scalar ones.
 #pragma once
@@ -17,6 +20,9 @@
 #endif
 #include <immintrin.h>
 #define ZBUFFER_AVX512 1
+#elif defined(__AVX2__)
+#include <immintrin.h>
+#define ZBUFFER_AVX2 1
 #endif
 
 #if defined(__GNUC__)
@@ -174,6 +180,106 @@ ZBUFFER_INLINE __mmask16 write16_rows(__mmask16 inside, __m512 z, __m512i id, fl
   _mm256_mask_storeu_ps(d1, __mmask8(win >> 8), _mm512_extractf32x8_ps(z, 1));
   _mm256_mask_storeu_epi32(i0, __mmask8(win), id8);
   _mm256_mask_storeu_epi32(i1, __mmask8(win >> 8), id8);
+  return win;
+}
+#endif
+
+#ifdef ZBUFFER_AVX2
+// The raster core in AVX2 form, 8 pixels at a time. AVX2 has no mask
+// registers: a lane mask is a vector of int32 lanes that are all ones (in)
+// or all zeros (out).
+
+// Coverage: the lanes of `lanes` whose three biased edge values are all >= 0.
+ZBUFFER_INLINE __m256i covered8x32(__m256i lanes, __m256i w0b, __m256i w1b, __m256i w2b) {
+  const __m256i any = _mm256_or_si256(_mm256_or_si256(w0b, w1b), w2b);
+  return _mm256_andnot_si256(_mm256_srai_epi32(any, 31), lanes);  // sign clear, and in lanes
+}
+
+// One triangle's depth plane in every lane.
+struct DepthPlane8 {
+  __m256 z0, a1, a2, lo, hi;
+  DepthPlane8(float z0_, float a1_, float a2_, float lo_, float hi_)
+      : z0(_mm256_set1_ps(z0_)), a1(_mm256_set1_ps(a1_)), a2(_mm256_set1_ps(a2_)),
+        lo(_mm256_set1_ps(lo_)), hi(_mm256_set1_ps(hi_)) {}
+};
+
+// The depth formula: z0 + (float(w1) * a1 + float(w2) * a2), clamped, for
+// exact unbiased int32 edge values w1, w2 (no fused multiply-add).
+ZBUFFER_INLINE __m256 depth8x32(const DepthPlane8& p, __m256i w1, __m256i w2) {
+  const __m256 z = _mm256_add_ps(p.z0, _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(w1), p.a1),
+                                                     _mm256_mul_ps(_mm256_cvtepi32_ps(w2), p.a2)));
+  return _mm256_min_ps(_mm256_max_ps(z, p.lo), p.hi);  // clamp (no NaN, no -0 here)
+}
+
+// The depth write's decision: of the lanes `inside`, those nearer than the
+// stored depth, or equal to it with a smaller id.
+ZBUFFER_INLINE __m256i wins8(__m256i inside, __m256 z, __m256i id, __m256 old_depth,
+                             __m256i old_ids) {
+  const __m256i nearer = _mm256_castps_si256(_mm256_cmp_ps(z, old_depth, _CMP_LT_OQ));
+  const __m256i tie = _mm256_castps_si256(_mm256_cmp_ps(z, old_depth, _CMP_EQ_OQ));
+  const __m256i smaller = _mm256_cmpgt_epi32(old_ids, id);
+  return _mm256_and_si256(inside, _mm256_or_si256(nearer, _mm256_and_si256(tie, smaller)));
+}
+
+ZBUFFER_INLINE int lanes8(__m256i mask) {
+  return __builtin_popcount(unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(mask))));
+}
+
+// The depth write for 8 pixels of one row at (d_ptr, id_ptr). With `whole`,
+// all 8 pixels lie inside the buffer: they are loaded and stored whole (the
+// lanes that do not win store back what they loaded), which is much faster
+// than AVX2's masked stores on some processors; otherwise only the lanes in
+// `inside` are touched.
+ZBUFFER_INLINE __m256i write8(__m256i inside, __m256 z, __m256i id, float* d_ptr,
+                              int32_t* id_ptr, bool whole) {
+  if (whole) {
+    const __m256 d = _mm256_loadu_ps(d_ptr);
+    const __m256i ids = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(id_ptr));
+    const __m256i win = wins8(inside, z, id, d, ids);
+    if (!_mm256_testz_si256(win, win)) {
+      _mm256_storeu_ps(d_ptr, _mm256_blendv_ps(d, z, _mm256_castsi256_ps(win)));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(id_ptr), _mm256_blendv_epi8(ids, id, win));
+    }
+    return win;
+  }
+  const __m256 d = _mm256_maskload_ps(d_ptr, inside);
+  const __m256i ids = _mm256_maskload_epi32(id_ptr, inside);
+  const __m256i win = wins8(inside, z, id, d, ids);
+  _mm256_maskstore_ps(d_ptr, win, z);
+  _mm256_maskstore_epi32(id_ptr, win, id);
+  return win;
+}
+
+// The depth write for two rows of 4 pixels: lanes 0-3 at (d0, i0), lanes
+// 4-7 at (d1, i1); `whole` as for write8 (4 pixels of each row inside the
+// buffer). Without `second`, lanes 4-7 are off and their row is not touched.
+ZBUFFER_INLINE __m256i write8_rows(__m256i inside, __m256 z, __m256i id, float* d0, float* d1,
+                                   int32_t* i0, int32_t* i1, bool second, bool whole) {
+  if (whole) {
+    const __m256 d = _mm256_set_m128(second ? _mm_loadu_ps(d1) : _mm_setzero_ps(), _mm_loadu_ps(d0));
+    const __m256i ids = _mm256_set_m128i(
+        second ? _mm_loadu_si128(reinterpret_cast<const __m128i*>(i1)) : _mm_setzero_si128(),
+        _mm_loadu_si128(reinterpret_cast<const __m128i*>(i0)));
+    const __m256i win = wins8(inside, z, id, d, ids);
+    const __m256 new_d = _mm256_blendv_ps(d, z, _mm256_castsi256_ps(win));
+    const __m256i new_ids = _mm256_blendv_epi8(ids, id, win);
+    _mm_storeu_ps(d0, _mm256_castps256_ps128(new_d));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(i0), _mm256_castsi256_si128(new_ids));
+    if (second) {
+      _mm_storeu_ps(d1, _mm256_extractf128_ps(new_d, 1));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(i1), _mm256_extracti128_si256(new_ids, 1));
+    }
+    return win;
+  }
+  const __m128i in0 = _mm256_castsi256_si128(inside), in1 = _mm256_extracti128_si256(inside, 1);
+  const __m256 d = _mm256_set_m128(_mm_maskload_ps(d1, in1), _mm_maskload_ps(d0, in0));
+  const __m256i ids = _mm256_set_m128i(_mm_maskload_epi32(i1, in1), _mm_maskload_epi32(i0, in0));
+  const __m256i win = wins8(inside, z, id, d, ids);
+  const __m128i win0 = _mm256_castsi256_si128(win), win1 = _mm256_extracti128_si256(win, 1);
+  _mm_maskstore_ps(d0, win0, _mm256_castps256_ps128(z));
+  _mm_maskstore_ps(d1, win1, _mm256_extractf128_ps(z, 1));
+  _mm_maskstore_epi32(i0, win0, _mm256_castsi256_si128(id));
+  _mm_maskstore_epi32(i1, win1, _mm256_castsi256_si128(id));
   return win;
 }
 #endif

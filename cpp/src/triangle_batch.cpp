@@ -73,7 +73,7 @@ void TriangleBatch::add(const ScreenTriangle& t) {
     lo_y = std::min<int64_t>(lo_y, t.v[k].y_fx);
     hi_y = std::max<int64_t>(hi_y, t.v[k].y_fx);
   }
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
   if (hi_x - lo_x < kSmallFx && hi_y - lo_y < kSmallFx) {
     add_small(group_of(hi_x - lo_x < kNarrowFx, bh), s);
     return;
@@ -142,7 +142,7 @@ void TriangleBatch::flush() {
   const int64_t culled_before = stats_.culled_hidden;
   if (pyramid_) cull_hidden();
   int64_t covered = 0, written = 0;
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
   draw_narrow<1>(0, covered, written);
   draw_narrow<2>(1, covered, written);
   draw_narrow<3>(2, covered, written);
@@ -534,12 +534,136 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces);
 }
 
-#else  // no AVX-512: the scalar entry points above do everything
+#else  // no AVX-512: faces are set up one at a time (the scalar entry points)
+
+#ifdef ZBUFFER_AVX2
+
+// The groups drawn 8 pixels per instruction. Narrow boxes (at most 8
+// pixels wide): at most 4 pixels wide, kPasses passes of two rows of 4
+// (lanes 0-3 row r, lanes 4-7 row r + 1); wider, 2 * kPasses passes of one
+// row. Rows past the box are masked off and point at a spare row, as in the
+// AVX-512 loops; whole-vector loads and stores (simd::write8) except at the
+// end of the image.
+template <int kPasses>
+void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i col4 = _mm256_and_si256(lane, _mm256_set1_epi32(3));
+  const __m256i row4 = _mm256_srli_epi32(lane, 2);
+  const __m256i low_half = _mm256_cmpgt_epi32(_mm256_set1_epi32(4), lane);
+  const size_t pitch = size_t(target_.width), pixels = pitch * size_t(target_.height);
+  for (int n = 0; n < group_size_[group]; ++n) {
+    const int i = group_[group][n];
+    const __m256i area_b0 = _mm256_set1_epi32(area_b0_[i]);
+    const __m256i bias1 = _mm256_set1_epi32(bias1_[i]), bias2 = _mm256_set1_epi32(bias2_[i]);
+    const simd::DepthPlane8 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
+    const __m256i id = _mm256_set1_epi32(id_[i]);
+    const __m256i sx1 = _mm256_set1_epi32(sx1_[i]), sx2 = _mm256_set1_epi32(sx2_[i]);
+    const __m256i sy1 = _mm256_set1_epi32(sy1_[i]), sy2 = _mm256_set1_epi32(sy2_[i]);
+    const int rows = box_h_[i];
+    const size_t first = size_t(x0_[i]) + size_t(y0_[i]) * pitch;
+    // Coverage and depth of one pass, its depth write, and the step.
+    auto pass = [&](__m256i in_box, __m256i& w1, __m256i& w2, float* d0, float* d1, int32_t* i0,
+                    int32_t* i1, bool whole, __m256i step1, __m256i step2) {
+      const __m256i w0b = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1), w2);
+      const __m256i inside = simd::covered8x32(in_box, w0b, _mm256_sub_epi32(w1, bias1),
+                                               _mm256_sub_epi32(w2, bias2));
+      const __m256 z = simd::depth8x32(plane, w1, w2);
+      const __m256i win = simd::write8_rows(inside, z, id, d0, d1, i0, i1, true, whole);
+      covered += simd::lanes8(inside);
+      written += simd::lanes8(win);
+      w1 = _mm256_add_epi32(w1, step1);
+      w2 = _mm256_add_epi32(w2, step2);
+    };
+    if (box_w_[i] <= 4) {
+      __m256i w1 = _mm256_add_epi32(
+          _mm256_set1_epi32(w1_[i]),
+          _mm256_add_epi32(_mm256_mullo_epi32(col4, sx1), _mm256_mullo_epi32(row4, sy1)));
+      __m256i w2 = _mm256_add_epi32(
+          _mm256_set1_epi32(w2_[i]),
+          _mm256_add_epi32(_mm256_mullo_epi32(col4, sx2), _mm256_mullo_epi32(row4, sy2)));
+      const __m256i in_row = _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), col4);
+      const __m256i step1 = _mm256_add_epi32(sy1, sy1), step2 = _mm256_add_epi32(sy2, sy2);
+      for (int r = 0; r < 2 * kPasses; r += 2) {
+        const bool top = r < rows, bottom = r + 1 < rows;
+        const __m256i in_box = _mm256_and_si256(
+            in_row, top ? (bottom ? _mm256_set1_epi32(-1) : low_half)
+                        : (bottom ? _mm256_andnot_si256(low_half, _mm256_set1_epi32(-1))
+                                  : _mm256_setzero_si256()));
+        const size_t p0 = first + size_t(r) * pitch, p1 = p0 + pitch;
+        pass(in_box, w1, w2, top ? target_.depth + p0 : spare_depth_[(n + r) % kSpareRows],
+             bottom ? target_.depth + p1 : spare_depth_[(n + r + 1) % kSpareRows],
+             top ? target_.triangle_id + p0 : spare_ids_[(n + r) % kSpareRows],
+             bottom ? target_.triangle_id + p1 : spare_ids_[(n + r + 1) % kSpareRows],
+             (!top || p0 + 4 <= pixels) && (!bottom || p1 + 4 <= pixels), step1, step2);
+      }
+    } else {
+      __m256i w1 = _mm256_add_epi32(_mm256_set1_epi32(w1_[i]), _mm256_mullo_epi32(lane, sx1));
+      __m256i w2 = _mm256_add_epi32(_mm256_set1_epi32(w2_[i]), _mm256_mullo_epi32(lane, sx2));
+      const __m256i in_row = _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), lane);
+      for (int r = 0; r < 2 * kPasses; ++r) {
+        const bool real = r < rows;
+        const size_t p = first + size_t(r) * pitch;
+        float* const d = real ? target_.depth + p : spare_depth_[(n + r) % kSpareRows];
+        int32_t* const ids = real ? target_.triangle_id + p : spare_ids_[(n + r) % kSpareRows];
+        pass(real ? in_row : _mm256_setzero_si256(), w1, w2, d, d + 4, ids, ids + 4,
+             !real || p + 8 <= pixels, sy1, sy2);
+      }
+    }
+  }
+}
+
+// Wide boxes (9 to 16 pixels wide): kRows passes of a row as two halves.
+template <int kRows>
+void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
+  const __m256i col = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const size_t pitch = size_t(target_.width), pixels = pitch * size_t(target_.height);
+  for (int n = 0; n < group_size_[group]; ++n) {
+    const int i = group_[group][n];
+    const __m256i sx1 = _mm256_set1_epi32(sx1_[i]), sx2 = _mm256_set1_epi32(sx2_[i]);
+    __m256i w1[2], w2[2];
+    w1[0] = _mm256_add_epi32(_mm256_set1_epi32(w1_[i]), _mm256_mullo_epi32(col, sx1));
+    w2[0] = _mm256_add_epi32(_mm256_set1_epi32(w2_[i]), _mm256_mullo_epi32(col, sx2));
+    w1[1] = _mm256_add_epi32(w1[0], _mm256_slli_epi32(sx1, 3));  // 8 pixels on
+    w2[1] = _mm256_add_epi32(w2[0], _mm256_slli_epi32(sx2, 3));
+    const __m256i area_b0 = _mm256_set1_epi32(area_b0_[i]);
+    const __m256i step1 = _mm256_set1_epi32(sy1_[i]), step2 = _mm256_set1_epi32(sy2_[i]);
+    const __m256i bias1 = _mm256_set1_epi32(bias1_[i]), bias2 = _mm256_set1_epi32(bias2_[i]);
+    const simd::DepthPlane8 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
+    const __m256i id = _mm256_set1_epi32(id_[i]);
+    const __m256i in_row[2] = {_mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), col),
+                               _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i] - 8), col)};
+    const int rows = box_h_[i];
+    const size_t first = size_t(x0_[i]) + size_t(y0_[i]) * pitch;
+    for (int r = 0; r < kRows; ++r) {
+      const bool real = r < rows;
+      const size_t p = first + size_t(r) * pitch;
+      float* const d = real ? target_.depth + p : spare_depth_[(n + r) % kSpareRows];
+      int32_t* const ids = real ? target_.triangle_id + p : spare_ids_[(n + r) % kSpareRows];
+      const bool whole = !real || p + 16 <= pixels;
+      for (int half = 0; half < 2; ++half) {
+        const __m256i w0b = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1[half]), w2[half]);
+        const __m256i inside = simd::covered8x32(real ? in_row[half] : _mm256_setzero_si256(), w0b,
+                                                 _mm256_sub_epi32(w1[half], bias1),
+                                                 _mm256_sub_epi32(w2[half], bias2));
+        const __m256 z = simd::depth8x32(plane, w1[half], w2[half]);
+        const __m256i win = simd::write8(inside, z, id, d + 8 * half, ids + 8 * half, whole);
+        covered += simd::lanes8(inside);
+        written += simd::lanes8(win);
+        w1[half] = _mm256_add_epi32(w1[half], step1);
+        w2[half] = _mm256_add_epi32(w2[half], step2);
+      }
+    }
+  }
+}
+
+#else  // scalar build: no triangle is batched (TriangleBatch::add)
 
 template <int kPasses>
 void TriangleBatch::draw_narrow(int, int64_t&, int64_t&) {}
 template <int kRows>
 void TriangleBatch::draw_wide(int, int64_t&, int64_t&) {}
+
+#endif
 
 void TriangleBatch::add_16_faces(const MeshView&, const double*, const Viewport&,
                                  const ScreenVertices&, int64_t, bool, int) {}

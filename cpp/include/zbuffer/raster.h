@@ -154,7 +154,7 @@ void rasterize_span_covered(const TriangleSetup& s, int y, int x0, int x1, float
 // triangles use a TriangleBatch (triangle_batch.h), which is faster.
 void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats);
 
-// "avx512" or "scalar": which loops this build runs.
+// "avx512", "avx2" or "scalar": which loops this build runs (simd.h).
 const char* raster_backend();
 
 }  // namespace zbuffer
