@@ -33,7 +33,7 @@ import time
 import numpy as np
 
 import zbuffer
-from bench_render import HERE, MODELS, new_report, write_report
+from common import HERE, MODELS, Progress, new_report, write_report
 
 ALGOS = ["zbuffer", "hiz", "hiz_octree", "hiz_bvh"]
 TREES = ["hiz_octree", "hiz_bvh"]
@@ -232,11 +232,12 @@ def markdown(report: dict) -> str:
                          f"{r['references_per_face']:.2f} |")
     if report.get("leaves"):
         lines += ["", f"Leaf size (built once, N={report['leaves'][0]['N']}, perspective):", "",
-                  "| algorithm | leaf size | build ms | render ms | nodes | rasterized |",
-                  "|---|---:|---:|---:|---:|---:|"]
+                  "| algorithm | leaf size | build ms | render ms | nodes | rasterized | cull ratio |",
+                  "|---|---:|---:|---:|---:|---:|---:|"]
         for r in report["leaves"]:
             lines.append(f"| {r['algo']} | {r['leaf_size']} | {r['build_ms']:.0f} | "
-                         f"{r['ms_median']:.1f} | {r['tree_nodes']:,} | {r['rasterized']:,} |")
+                         f"{r['ms_median']:.1f} | {r['tree_nodes']:,} | {r['rasterized']:,} | "
+                         f"{r['cull_ratio']:.1%} |")
     if report.get("temporal"):
         t = report["temporal"]
         lines += ["", f"Temporal coherence, `hiz_octree` built once, {t['frames']}-frame orbit of "
@@ -260,14 +261,19 @@ def main(argv=None) -> int:
     size = 128 if args.quick else 1024
     base, label = spot(args.quick)
 
+    unoccluded = ["bunny_69k.obj"] if args.quick else ["bunny_69k.obj", "armadillo_86k.obj"]
+    leaves = [8, 128] if args.quick else [8, 16, 32, 64, 128, 256, 512, 1024]
     report = {**new_report("bench_hiz.py", argv),
               "scene": f"5 x 5 x N copies of {label}", "size": size, "grid": []}
+    progress = Progress("hiz", len(sizes) * 2 * (len(ALGOS) + len(TREES))
+                        + len(unoccluded) * (len(ALGOS) + len(TREES)) + 1 + 2
+                        + len(TREES) * len(leaves) + 2)
 
     def record(case):
         report["grid"].append(case)
-        print(f"N={case['N']:3d} {case['projection']:12s} {case['algo']:11s} {case['mode']:10s} "
-              f"{case['ms_median']:9.2f} ms  build {case.get('build_ms', 0):8.1f} ms  "
-              f"rasterized {case['rasterized']:9,d}", flush=True)
+        progress(f"N={case['N']} {case['projection']} {case['algo']} {case['mode']}: "
+                 f"{case['ms_median']:.2f} ms, build {case.get('build_ms', 0):.1f} ms, "
+                 f"rasterized {case['rasterized']:,}")
 
     for n in sizes:
         mesh = zbuffer.scenes.instance_grid(base, (5, 5, n))
@@ -284,10 +290,11 @@ def main(argv=None) -> int:
 
     # Single unoccluded meshes: the cost of the hierarchy where it cannot win.
     report["unoccluded"] = []
-    for name in (["bunny_69k.obj"] if args.quick else ["bunny_69k.obj", "armadillo_86k.obj"]):
+    for name in unoccluded:
         path = MODELS / name
         if not path.is_file():
-            print(f"{name} not found: unoccluded cases skipped", flush=True)
+            for _ in range(len(ALGOS) + len(TREES)):
+                progress(f"{name} not found: unoccluded case skipped")
             continue
         single = zbuffer.load(path)
         camera = zbuffer.Camera.fit(single, aspect=1.0).resolve(single)
@@ -298,8 +305,8 @@ def main(argv=None) -> int:
         for algo in TREES:
             report["unoccluded"].append({"mesh": name, "algo": algo, "mode": "built once",
                                          **built_once(single, camera, algo, size, runs * 3)})
-        for c in report["unoccluded"][-6:]:
-            print(f"{name} {c['algo']:11s} {c['mode']:10s} {c['ms_median']:7.2f} ms", flush=True)
+        for c in report["unoccluded"][-(len(ALGOS) + len(TREES)):]:
+            progress(f"{name} {c['algo']} {c['mode']}: {c['ms_median']:.2f} ms")
 
     # Submission order: a big occluder in front of a detailed mesh, listed
     # first (front to back) or last (back to front). Faces go to the core in
@@ -310,9 +317,8 @@ def main(argv=None) -> int:
         detail = zbuffer.load(MODELS / "bunny_69k.obj") if (MODELS / "bunny_69k.obj").is_file() \
             else zbuffer.scenes.random_soup(3000, seed=1)
         report["order"] = submission_order(detail, base, size, runs * 3)
-        for c in report["order"]:
-            print(f"order {c['order']:14s} {c['algo']:11s} {c['ms_median']:7.2f} ms "
-                  f"rasterized {c['rasterized']:,}", flush=True)
+    progress("submission order: " + ", ".join(
+        f"{c['algo']} {c['order']} {c['ms_median']:.2f} ms" for c in report["order"]))
 
     # The octree's two rules, and leaf sizes, on one grid.
     n_rules = sizes[0]
@@ -325,25 +331,24 @@ def main(argv=None) -> int:
         r.update({"N": n_rules, "rule": rule,
                   "references_per_face": scene.tree_info()["references"] / len(mesh.faces)})
         report["rules"].append(r)
-        print(f"rule {rule}: build {r['build_ms']:.0f} ms render {r['ms_median']:.1f} ms", flush=True)
+        progress(f"rule {rule}: build {r['build_ms']:.0f} ms, render {r['ms_median']:.1f} ms")
     report["leaves"] = []
     for algo in TREES:
-        for leaf in ([8, 128] if args.quick else [16, 32, 64, 128, 256, 1024]):
+        for leaf in leaves:
             r = built_once(mesh, camera, algo, size, runs, leaf_size=leaf)
             r.update({"N": n_rules, "algo": algo, "leaf_size": leaf})
             report["leaves"].append(r)
-            print(f"{algo} leaf {leaf}: build {r['build_ms']:.0f} ms render {r['ms_median']:.1f} ms",
-                  flush=True)
+            progress(f"{algo} leaf {leaf}: build {r['build_ms']:.0f} ms, render {r['ms_median']:.1f} ms")
 
     # Temporal coherence over an orbit.
     n_orbit = 2 if args.quick else 20
     frames = 6 if args.quick else 60
     mesh = zbuffer.scenes.instance_grid(base, (5, 5, n_orbit))
-    report["temporal"] = {"N": n_orbit, "frames": frames,
-                          "without": orbit(mesh, "hiz_octree", size, frames, False),
-                          "with": orbit(mesh, "hiz_octree", size, frames, True)}
-    print(f"orbit: {report['temporal']['without']['fps']:.1f} fps without, "
-          f"{report['temporal']['with']['fps']:.1f} fps with temporal coherence", flush=True)
+    report["temporal"] = {"N": n_orbit, "frames": frames}
+    for key, temporal in (("without", False), ("with", True)):
+        report["temporal"][key] = orbit(mesh, "hiz_octree", size, frames, temporal)
+        progress(f"orbit of N={n_orbit}, {key} temporal coherence: "
+                 f"{report['temporal'][key]['fps']:.1f} fps")
 
     write_report(args.out, "hiz", report, markdown(report))
     return 0

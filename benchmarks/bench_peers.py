@@ -1,15 +1,19 @@
 """zbuffer against the tools people use instead, in one run: Open3D's
-RaycastingScene (a BVH ray caster) and VTK's offscreen OpenGL rendering
-(through pyvista) on the same meshes, camera and pixels.
+RaycastingScene (a BVH ray caster), VTK's offscreen OpenGL rendering
+(through pyvista) and pyrender's (through OSMesa) on the same meshes, camera
+and pixels.
 
     python benchmarks/bench_peers.py                 # -> benchmarks/results/peers.{json,md}
     python benchmarks/bench_peers.py --grid 10 80    # values of N for the spot grid
     python benchmarks/bench_peers.py --quick         # smoke mode (skips what is not installed)
 
-Open3D is optional (``pip install open3d``; on Debian it needs libusb-1.0-0);
-VTK comes with pyvista and renders offscreen through EGL (Mesa's software
-OpenGL on these machines). Open3D casts one ray per pixel centre of our
-camera (the pixel centres zbuffer samples); VTK gets our camera (position,
+Open3D and pyrender are optional: ``pip install open3d`` (on Debian it needs
+libusb-1.0-0); ``pip install pyrender`` and then ``pip install --no-deps
+"pyopengl>=3.1.7"`` (pyrender pins PyOpenGL 3.1.0, whose OSMesa binding
+lacks what pyrender calls; Debian: ``apt-get install libosmesa6``). VTK comes
+with pyvista and renders offscreen through EGL (Mesa's software OpenGL on
+these machines). Open3D casts one ray per pixel centre of our camera (the
+pixel centres zbuffer samples); VTK and pyrender get our camera (position,
 target, up, field of view or parallel scale, near and far). Each peer's depth
 map is compared with ours: pixels where one sees the mesh and the other does
 not, and the relative difference of the distance (along the ray for Open3D,
@@ -22,6 +26,7 @@ one thread too. Nothing here asserts a speed.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -30,7 +35,7 @@ import numpy as np
 
 import zbuffer
 from bench_hiz import grid_camera, spot
-from bench_render import HERE, MODELS, new_report, write_report
+from common import HERE, MODELS, Progress, new_report, write_report
 
 
 def pixel_rays(result: zbuffer.RenderResult):
@@ -132,6 +137,42 @@ def bench_vtk(mesh, camera, result, runs):
             "agreement": agreement(result.eye_depth().astype(np.float64), theirs)}
 
 
+def bench_pyrender(mesh, camera, result, runs):
+    """pyrender offscreen through OSMesa (Mesa's software OpenGL, no display):
+    build = scene, renderer and the first frame; frames = a depth-only render."""
+    os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")  # before OpenGL is imported
+    import pyrender
+    import trimesh
+
+    h, w = result.depth.shape
+    t0 = time.perf_counter()
+    scene = pyrender.Scene()
+    scene.add(pyrender.Mesh.from_trimesh(trimesh.Trimesh(mesh.vertices, mesh.faces, process=False),
+                                         smooth=False))
+    if camera.projection == "perspective":
+        cam = pyrender.PerspectiveCamera(yfov=np.radians(camera.fov_y), aspectRatio=w / h,
+                                         znear=camera.near, zfar=camera.far)
+    else:
+        ymag = camera.ortho_height / 2
+        cam = pyrender.OrthographicCamera(xmag=ymag * w / h, ymag=ymag, znear=camera.near,
+                                          zfar=camera.far)
+    scene.add(cam, pose=np.linalg.inv(camera.view_matrix()))
+    renderer = pyrender.OffscreenRenderer(w, h)
+    try:
+        depth = renderer.render(scene, flags=pyrender.RenderFlags.DEPTH_ONLY)
+        build_ms = (time.perf_counter() - t0) * 1e3
+        times = []
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            depth = renderer.render(scene, flags=pyrender.RenderFlags.DEPTH_ONLY)
+            times.append((time.perf_counter() - t0) * 1e3)
+    finally:
+        renderer.delete()
+    theirs = np.where(depth > 0, depth, np.inf).astype(np.float64)
+    return {"build_ms": build_ms, "frame_ms": statistics.median(times), "version": pyrender.__version__,
+            "agreement": agreement(result.eye_depth().astype(np.float64), theirs)}
+
+
 def bench_ours(mesh, camera, size, runs):
     out = {}
     render = lambda algo: zbuffer.render(mesh, algo=algo, camera=camera, width=size, height=size,
@@ -153,11 +194,12 @@ def bench_ours(mesh, camera, size, runs):
 def markdown(report) -> str:
     m = report["machine"]
     lines = [
-        "# zbuffer and Open3D ray casting, same meshes, camera and pixels",
+        "# zbuffer against Open3D ray casting, VTK and pyrender: same meshes, camera and pixels",
         "",
         f"- date: {report['date']}",
         f"- machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}",
-        f"- commit: {m['commit']}; Open3D {report.get('open3d', 'not installed')}",
+        f"- commit: {m['commit']}; Open3D {report.get('open3d', 'not installed')}; pyrender "
+        f"{next((c['pyrender']['version'] for c in report['cases'] if c.get('pyrender')), 'not run')}",
         f"- command: `{report['command']}`",
         f"- {report['size']}x{report['size']} pixels, one ray per pixel centre; median of "
         f"{report['runs']} frames. Open3D build = scene + first cast (BVH built lazily); "
@@ -183,23 +225,34 @@ def markdown(report) -> str:
             f"{o['build_ms'] / c['hiz_octree_build_ms']:.1f}x | "
             f"{a['coverage_mismatch']:,} of {a['pixels']:,} | "
             f"{a['depth_rel_median']:.1e} / {a['depth_rel_p99']:.1e} |")
-    vtk = [c for c in report["cases"] if c.get("vtk")]
-    if vtk:
-        lines += ["", "VTK offscreen (pyvista `render()` + `get_image_depth()`, Mesa's software "
-                  "OpenGL through EGL here), same cameras:", "",
-                  "| scene | projection | VTK first frame ms | VTK frame ms | zbuffer ms "
-                  "| hiz_octree built once ms | VTK / hiz_octree | coverage mismatch "
-                  "| rel. depth diff (median / p99) |",
-                  "|---|---|---:|---:|---:|---:|---:|---:|---|"]
-        for c in vtk:
-            v, a = c["vtk"], c["vtk"]["agreement"]
-            lines.append(
-                f"| {c['scene']} | {c['projection']} | {v['build_ms']:.0f} | {v['frame_ms']:.1f} | "
-                f"{c['zbuffer_ms']:.1f} | {c['hiz_octree_built_once_ms']:.1f} | "
-                f"{v['frame_ms'] / c['hiz_octree_built_once_ms']:.0f}x | "
-                f"{a['coverage_mismatch']:,} of {a['pixels']:,} | "
-                f"{a['depth_rel_median']:.1e} / {a['depth_rel_p99']:.1e} |")
+    for key, title in (("vtk", "VTK offscreen (pyvista `render()` + `get_image_depth()`, Mesa's "
+                                "software OpenGL through EGL here)"),
+                       ("pyrender", "pyrender offscreen (`OffscreenRenderer.render`, depth only, "
+                                    "Mesa's software OpenGL through OSMesa here)")):
+        lines += peer_table(report, key, title)
     return "\n".join(lines) + "\n"
+
+
+def peer_table(report, key: str, title: str) -> list:
+    """Markdown lines comparing one OpenGL peer (`key` in the cases) with us."""
+    cases = [c for c in report["cases"] if c.get(key)]
+    if not cases:
+        return []
+    name = key if key == "pyrender" else key.upper()
+    lines = ["", f"{title}, same cameras:", "",
+             f"| scene | projection | {name} first frame ms | {name} frame ms | zbuffer ms "
+             f"| hiz_octree built once ms | {name} / hiz_octree | coverage mismatch "
+             "| rel. depth diff (median / p99) |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+    for c in cases:
+        v, a = c[key], c[key]["agreement"]
+        lines.append(
+            f"| {c['scene']} | {c['projection']} | {v['build_ms']:.0f} | {v['frame_ms']:.1f} | "
+            f"{c['zbuffer_ms']:.1f} | {c['hiz_octree_built_once_ms']:.1f} | "
+            f"{v['frame_ms'] / c['hiz_octree_built_once_ms']:.0f}x | "
+            f"{a['coverage_mismatch']:,} of {a['pixels']:,} | "
+            f"{a['depth_rel_median']:.1e} / {a['depth_rel_p99']:.1e} |")
+    return lines
 
 
 def main(argv=None) -> int:
@@ -227,6 +280,7 @@ def main(argv=None) -> int:
     for name in ([] if args.quick else ["bunny_69k.obj", "armadillo_86k.obj"]):
         if (MODELS / name).is_file():
             scenes.append((name, zbuffer.load(MODELS / name)))
+    progress = Progress("peers", 2 * len(scenes))
     for name, mesh in scenes:
         for projection in ("perspective", "orthographic"):
             if "x" in name.split()[0]:
@@ -235,21 +289,21 @@ def main(argv=None) -> int:
                 camera = zbuffer.Camera.fit(mesh, aspect=1.0, projection=projection).resolve(mesh)
             ours, result = bench_ours(mesh, camera, size, runs)
             case = {"scene": name, "triangles": len(mesh.faces), "projection": projection, **ours}
+            said = [f"zbuffer {ours['zbuffer_ms']:.1f} ms, hiz_octree build "
+                    f"{ours['hiz_octree_build_ms']:.0f} ms + {ours['hiz_octree_built_once_ms']:.1f} ms"]
             if version:
-                case["open3d"] = bench_open3d(mesh, result, runs)
-                o = case["open3d"]
-                print(f"{name:28s} {projection:12s} open3d build {o['build_ms']:8.0f} ms, frame "
-                      f"{o['frame_ms_threads_auto']:7.1f} / {o['frame_ms_threads_1']:7.1f} ms | "
-                      f"zbuffer {ours['zbuffer_ms']:7.1f} ms, hiz_octree build "
-                      f"{ours['hiz_octree_build_ms']:6.0f} ms, frame {ours['hiz_octree_built_once_ms']:6.1f} ms"
-                      f" | mismatch {o['agreement']['coverage_mismatch']}", flush=True)
-            try:
-                case["vtk"] = bench_vtk(mesh, camera, result, runs)
-                print(f"{'':28s} {projection:12s} VTK first frame {case['vtk']['build_ms']:8.0f} ms, "
-                      f"frame {case['vtk']['frame_ms']:8.1f} ms | mismatch "
-                      f"{case['vtk']['agreement']['coverage_mismatch']}", flush=True)
-            except Exception as err:  # no pyvista, or no OpenGL context here
-                print(f"VTK skipped: {err}", flush=True)
+                case["open3d"] = o = bench_open3d(mesh, result, runs)
+                said.append(f"Open3D build {o['build_ms']:.0f} ms + {o['frame_ms_threads_auto']:.1f} ms "
+                            f"({o['frame_ms_threads_1']:.1f} ms on one thread), "
+                            f"{o['agreement']['coverage_mismatch']} pixels differ")
+            for key, peer in (("vtk", bench_vtk), ("pyrender", bench_pyrender)):
+                try:
+                    case[key] = p = peer(mesh, camera, result, runs)
+                    said.append(f"{key} {p['build_ms']:.0f} ms + {p['frame_ms']:.1f} ms, "
+                                f"{p['agreement']['coverage_mismatch']} pixels differ")
+                except Exception as err:  # not installed, or no OpenGL context here
+                    said.append(f"{key} skipped ({type(err).__name__}: {err})")
+            progress(f"{name} {projection}: " + "; ".join(said))
             report["cases"].append(case)
     write_report(args.out, "peers", report, markdown(report))
     return 0

@@ -12,22 +12,13 @@ and from the whole Python call (total_ms). Nothing here asserts a speed.
 from __future__ import annotations
 
 import argparse
-import datetime as dt
-import json
-import os
-import platform
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 import zbuffer
-
-HERE = Path(__file__).resolve().parent
-MODELS = Path(os.environ.get("ZBUFFER_MODELS", HERE.parents[1] / "shared" / "models"))
+from common import HERE, MODELS, Progress, load_model, new_report, write_report
 
 # (model file, width, height, shading, algorithm, what the issues ask of it)
 CASES = [
@@ -46,57 +37,6 @@ CASES = [
 
 # Depth storage per algorithm: one render of this mesh at this size each.
 MEMORY_CASE = ("bunny_69k.obj", 4096, 4096)
-
-
-def machine() -> dict:
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE,
-                                capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "cpp", "src", "python"],
-                               cwd=HERE.parent, capture_output=True, text=True).stdout.strip()
-        if dirty:
-            commit += " (with uncommitted changes to the sources)"
-    except (OSError, subprocess.CalledProcessError):
-        commit = "unknown"
-    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
-            "numpy": np.__version__, "platform": platform.platform(), "commit": commit}
-
-
-def new_report(script: str, argv) -> dict:
-    """The header every benchmark report starts with: date, machine, command."""
-    return {
-        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": machine(),
-        "command": " ".join([f"python benchmarks/{script}", *(argv if argv is not None else sys.argv[1:])]),
-    }
-
-
-def write_report(out_dir, stem: str, report: dict, text: str) -> None:
-    """Write <out_dir>/<stem>.json (everything measured) and <stem>.md (the tables)."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / f"{stem}.json").write_text(json.dumps(report, indent=2) + "\n")
-    (out / f"{stem}.md").write_text(text)
-    print(f"wrote {out / (stem + '.json')} and {out / (stem + '.md')}")
-
-
-def load_case(name: str, quick: bool):
-    path = MODELS / name
-    if path.is_file():
-        return zbuffer.load(path), name
-    if not quick:
-        return None, name
-    # Smoke mode without the shared models: a procedural stand-in.
-    return zbuffer.scenes.default_scene(), f"{name} (missing: default scene instead)"
 
 
 def bench(mesh, width, height, shading, algo, runs):
@@ -212,24 +152,25 @@ def main(argv=None) -> int:
     runs = args.runs or (3 if args.quick else 21)
 
     report = {**new_report("bench_render.py", argv), "cases": []}
+    progress = Progress("render", len(CASES) + len(zbuffer.algorithms()))
     for name, width, height, shading, algo, target in CASES:
         if args.quick:
             width, height = width // 4, height // 4
-        mesh, label = load_case(name, args.quick)
+        mesh, label = load_model(name, args.quick)
         case = {"mesh": label, "size": f"{width}x{height}", "shading": shading, "algo": algo,
                 "target": target}
         if mesh is None:
             case["skipped"] = f"{MODELS / name} not found"
+            progress(f"{name}: skipped, not found")
         else:
             case.update(bench(mesh, width, height, shading, algo, runs))
             if not args.quick and shading == "none" and width >= 1024 and algo == "zbuffer":
                 vtk = bench_vtk(MODELS / name, width, height, 5)
                 if vtk is not None:
                     case["vtk_ms_median"] = vtk
-            print(f"{label:<40} {width}x{height} {shading:<6} {algo:<8} "
-                  f"core {case['core_ms_median']:8.3f} ms"
-                  f"  total {case['total_ms_median']:8.3f} ms  {case['mtris_per_s']:6.1f} Mtri/s",
-                  flush=True)
+            progress(f"{label} {width}x{height} {shading} {algo}: "
+                     f"core {case['core_ms_median']:.3f} ms, total {case['total_ms_median']:.3f} ms, "
+                     f"{case['mtris_per_s']:.1f} Mtri/s")
         report["cases"].append(case)
 
     # Ratios to the plain Z-buffer measured in this run.
@@ -243,7 +184,7 @@ def main(argv=None) -> int:
     name, width, height = MEMORY_CASE
     if args.quick:
         width, height = width // 8, height // 8
-    mesh, label = load_case(name, args.quick)
+    mesh, label = load_model(name, args.quick)
     if mesh is not None:
         rows = []
         camera = zbuffer.Camera.fit(mesh, aspect=width / height).resolve(mesh)
@@ -255,8 +196,8 @@ def main(argv=None) -> int:
                 times.append(res.stats["render_ms"])
             rows.append({"algo": algo, "depth_storage_bytes": res.stats["depth_storage_bytes"],
                          "core_ms": statistics.median(times[1:])})
-            print(f"{label} {width}x{height} {algo:<8} depth storage "
-                  f"{res.stats['depth_storage_bytes']:>12,} bytes", flush=True)
+            progress(f"{label} {width}x{height} {algo}: depth storage "
+                     f"{res.stats['depth_storage_bytes']:,} bytes")
         report["depth_storage"] = {"mesh": label, "size": f"{width}x{height}", "algorithms": rows}
 
     write_report(args.out, "render", report, markdown(report))

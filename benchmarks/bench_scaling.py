@@ -28,7 +28,7 @@ import sys
 
 import zbuffer
 from bench_hiz import grid_camera, spot
-from bench_render import HERE, MODELS, new_report, write_report
+from common import HERE, MODELS, Progress, new_report, write_report
 
 SIZES = [256, 512, 1024, 2048, 4096]
 GRIDS = [(1, 1, 1), (2, 2, 3), (5, 5, 4), (5, 5, 20), (5, 5, 70)]
@@ -132,6 +132,7 @@ def main(argv=None) -> int:
     algos = zbuffer.algorithms()
     report = {**new_report("bench_scaling.py", argv), "size": size,
               "resolution": [], "triangles": [], "memory": []}
+    progress = Progress("scaling", (len(sizes) + len(grids) + 1) * len(algos))
 
     path = MODELS / "bunny_69k.obj"
     mesh = zbuffer.load(path) if path.is_file() else zbuffer.scenes.default_scene()
@@ -141,7 +142,7 @@ def main(argv=None) -> int:
         for algo in algos:
             report["resolution"].append({"size": s, "algo": algo,
                                          **median_ms(mesh, camera, algo, s, runs)})
-            print(f"{s}x{s} {algo:11s} {report['resolution'][-1]['ms_median']:9.2f} ms", flush=True)
+            progress(f"{s}x{s} {algo}: {report['resolution'][-1]['ms_median']:.2f} ms")
 
     base, label = spot(args.quick)
     report["grid_mesh"] = label
@@ -152,14 +153,14 @@ def main(argv=None) -> int:
             case = {"grid": list(grid), "triangles": len(mesh.faces), "algo": algo,
                     **median_ms(mesh, camera, algo, size, runs)}
             report["triangles"].append(case)
-            print(f"{'x'.join(map(str, grid)):8s} {len(mesh.faces):>11,} {algo:11s} "
-                  f"{case['ms_median']:9.2f} ms", flush=True)
+            progress(f"grid {'x'.join(map(str, grid))} ({len(mesh.faces):,} triangles) {algo}: "
+                     f"{case['ms_median']:.2f} ms")
         del mesh
     for algo in algos:
         peak = peak_memory(grids[-1], algo, size, args.quick)
         report["memory"].append({"grid": list(grids[-1]), "algo": algo,
                                  "triangles": report["triangles"][-1]["triangles"], **peak})
-        print(f"memory {algo:11s} +{(peak['peak_kib'] - peak['before_kib']) / 1024:.0f} MiB", flush=True)
+        progress(f"memory {algo}: +{(peak['peak_kib'] - peak['before_kib']) / 1024:.0f} MiB peak")
 
     write_report(args.out, "scaling", report, markdown(report))
     return 0

@@ -6,20 +6,26 @@
 
 Suites (each also runs alone, see its docstring):
 
-- ``render``: ``zbuffer.render`` on the shared models, every algorithm,
-  depth only and shaded, with VTK offscreen for scale (``bench_render.py``);
+- ``models``: every algorithm on the shared models at 666x500 and
+  1024x1024, back-face culling off and on (``bench_models.py``);
+- ``render``: the foundation's cases (``zbuffer`` on the course size and
+  the large scans, shaded frames, scanline and HiZ ratios, depth storage),
+  with VTK offscreen for scale (``bench_render.py``);
 - ``hiz``: the 5 x 5 x N spot grid, per frame and built once, octree rules,
-  leaf sizes, temporal coherence, unoccluded meshes (``bench_hiz.py``);
+  leaf sizes, submission order, temporal coherence, unoccluded meshes
+  (``bench_hiz.py``);
 - ``scaling``: image size 256^2 ... 4096^2, triangle count 6 k ... 10 M, peak
   memory (``bench_scaling.py``);
-- ``peers``: Open3D ray casting and VTK offscreen rendering on the same
-  meshes, camera and pixels, with the agreement of their depth maps and ours
-  (``bench_peers.py``).
+- ``peers``: Open3D ray casting, VTK and pyrender offscreen rendering on the
+  same meshes, camera and pixels, with the agreement of their depth maps and
+  ours (``bench_peers.py``; each peer only where it is installed).
 
-Each suite writes ``<suite>.json`` and ``<suite>.md`` into the output folder;
-this script adds ``<date>-<host>.json`` (all of them, with the machine, the
-versions and the git revision) and regenerates ``RESULTS.md`` (every table,
-and figures drawn from the JSON as PNG files) next to them. Nothing here
+Each suite writes ``<suite>.json`` and ``<suite>.md`` into the output folder
+and prints a progress bar; this script adds ``<date>-<host>.json`` (all of
+them, with the machine, the versions and the git revision) and regenerates
+``RESULTS.md``: per suite, what its numbers mean, where each speed target
+named in the issues stands in this run (read from the JSON by
+``targets.py``), its tables, and figures drawn from the JSON. Nothing here
 asserts a speed.
 """
 
@@ -34,24 +40,48 @@ import time
 from pathlib import Path
 
 import bench_hiz
+import bench_models
 import bench_peers
 import bench_render
 import bench_scaling
-from bench_render import HERE, new_report
+import targets
+from common import HERE, new_report
 
-SUITES = {"render": bench_render, "hiz": bench_hiz, "scaling": bench_scaling, "peers": bench_peers}
+SUITES = {"models": bench_models, "render": bench_render, "hiz": bench_hiz,
+          "scaling": bench_scaling, "peers": bench_peers}
 
 
-def results_markdown(out: Path, names) -> str:
-    """RESULTS.md: each suite's tables, and the figures of the grid suite."""
+def results_markdown(out: Path, record: dict) -> str:
+    """RESULTS.md: the run's header, then per suite what it measures, where
+    its targets stand, its tables and figures."""
+    m = record["machine"]
     lines = ["# Benchmark results", "",
-             "Written by `python benchmarks/run.py`; each section is a suite's own table "
-             "(`<suite>.md`), with its machine, command and date.", ""]
-    for name in names:
-        md = out / f"{name}.md"
-        if md.is_file():
-            lines += [md.read_text().replace("\n# ", "\n## ").replace("# ", "## ", 1), ""]
-        if name == "hiz" and (out / "hiz.json").is_file():
+             f"- date: {record['date']}",
+             f"- machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy "
+             f"{m['numpy']}; raster backend {m['raster_backend']}",
+             f"- revision: {m['commit']}",
+             f"- command: `{record['command']}`",
+             "",
+             "Written by `benchmarks/run.py` from the JSON of this run (every repeat is in "
+             "`<date>-<host>.json`); each suite's section repeats its own table "
+             "(`<suite>.md`). Times are in-process medians; machines like this one are "
+             "shared and noisy, so compare algorithms by their ratios within one run.", ""]
+    for name in SUITES:
+        if name in record["suites"]:
+            report, note = record["suites"][name], []
+        elif (out / f"{name}.json").is_file() and (out / f"{name}.md").is_file():
+            # Not run this time: the suite's latest recorded run, with its own date.
+            report = json.loads((out / f"{name}.json").read_text())
+            note = [f"*Not run by this command: the section below is from an earlier run "
+                    f"({report['date']}, `{report['command']}`).*", ""]
+        else:
+            continue
+        md = (out / f"{name}.md").read_text().splitlines()
+        title = md[0].lstrip("# ").strip() if md and md[0].startswith("#") else name
+        lines += [f"## {title}", "", *note,
+                  targets.paragraph(name, report, "--quick" in report["command"]), "",
+                  *md[1:], ""]
+        if name == "hiz" and report.get("grid"):
             figures = write_hiz_figures(out)
             lines += [f"![{title}](figures/{path.name})" for title, path in figures] + [""]
     return "\n".join(lines)
@@ -89,7 +119,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     names = args.suites or list(SUITES)
     out = Path(args.out)
-    record = {**new_report("run.py", argv), "suites": {}}
+    record = {**new_report("run.py", argv), "quick": args.quick, "suites": {}}
     started = time.perf_counter()
     for k, name in enumerate(names, 1):
         print(f"[{k}/{len(names)}] {name} ({time.perf_counter() - started:.0f} s so far)", flush=True)
@@ -98,7 +128,7 @@ def main(argv=None) -> int:
     host = platform.node() or "host"
     stamp = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d")
     (out / f"{stamp}-{host}.json").write_text(json.dumps(record, indent=2) + "\n")
-    (out / "RESULTS.md").write_text(results_markdown(out, names))
+    (out / "RESULTS.md").write_text(results_markdown(out, record))
     print(f"wrote {out / (stamp + '-' + host + '.json')} and {out / 'RESULTS.md'} "
           f"in {time.perf_counter() - started:.0f} s")
     return 0

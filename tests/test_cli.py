@@ -62,3 +62,33 @@ def test_view_without_a_display_asks_for_a_screenshot(monkeypatch, capsys):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert main(["view", "--size", "32x24"]) == 2
     assert "use --screenshot FILE" in capsys.readouterr().err
+
+
+def test_bench_finds_the_checkouts_harness(monkeypatch, tmp_path):
+    from pathlib import Path
+
+    from zbuffer.cli import find_benchmarks
+
+    repo = Path(__file__).resolve().parents[1]
+    monkeypatch.delenv("ZBUFFER_BENCHMARKS", raising=False)
+    monkeypatch.chdir(repo / "tests")  # from inside the checkout, one level down
+    assert find_benchmarks().resolve() in {repo / "benchmarks",
+                                           Path(__import__("zbuffer").__file__).resolve().parents[2]
+                                           / "benchmarks"}
+    monkeypatch.setenv("ZBUFFER_BENCHMARKS", str(repo / "benchmarks"))
+    assert find_benchmarks() == repo / "benchmarks"
+
+
+def test_bench_outside_a_checkout_says_what_it_needs(monkeypatch, tmp_path, capsys):
+    from zbuffer import cli
+
+    monkeypatch.setenv("ZBUFFER_BENCHMARKS", str(tmp_path))
+    assert main(["bench", "--quick"]) == 2
+    assert "not a zbuffer benchmarks folder" in capsys.readouterr().err
+    # An installed package, run from a folder outside any checkout.
+    monkeypatch.delenv("ZBUFFER_BENCHMARKS")
+    monkeypatch.setattr(cli, "__file__", str(tmp_path / "site" / "zbuffer" / "cli.py"))
+    monkeypatch.chdir(tmp_path)
+    assert cli.find_benchmarks() is None
+    assert main(["bench", "--quick"]) == 2
+    assert "source checkout" in capsys.readouterr().err

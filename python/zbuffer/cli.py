@@ -144,6 +144,48 @@ def _cmd_algorithms(args) -> int:
     return 0
 
 
+def find_benchmarks():
+    """The ``benchmarks/`` folder of a zbuffer source checkout, or None: the
+    folder named by $ZBUFFER_BENCHMARKS, else the checkout this package runs
+    from (an editable install), else ``benchmarks/`` in the current folder or
+    one above it."""
+    import os
+    from pathlib import Path
+
+    def is_harness(folder: Path) -> bool:
+        return (folder / "run.py").is_file() and (folder / "common.py").is_file()
+
+    named = os.environ.get("ZBUFFER_BENCHMARKS")
+    if named:
+        if not is_harness(Path(named)):
+            raise ValueError(f"ZBUFFER_BENCHMARKS={named} is not a zbuffer benchmarks folder "
+                             "(no run.py there)")
+        return Path(named)
+    cwd = Path.cwd()
+    for folder in (Path(__file__).resolve().parents[2] / "benchmarks",
+                   *(d / "benchmarks" for d in (cwd, *cwd.parents))):
+        if is_harness(folder):
+            return folder
+    return None
+
+
+def _cmd_bench(args) -> int:
+    import subprocess
+
+    folder = find_benchmarks()
+    if folder is None:
+        raise ValueError("zbuffer bench runs the benchmark harness of a zbuffer source "
+                         "checkout (benchmarks/run.py), which an installed package does not "
+                         "include: run it inside the checkout, or set "
+                         "ZBUFFER_BENCHMARKS=/path/to/zbuffer/benchmarks")
+    command = [sys.executable, str(folder / "run.py"), *args.suites]
+    if args.quick:
+        command.append("--quick")
+    if args.out is not None:
+        command += ["--out", args.out]
+    return subprocess.run(command).returncode
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="zbuffer", description="Exact software Z-buffer renderers for triangle meshes.")
@@ -181,6 +223,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="render one frame offscreen into FILE (PNG) and exit")
     v.set_defaults(func=_cmd_view)
 
+    b = sub.add_parser("bench", help="run the benchmark suites of a source checkout "
+                       "(benchmarks/run.py) and regenerate benchmarks/results/RESULTS.md")
+    b.add_argument("suites", nargs="*", metavar="SUITE",
+                   help="models, render, hiz, scaling, peers (default: all)")
+    b.add_argument("--quick", action="store_true", help="smoke mode: small inputs, few runs")
+    b.add_argument("--out", default=None, metavar="DIR",
+                   help="output folder (default benchmarks/results)")
+    b.set_defaults(func=_cmd_bench)
+
     a = sub.add_parser("algorithms", help="list the depth algorithms")
     a.set_defaults(func=_cmd_algorithms)
     return parser
@@ -190,7 +241,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``zbuffer`` command; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(list(argv) if argv is not None else None)
-    if getattr(args, "out", None) == "none":
+    if args.command == "render" and args.out == "none":
         args.out = None
     try:
         return args.func(args)

@@ -1,0 +1,107 @@
+"""What every benchmark script shares: where the models are, the header of a
+report (date, machine, versions, git revision, command), writing a report,
+the scenes a suite falls back on in smoke mode, and a progress bar."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import zbuffer
+
+HERE = Path(__file__).resolve().parent
+MODELS = Path(os.environ.get("ZBUFFER_MODELS", HERE.parents[1] / "shared" / "models"))
+
+
+def machine() -> dict:
+    """The CPU, core count, versions and git revision a report was measured with."""
+    cpu = platform.processor() or ""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE,
+                                capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "cpp", "src", "python"],
+                               cwd=HERE.parent, capture_output=True, text=True).stdout.strip()
+        if dirty:
+            commit += " (with uncommitted changes to the sources)"
+    except (OSError, subprocess.CalledProcessError):
+        commit = "unknown"
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
+            "numpy": np.__version__, "zbuffer": zbuffer.__version__,
+            "raster_backend": zbuffer._core.RASTER_BACKEND,
+            "platform": platform.platform(), "commit": commit}
+
+
+def new_report(script: str, argv) -> dict:
+    """The header every benchmark report starts with: date, machine, command."""
+    return {
+        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": machine(),
+        "command": " ".join([f"python benchmarks/{script}", *(argv if argv is not None else sys.argv[1:])]),
+    }
+
+
+def write_report(out_dir, stem: str, report: dict, text: str) -> None:
+    """Write <out_dir>/<stem>.json (everything measured) and <stem>.md (the tables)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{stem}.json").write_text(json.dumps(report, indent=2) + "\n")
+    (out / f"{stem}.md").write_text(text)
+    print(f"wrote {out / (stem + '.json')} and {out / (stem + '.md')}")
+
+
+def load_model(name: str, quick: bool):
+    """(mesh, label) for a shared model; in smoke mode a procedural stand-in
+    when the model is missing, otherwise (None, name)."""
+    path = MODELS / name
+    if path.is_file():
+        return zbuffer.load(path), name
+    if not quick:
+        return None, name
+    return zbuffer.scenes.default_scene(), f"{name} (missing: default scene instead)"
+
+
+class Progress:
+    """A progress bar for a suite of known length: every finished case prints
+    one line behind the bar, e.g.
+
+        [hiz  12/40 ######------------  30%  1m05s left] N=10 perspective hiz 42.1 ms
+
+    One line per case (rather than a bar redrawn in place) so that the same
+    output reads in a terminal and in a CI log."""
+
+    WIDTH = 18
+
+    def __init__(self, suite: str, total: int):
+        self.suite, self.total, self.done = suite, max(int(total), 1), 0
+        self.started = time.perf_counter()
+
+    def __call__(self, message: str) -> None:
+        self.done = min(self.done + 1, self.total)
+        elapsed = time.perf_counter() - self.started
+        fraction = self.done / self.total
+        filled = int(round(self.WIDTH * fraction))
+        left = elapsed / fraction - elapsed
+        print(f"[{self.suite} {self.done:>{len(str(self.total))}}/{self.total} "
+              f"{'#' * filled}{'-' * (self.WIDTH - filled)} {fraction:4.0%} "
+              f"{_duration(left)} left] {message}", flush=True)
+
+
+def _duration(seconds: float) -> str:
+    seconds = int(round(seconds))
+    return f"{seconds // 60}m{seconds % 60:02d}s" if seconds >= 60 else f"{seconds}s"
