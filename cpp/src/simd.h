@@ -21,6 +21,10 @@
 #include <immintrin.h>
 #define ZBUFFER_AVX512 1
 #elif defined(__AVX2__)
+#if defined(__GNUC__) && !defined(__clang__)
+// GCC 12's own avx2intrin.h trips this warning (gathers' _mm256_undefined_*).
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#endif
 #include <immintrin.h>
 #define ZBUFFER_AVX2 1
 #endif

@@ -12,6 +12,7 @@
 #include <limits>
 
 #include "setup16.h"
+#include "setup8.h"
 #include "simd.h"
 
 namespace zbuffer {
@@ -122,6 +123,14 @@ void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Vie
   if (f < end && mesh.n_vertices > 0) {
     add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, int(end - f));
     f = end;
+  }
+#elif defined(ZBUFFER_AVX2)
+  if (mesh.n_vertices > 0) {
+    for (; f + 8 <= end; f += 8) add_8_faces(mesh, mvp, vp, sv, f, cull_backfaces, 8);
+    if (f < end) {
+      add_8_faces(mesh, mvp, vp, sv, f, cull_backfaces, int(end - f));
+      f = end;
+    }
   }
 #endif
   for (; f < end; ++f) add_face(mesh, mvp, vp, sv, f, cull_backfaces);
@@ -656,6 +665,76 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
   }
 }
 
+void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                                const ScreenVertices& sv, int64_t first, bool cull_backfaces,
+                                int count) {
+  if (n_small_ + kSlack > capacity_ || large_.size() + 8 > size_t(capacity_)) flush();
+
+  // Assembly and pixel boxes (setup8.h)
+  simd::Faces8 f;
+  simd::assemble8(mesh, sv, first, count, cull_backfaces, stats_, f);
+  simd::Box8 box;
+  simd::box8(f, target_.width, target_.height, box, kSmallFx, kNarrowFx);
+  const unsigned vector_setup = f.draw & box.nonempty & box.small;
+  const unsigned scalar_setup = f.draw & box.nonempty & ~box.small;
+
+  if (vector_setup) {
+    simd::Setup8 s;
+    simd::setup8(f, box, s);
+
+    // Append the vector-set-up faces to the structure of arrays.
+    const int n = n_small_;
+    const unsigned m = vector_setup;
+    auto put = [&](int32_t* dst, __m256i v) {
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst + n), simd::compress8(m, v));
+    };
+    auto put_f = [&](float* dst, __m256 v) {
+      put(reinterpret_cast<int32_t*>(dst), _mm256_castps_si256(v));
+    };
+    put(x0_, box.i0);
+    put(y0_, box.j0);
+    put(box_w_, box.box_w);
+    put(box_h_, box.box_h);
+    put(w1_, s.w[1]);
+    put(w2_, s.w[2]);
+    put(area_b0_, _mm256_sub_epi32(s.area32, s.bias[0]));
+    put(sx1_, s.sx[1]);
+    put(sx2_, s.sx[2]);
+    put(sy1_, s.sy[1]);
+    put(sy2_, s.sy[2]);
+    put(bias1_, s.bias[1]);
+    put(bias2_, s.bias[2]);
+    put_f(z0_, s.z0);
+    put_f(a1_, s.a1);
+    put_f(a2_, s.a2);
+    put_f(z_lo_, s.lo);
+    put_f(z_hi_, s.hi);
+    put(id_, simd::ids8(mesh, first, f.live));
+    const int count_small = __builtin_popcount(m);
+    for (int k = 0; k < count_small; ++k) {
+      const int i = n + k;
+      small_tested_ += int64_t(box_w_[i]) * box_h_[i];
+      const int g = group_of(((box.narrow >> simd::kCompress8.lanes[m][k]) & 1u) != 0, box_h_[i]);
+      group_[g][group_size_[g]++] = uint16_t(i);
+    }
+    n_small_ += count_small;
+  }
+
+  if (scalar_setup) {
+    // Large faces: the scalar setup from the assembled triangle.
+    const simd::Lanes8 lanes(f);
+    for (unsigned m = scalar_setup; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      large_.push_back(setup_triangle(lanes.triangle(lane, mesh.id(first + lane)),
+                                      target_.width, target_.height));
+    }
+  }
+
+  // Faces that need clipping: the scalar assembly.
+  for (unsigned m = f.clip; m; m &= m - 1)
+    add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces);
+}
+
 #else  // scalar build: no triangle is batched (TriangleBatch::add)
 
 template <int kPasses>
@@ -668,6 +747,11 @@ void TriangleBatch::draw_wide(int, int64_t&, int64_t&) {}
 void TriangleBatch::add_16_faces(const MeshView&, const double*, const Viewport&,
                                  const ScreenVertices&, int64_t, bool, int) {}
 
+#endif
+
+#ifndef ZBUFFER_AVX2
+void TriangleBatch::add_8_faces(const MeshView&, const double*, const Viewport&,
+                                const ScreenVertices&, int64_t, bool, int) {}
 #endif
 
 }  // namespace zbuffer

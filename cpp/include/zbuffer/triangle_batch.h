@@ -101,6 +101,9 @@ class TriangleBatch {
   // <= 16 (AVX-512 builds).
   void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                     const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count);
+  // The same for count <= 8 faces (AVX2 builds).
+  void add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                   const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count);
 
   DepthTarget& target_;
   RenderStats& stats_;
