@@ -169,6 +169,13 @@ def bench_pyrender(mesh, camera, result, runs):
     finally:
         renderer.delete()
     theirs = np.where(depth > 0, depth, np.inf).astype(np.float64)
+    if camera.projection == "orthographic":
+        # pyrender (0.1.45) linearizes every depth buffer as a perspective
+        # one; undo that to get the buffer's NDC z, then the orthographic depth.
+        n, f = camera.near, camera.far
+        with np.errstate(divide="ignore"):
+            ndc = (f + n - 2.0 * n * f / theirs) / (f - n)
+        theirs = np.where(np.isfinite(theirs), (ndc * (f - n) + (f + n)) / 2.0, np.inf)
     return {"build_ms": build_ms, "frame_ms": statistics.median(times), "version": pyrender.__version__,
             "agreement": agreement(result.eye_depth().astype(np.float64), theirs)}
 
