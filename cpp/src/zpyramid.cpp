@@ -37,8 +37,8 @@ inline bool ZPyramid::refresh(int k, int i, int j) {
   const int x0 = i << shift, y0 = j << shift;
   const int x1 = std::min(bw, x0 + (1 << shift)), y1 = std::min(bh, y0 + (1 << shift));
   float m = cells[size_t(y0) * bw + x0];
-#ifdef ZBUFFER_AVX512
-  if (shift == 3 && x1 - x0 == 8) {  // a whole row of 8 pixels per instruction
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+  if (shift == 3 && x1 - x0 == 8) {  // a whole row of 8 pixels per instruction (AVX)
     __m256 v = _mm256_set1_ps(m);
     for (int y = y0; y < y1; ++y) v = _mm256_max_ps(v, _mm256_loadu_ps(cells + size_t(y) * bw + x0));
     __m128 h = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
