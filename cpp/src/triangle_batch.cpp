@@ -144,6 +144,33 @@ void TriangleBatch::add_face(const MeshView& mesh, const double* mvp, const View
   });
 }
 
+// The fields of vector-set-up faces (setup16.h, setup8.h), through `put`
+// (int32 vectors) and `put_f` (float vectors), which store the lanes kept
+// at the end of the structure of arrays.
+template <class Put, class PutF, class Box, class Setup, class Vec>
+void TriangleBatch::store_small(Put put, PutF put_f, const Box& box, const Setup& s, Vec area_b0,
+                                Vec ids) {
+  put(x0_, box.i0);
+  put(y0_, box.j0);
+  put(box_w_, box.box_w);
+  put(box_h_, box.box_h);
+  put(w1_, s.w[1]);
+  put(w2_, s.w[2]);
+  put(area_b0_, area_b0);
+  put(sx1_, s.sx[1]);
+  put(sx2_, s.sx[2]);
+  put(sy1_, s.sy[1]);
+  put(sy2_, s.sy[2]);
+  put(bias1_, s.bias[1]);
+  put(bias2_, s.bias[2]);
+  put_f(z0_, s.z0);
+  put_f(a1_, s.a1);
+  put_f(a2_, s.a2);
+  put_f(z_lo_, s.lo);
+  put_f(z_hi_, s.hi);
+  put(id_, ids);
+}
+
 // Drawing
 
 void TriangleBatch::flush() {
@@ -494,25 +521,8 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     auto put_f = [&](float* dst, __m512 v) {
       _mm512_storeu_ps(dst + n, _mm512_maskz_compress_ps(m, v));
     };
-    put(x0_, box.i0);
-    put(y0_, box.j0);
-    put(box_w_, box.box_w);
-    put(box_h_, box.box_h);
-    put(w1_, s.w[1]);
-    put(w2_, s.w[2]);
-    put(area_b0_, _mm512_sub_epi32(s.area32, s.bias[0]));
-    put(sx1_, s.sx[1]);
-    put(sx2_, s.sx[2]);
-    put(sy1_, s.sy[1]);
-    put(sy2_, s.sy[2]);
-    put(bias1_, s.bias[1]);
-    put(bias2_, s.bias[2]);
-    put_f(z0_, s.z0);
-    put_f(a1_, s.a1);
-    put_f(a2_, s.a2);
-    put_f(z_lo_, s.lo);
-    put_f(z_hi_, s.hi);
-    put(id_, simd::ids16(mesh, first, f.live));
+    store_small(put, put_f, box, s, _mm512_sub_epi32(s.area32, s.bias[0]),
+                simd::ids16(mesh, first, f.live));
     small_tested_ += _mm512_mask_reduce_add_epi32(m, _mm512_mullo_epi32(box.box_w, box.box_h));
     // Groups: narrow ones from 0, wide ones from kWideGroups, by row pairs.
     const __m512i group = _mm512_add_epi32(
@@ -691,25 +701,8 @@ void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const V
     auto put_f = [&](float* dst, __m256 v) {
       put(reinterpret_cast<int32_t*>(dst), _mm256_castps_si256(v));
     };
-    put(x0_, box.i0);
-    put(y0_, box.j0);
-    put(box_w_, box.box_w);
-    put(box_h_, box.box_h);
-    put(w1_, s.w[1]);
-    put(w2_, s.w[2]);
-    put(area_b0_, _mm256_sub_epi32(s.area32, s.bias[0]));
-    put(sx1_, s.sx[1]);
-    put(sx2_, s.sx[2]);
-    put(sy1_, s.sy[1]);
-    put(sy2_, s.sy[2]);
-    put(bias1_, s.bias[1]);
-    put(bias2_, s.bias[2]);
-    put_f(z0_, s.z0);
-    put_f(a1_, s.a1);
-    put_f(a2_, s.a2);
-    put_f(z_lo_, s.lo);
-    put_f(z_hi_, s.hi);
-    put(id_, simd::ids8(mesh, first, f.live));
+    store_small(put, put_f, box, s, _mm256_sub_epi32(s.area32, s.bias[0]),
+                simd::ids8(mesh, first, f.live));
     const int count_small = __builtin_popcount(m);
     for (int k = 0; k < count_small; ++k) {
       const int i = n + k;

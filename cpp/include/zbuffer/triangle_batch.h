@@ -104,6 +104,9 @@ class TriangleBatch {
   // The same for count <= 8 faces (AVX2 builds).
   void add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                    const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count);
+  // Vector-set-up faces appended to the structure of arrays (both of the above).
+  template <class Put, class PutF, class Box, class Setup, class Vec>
+  void store_small(Put put, PutF put_f, const Box& box, const Setup& s, Vec area_b0, Vec ids);
 
   DepthTarget& target_;
   RenderStats& stats_;
