@@ -81,14 +81,14 @@ def results_markdown(out: Path, record: dict) -> str:
         lines += [f"## {title}", "", *note,
                   targets.paragraph(name, report, "--quick" in report["command"]), "",
                   *md[1:], ""]
-        if name == "hiz" and report.get("grid"):
-            figures = write_hiz_figures(out)
-            lines += [f"![{title}](figures/{path.name})" for title, path in figures] + [""]
+        lines += [f"![{caption}](figures/{path.name})"
+                  for caption, path in write_figures(out, name, report)] + [""]
     return "\n".join(lines)
 
 
-def write_hiz_figures(out: Path):
-    """The grid suite's figures as PNG files in <out>/figures/."""
+def write_figures(out: Path, name: str, report: dict):
+    """A suite's figures (zbuffer.viz, drawn from its JSON) as PNG files in
+    <out>/figures/: [(caption, path)]."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -96,17 +96,22 @@ def write_hiz_figures(out: Path):
 
     from zbuffer import viz
 
-    report = viz.load_benchmark(out / "hiz.json")
+    if name == "hiz" and report.get("grid"):
+        drawings = [("frame time against N", viz.plot_grid_times, "grid_times"),
+                    ("where the triangles went", viz.plot_grid_culling, "grid_culling")]
+    elif name == "models" and any("algorithms" in c for c in report.get("cases", [])):
+        drawings = [("every algorithm against zbuffer, per model", viz.plot_models, "models")]
+    else:
+        return []
     folder = out / "figures"
     folder.mkdir(exist_ok=True)
     figures = []
-    for title, fig, stem in (("frame time against N", viz.plot_grid_times(report), "grid_times"),
-                             ("where the triangles went", viz.plot_grid_culling(report),
-                              "grid_culling")):
+    for caption, draw, stem in drawings:
+        fig = draw(report)
         path = folder / f"{stem}.png"
         fig.savefig(path, dpi=90)
         plt.close(fig)
-        figures.append((title, path))
+        figures.append((caption, path))
     return figures
 
 

@@ -38,3 +38,20 @@ def test_grid_figures(tmp_path):
     heights = {round(sum(b.get_height() for b in bars[k::4]), 9) for k in range(4)}
     assert heights == {1.0}  # the parts add up to all triangles
     plt.close("all")
+
+
+def test_models_figure(tmp_path):
+    algos = ["zbuffer", "hiz", "scanline"]
+    cases = []
+    for model in ("a.obj", "b.obj"):
+        for size in ("16x12", "32x32"):
+            for cull in (False, True):
+                cases.append({"model": model, "size": size, "cull": cull, "algorithms": {
+                    a: {"x_zbuffer": 1.0 + k + (size == "32x32")} for k, a in enumerate(algos)}})
+    cases.append({"model": "missing.obj", "size": "32x32", "cull": False, "skipped": "not found"})
+    fig = viz.plot_models({"algorithms": algos, "cases": cases})
+    bars = fig.axes[0].patches
+    assert len(bars) == 2 * 2  # two models, one bar per algorithm other than zbuffer
+    assert sorted(b.get_height() for b in bars) == [3.0, 3.0, 4.0, 4.0]  # the largest size
+    fig.savefig(tmp_path / "models.png")
+    plt.close("all")

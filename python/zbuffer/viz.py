@@ -414,3 +414,30 @@ def plot_grid_culling(report: dict, n: Optional[int] = None):
     fig.tight_layout()
     return fig
 
+
+
+def plot_models(report: dict, size: Optional[str] = None, cull: bool = False):
+    """Models x algorithms (``bench_models.py``): each algorithm's frame time
+    as a multiple of the plain Z-buffer's in the same rounds, one group of
+    bars per model, at one image size (default the largest) and culling
+    setting. Returns the matplotlib Figure."""
+    import matplotlib.pyplot as plt
+
+    cases = [c for c in report["cases"] if "algorithms" in c]
+    size = size if size is not None else max(
+        (c["size"] for c in cases), key=lambda s: int(s.split("x")[0]) * int(s.split("x")[1]))
+    cases = [c for c in cases if c["size"] == size and c["cull"] == cull]
+    algos = [a for a in report["algorithms"] if a != "zbuffer"]
+    fig, ax = plt.subplots(figsize=(1.1 * len(cases) + 3, 4))
+    x = np.arange(len(cases))
+    width = 0.8 / max(len(algos), 1)
+    for k, algo in enumerate(algos):
+        ax.bar(x + (k - (len(algos) - 1) / 2) * width,
+               [c["algorithms"][algo]["x_zbuffer"] for c in cases], width, label=algo)
+    ax.axhline(1.0, color="black", linewidth=0.8)
+    ax.set_xticks(x, [c["model"].rsplit(".", 1)[0] for c in cases], rotation=30, ha="right")
+    ax.set_ylabel("time / zbuffer's time (median)")
+    ax.set_title(f"every algorithm per frame, {size}, back-face culling {'on' if cull else 'off'}")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
