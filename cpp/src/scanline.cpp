@@ -175,9 +175,6 @@ void ScanlineTables::add_triangle(const ScreenTriangle& t, RenderStats& stats) {
   p.z_hi = s.z_hi;
   p.id = s.id;
   p.large = -1;
-#ifndef ZBUFFER_AVX512
-  fits = false;  // the scalar build draws every span from the full setup
-#endif
   if (!fits) {
     p.large = int32_t(large_.size());
     large_.push_back(s);
@@ -469,6 +466,33 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
     written += __builtin_popcount(win);
   }
   counts.tested += width;
+  counts.covered += covered;
+  counts.written += written;
+#else
+  // The scalar loop of the raster core (rasterize_span_scalar) on the
+  // int32 form: the same integers, and float(int32) is float(int64) of the
+  // same value, so the same bits; no second record to fetch.
+  if (lo > hi) return;
+  const uint32_t dx = uint32_t(lo - p.x_min), dy = uint32_t(y - p.y_min);
+  int32_t w[3];
+  for (int k = 0; k < 3; ++k)
+    w[k] = int32_t(uint32_t(p.w[k]) + dx * uint32_t(p.step_x[k]) + dy * uint32_t(p.step_y[k]));
+  float* const depth = depth_row_.data();
+  int32_t* const ids = id_row_.data();
+  int64_t covered = 0, written = 0;
+  for (int x = lo; x <= hi; ++x) {
+    if ((w[0] | w[1] | w[2]) >= 0) {  // all biased edge values >= 0: inside
+      ++covered;
+      float z = p.z0 + (float(w[1] + p.bias1) * p.a1 + float(w[2] + p.bias2) * p.a2);
+      z = z < p.z_lo ? p.z_lo : z;  // depth_at's clamp
+      z = z > p.z_hi ? p.z_hi : z;
+      written += depth_write(depth, ids, size_t(x), z, p.id);
+    }
+    w[0] += p.step_x[0];
+    w[1] += p.step_x[1];
+    w[2] += p.step_x[2];
+  }
+  counts.tested += hi - lo + 1;
   counts.covered += covered;
   counts.written += written;
 #endif

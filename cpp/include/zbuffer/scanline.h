@@ -96,9 +96,12 @@ struct EdgeEntry {
 // Design decision: the raster setup (raster.h: TriangleSetup) cut down to
 // int32 edge values at the box's first pixel with int32 steps, when every
 // edge value in the box fits (nearly always); the full setup, kept apart,
-// otherwise. Good: 88 bytes instead of 136, and a span needs no int64
-// arithmetic. Bad: two forms of one triangle; the int32 one is only a
-// faster evaluation of the same exact integers. AVX-512 builds write the
+// otherwise. Good: 88 bytes instead of 136, a span needs no int64
+// arithmetic, and every build (the scalar one too) draws spans and starts
+// edges from this one record, with no second, random fetch of the full
+// setup (bunny_69k, scalar build: 2.6x -> 1.85x the plain Z-buffer). Bad: two
+// forms of one triangle; the int32 one is only a faster evaluation of the
+// same exact integers. AVX-512 builds write the
 // records of faces under 16 pixels across from setup16.h's vector setup
 // (the same integers and floats as setup_triangle's, tested), all others
 // through setup_triangle.
