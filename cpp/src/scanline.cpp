@@ -854,13 +854,16 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   active_gedges_.clear();
 
   bounds_.resize(2 * polys_.size());
+#ifdef ZBUFFER_AVX512
   // Room for every polygon plus the 16 entries a vector store may write
-  // past the last one.
+  // past the last one (only the vector paths use these lists: the scalar
+  // build would hold ~170 bytes a triangle here for nothing).
   for (auto& field : active_)
     if (field.size() < polys_.size() + 16) field.resize(polys_.size() + 16);
-  n_active_ = 0;
   for (auto& field : aedge_)
     if (field.size() < edges_.size() + 16) field.resize(edges_.size() + 16);
+#endif
+  n_active_ = 0;
   n_aedges_ = 0;
   active_polys_.clear();
   active_edges_.clear();
