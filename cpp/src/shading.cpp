@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -101,15 +103,19 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary) {
   return s;
 }
 
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512)
 void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image);
+#elif defined(ZBUFFER_AVX2)
+void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image);
 #endif
 
 }  // namespace
 
 void shade(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512)
   shade_avx512(in, triangle_id, image);
+#elif defined(ZBUFFER_AVX2)
+  shade_avx2(in, triangle_id, image);
 #else
   shade_scalar(in, triangle_id, image);
 #endif
@@ -200,13 +206,14 @@ void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
 
 namespace {
 
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
 
-// The Vector Pass
+// The Vector Passes
 //
-// 16 pixels of a row per step, in float32 (shading need not be bit-exact;
-// it agrees with the scalar pass and the numpy twin within one level).
-// Per-face data sits in structure-of-arrays form for gathers.
+// 16 (AVX-512) or 8 (AVX2) pixels of a row per step, in float32 (shading
+// need not be bit-exact; it agrees with the scalar pass and the numpy twin
+// within one level). Per-face data sits in structure-of-arrays form for
+// gathers.
 
 struct FaceTable {
   explicit FaceTable(size_t n)
@@ -218,6 +225,38 @@ struct FaceTable {
   std::unique_ptr<int32_t[]> rgb;   // flat colour, 0x00BBGGRR
   std::vector<int32_t> ready;  // int32 so that 16 flags are one gather
 };
+
+// Everything a vector pass reads per face, prepared the first time the
+// face shows up (scalar, once per face).
+void prepare_table(const ShadingInput& in, FaceTable& table, int32_t face, bool need_bary) {
+  const FaceShade s = prepare_face(in, face, need_bary);
+  for (int c = 0; c < 9; ++c) table.bary[9 * size_t(face) + c] = float(s.bary[c]);
+  table.normal[3 * size_t(face) + 0] = float(s.normal.x);
+  table.normal[3 * size_t(face) + 1] = float(s.normal.y);
+  table.normal[3 * size_t(face) + 2] = float(s.normal.z);
+  table.side[face] = float(s.side);
+  table.rgb[face] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
+  table.ready[face] = 1;
+}
+
+// Vertex normals or colours as float32 structure of arrays (component c of
+// vertex v at c * n + v).
+std::vector<float> components(const double* values, size_t n) {
+  std::vector<float> out(3 * n);
+  for (size_t v = 0; v < n; ++v)
+    for (int c = 0; c < 3; ++c) out[c * n + v] = float(values[3 * v + c]);
+  return out;
+}
+std::vector<float> components(const float* values, size_t n) {
+  std::vector<float> out(3 * n);
+  for (size_t v = 0; v < n; ++v)
+    for (int c = 0; c < 3; ++c) out[c * n + v] = values[3 * v + c];
+  return out;
+}
+
+#endif
+
+#ifdef ZBUFFER_AVX512
 
 // Pack 16 colours 0x00BBGGRR into 48 bytes R G B R G B ... and store them.
 inline void store_rgb16(uint8_t* out, __m512i rgba, __mmask16 lanes) {
@@ -249,17 +288,8 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
 
   // Vertex normals and colours as float32 structure of arrays.
   const size_t nv = size_t(in.mesh.n_vertices);
-  std::vector<float> vn, vc;
-  if (smooth) {
-    vn.resize(3 * nv);
-    for (size_t v = 0; v < nv; ++v)
-      for (int c = 0; c < 3; ++c) vn[c * nv + v] = float(in.vertex_normals[3 * v + c]);
-  }
-  if (per_vertex) {
-    vc.resize(3 * nv);
-    for (size_t v = 0; v < nv; ++v)
-      for (int c = 0; c < 3; ++c) vc[c * nv + v] = in.colors[3 * v + c];
-  }
+  const std::vector<float> vn = smooth ? components(in.vertex_normals, nv) : std::vector<float>();
+  const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
 
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
   const __m512 lanes_f = _mm512_set_ps(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
@@ -288,16 +318,7 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
           drawn, _mm512_mask_i32gather_epi32(zero, drawn, f, table.ready.data(), 4), zero);
       for (unsigned m = first_seen; m; m &= m - 1) {
         const int32_t face = ids[i + __builtin_ctz(m)];
-        if (table.ready[face]) continue;  // two lanes of one new face
-        const FaceShade s = prepare_face(in, face, need_bary);
-        for (int c = 0; c < 9; ++c) table.bary[9 * size_t(face) + c] = float(s.bary[c]);
-        table.normal[3 * size_t(face) + 0] = float(s.normal.x);
-        table.normal[3 * size_t(face) + 1] = float(s.normal.y);
-        table.normal[3 * size_t(face) + 2] = float(s.normal.z);
-        table.side[face] = float(s.side);
-        table.rgb[face] =
-            int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
-        table.ready[face] = 1;
+        if (!table.ready[face]) prepare_table(in, table, face, need_bary);  // once per face
       }
       __m512i rgba = background;
       if (drawn && !need_bary) {
@@ -390,6 +411,160 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
         rgba = _mm512_mask_mov_epi32(background, drawn, colour);
       }
       store_rgb16(row + 3 * size_t(i), rgba, valid);
+    }
+  }
+}
+
+#endif
+
+#ifdef ZBUFFER_AVX2
+
+inline __m256i to_bytes8(__m256 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
+  const __m256 v = _mm256_min_ps(_mm256_max_ps(c, _mm256_setzero_ps()), _mm256_set1_ps(1.0f));
+  return _mm256_cvtps_epi32(_mm256_floor_ps(
+      _mm256_add_ps(_mm256_mul_ps(v, _mm256_set1_ps(255.0f)), _mm256_set1_ps(0.5f))));
+}
+
+// The AVX-512 pass above, 8 pixels per step; lane masks are vectors.
+void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+  const bool smooth = in.vertex_normals != nullptr;
+  const bool per_vertex = in.color_source == ColorSource::kPerVertex;
+  const bool need_bary = smooth || per_vertex;
+  FaceTable table(size_t(in.mesh.n_faces));
+  const size_t nv = size_t(in.mesh.n_vertices);
+  const std::vector<float> vn = smooth ? components(in.vertex_normals, nv) : std::vector<float>();
+  const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
+
+  const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 lanes_f = _mm256_cvtepi32_ps(lane);
+  const __m256i zero = _mm256_setzero_si256();
+  const __m256 zero_f = _mm256_setzero_ps();
+  const int32_t bg = int32_t(in.background[0]) | (int32_t(in.background[1]) << 8) |
+                     (int32_t(in.background[2]) << 16);
+  const __m256i background = _mm256_set1_epi32(bg);
+  const __m256 lx = _mm256_set1_ps(float(-in.light_dir[0]));
+  const __m256 ly = _mm256_set1_ps(float(-in.light_dir[1]));
+  const __m256 lz = _mm256_set1_ps(float(-in.light_dir[2]));
+  const __m256 ambient = _mm256_set1_ps(float(in.ambient));
+  const __m256 diffuse = _mm256_set1_ps(float(in.diffuse));
+  const __m256 one = _mm256_set1_ps(1.0f), third = _mm256_set1_ps(1.0f / 3.0f);
+  const __m256 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+  // Pack 8 colours 0x00BBGGRR into 24 bytes R G B R G B ...: 12 bytes per
+  // 128-bit half, then both halves through a small buffer.
+  const __m256i rgb_bytes = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1,
+                                             0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1);
+
+  for (int j = 0; j < in.height; ++j) {
+    const int32_t* ids = triangle_id + size_t(j) * size_t(in.width);
+    uint8_t* row = image + 3 * size_t(j) * size_t(in.width);
+    const __m256 yn = _mm256_set1_ps(1.0f - (float(j) + 0.5f) / half_h);
+    for (int i = 0; i < in.width; i += 8) {
+      const int count = std::min(8, in.width - i);
+      const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(count), lane);
+      const __m256i f = _mm256_maskload_epi32(ids + i, valid);
+      const __m256i drawn = _mm256_and_si256(valid, _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
+      const __m256 drawn_f = _mm256_castsi256_ps(drawn);
+      // Faces seen for the first time: prepare them (scalar, once per face).
+      const __m256i ready = _mm256_mask_i32gather_epi32(zero, table.ready.data(), f, drawn, 4);
+      const unsigned first_seen = unsigned(_mm256_movemask_ps(
+          _mm256_castsi256_ps(_mm256_and_si256(drawn, _mm256_cmpeq_epi32(ready, zero)))));
+      for (unsigned m = first_seen; m; m &= m - 1) {
+        const int32_t face = ids[i + __builtin_ctz(m)];
+        if (!table.ready[face]) prepare_table(in, table, face, need_bary);
+      }
+      __m256i rgba = background;
+      if (!_mm256_testz_si256(drawn, drawn) && !need_bary) {
+        rgba = _mm256_mask_i32gather_epi32(background, table.rgb.get(), f, drawn, 4);
+      } else if (!_mm256_testz_si256(drawn, drawn)) {
+        auto gather = [&](const float* base, __m256i index, __m256 fallback) {
+          return _mm256_mask_i32gather_ps(fallback, base, index, drawn_f, 4);
+        };
+        // Barycentrics at the pixel centres, normalised and clamped.
+        const __m256 xn = _mm256_sub_ps(
+            _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_set1_ps(float(i)), lanes_f),
+                                        _mm256_set1_ps(0.5f)),
+                          _mm256_set1_ps(half_w)),
+            one);
+        const __m256i f9 = _mm256_mullo_epi32(f, _mm256_set1_epi32(9));
+        __m256 b[3];
+        for (int k = 0; k < 3; ++k) {
+          auto coef = [&](int c) {
+            return gather(table.bary.get(), _mm256_add_epi32(f9, _mm256_set1_epi32(3 * k + c)), zero_f);
+          };
+          b[k] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(coef(0), xn), _mm256_mul_ps(coef(1), yn)),
+                               coef(2));
+        }
+        const __m256 sum = _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]);
+        const __m256 bad = _mm256_or_ps(
+            _mm256_or_ps(_mm256_cmp_ps(sum, sum, _CMP_UNORD_Q),  // NaN
+                         _mm256_cmp_ps(_mm256_and_ps(sum, abs_mask), inf, _CMP_EQ_OQ)),
+            _mm256_cmp_ps(sum, zero_f, _CMP_EQ_OQ));
+        const __m256 inv = _mm256_div_ps(one, sum);
+        for (auto& bk : b)
+          bk = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(bk, inv), zero_f), one);
+        const __m256 inv_total = _mm256_div_ps(one, _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]));
+        for (auto& bk : b) bk = _mm256_blendv_ps(_mm256_mul_ps(bk, inv_total), third, bad);
+
+        // Vertex indices of each lane's face.
+        const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
+        __m256i vid[3];
+        if (smooth || per_vertex)
+          for (int k = 0; k < 3; ++k)
+            vid[k] = _mm256_mask_i32gather_epi32(zero, in.mesh.faces,
+                                                 _mm256_add_epi32(f3, _mm256_set1_epi32(k)), drawn, 4);
+        // Normal: flat, or interpolated and normalised.
+        __m256 n[3];
+        for (int c = 0; c < 3; ++c)
+          n[c] = gather(table.normal.get(), _mm256_add_epi32(f3, _mm256_set1_epi32(c)), zero_f);
+        if (smooth) {
+          __m256 ns[3];
+          for (int c = 0; c < 3; ++c) {
+            const float* comp = vn.data() + size_t(c) * nv;
+            ns[c] = zero_f;
+            for (int k = 0; k < 3; ++k)
+              ns[c] = _mm256_add_ps(ns[c], _mm256_mul_ps(b[k], gather(comp, vid[k], zero_f)));
+          }
+          const __m256 len2 = _mm256_add_ps(
+              _mm256_add_ps(_mm256_mul_ps(ns[0], ns[0]), _mm256_mul_ps(ns[1], ns[1])),
+              _mm256_mul_ps(ns[2], ns[2]));
+          const __m256 usable = _mm256_cmp_ps(len2, zero_f, _CMP_GT_OQ);
+          const __m256 side = gather(table.side.get(), f, one);
+          const __m256 scale = _mm256_div_ps(side, _mm256_sqrt_ps(len2));
+          for (int c = 0; c < 3; ++c) n[c] = _mm256_blendv_ps(n[c], _mm256_mul_ps(ns[c], scale), usable);
+        }
+        const __m256 ndotl = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(n[0], lx), _mm256_mul_ps(n[1], ly)), _mm256_mul_ps(n[2], lz));
+        const __m256 intensity =
+            _mm256_add_ps(ambient, _mm256_mul_ps(diffuse, _mm256_max_ps(ndotl, zero_f)));
+        // Albedo.
+        __m256i channel[3];
+        for (int c = 0; c < 3; ++c) {
+          __m256 albedo;
+          if (per_vertex) {
+            const float* comp = vc.data() + size_t(c) * nv;
+            albedo = zero_f;
+            for (int k = 0; k < 3; ++k)
+              albedo = _mm256_add_ps(albedo, _mm256_mul_ps(b[k], gather(comp, vid[k], zero_f)));
+          } else if (in.color_source == ColorSource::kPerFace) {
+            albedo = gather(in.colors, _mm256_add_epi32(f3, _mm256_set1_epi32(c)), zero_f);
+          } else {
+            albedo = _mm256_set1_ps(in.uniform_color[c]);
+          }
+          channel[c] = to_bytes8(_mm256_mul_ps(albedo, intensity));
+        }
+        const __m256i colour = _mm256_or_si256(
+            channel[0], _mm256_or_si256(_mm256_slli_epi32(channel[1], 8),
+                                        _mm256_slli_epi32(channel[2], 16)));
+        rgba = _mm256_blendv_epi8(background, colour, drawn);
+      }
+      alignas(32) uint8_t packed[32];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(packed), _mm256_shuffle_epi8(rgba, rgb_bytes));
+      uint8_t* out = row + 3 * size_t(i);
+      const int low = std::min(count, 4);
+      std::memcpy(out, packed, 3 * size_t(low));
+      if (count > 4) std::memcpy(out + 12, packed + 16, 3 * size_t(count - 4));
     }
   }
 }
