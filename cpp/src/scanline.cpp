@@ -11,16 +11,12 @@
 
 #include "setup16.h"
 #include "simd.h"
+#include "timing.h"
 #include "zbuffer/algorithms.h"
 
 namespace zbuffer {
 
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-      .count();
-}
 
 inline void prefetch(const void* p) {
 #if defined(__GNUC__)
@@ -999,13 +995,13 @@ void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats&
   const Viewport vp(target.width, target.height);
 
   // Vertex stage: shared with every algorithm, each vertex once.
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   thread_local ScreenVertices screen;
   transform_vertices(input.mesh, input.mvp, vp, screen);
   stats.vertex_ms += ms_since(t0);
 
   // Assembly into the tables, then the row walk.
-  t0 = std::chrono::steady_clock::now();
+  t0 = Clock::now();
   thread_local ScanlineTables tables;
   tables.reset(target.width, target.height);
   auto add_faces = [&](int64_t begin, int64_t end) {

@@ -14,15 +14,10 @@
 #include "setup16.h"
 #include "setup8.h"
 #include "simd.h"
+#include "timing.h"
 
 namespace zbuffer {
 
-namespace {
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-      .count();
-}
-}  // namespace
 
 void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderStats& stats,
                           ZPyramid* pyramid, int capacity, bool lazy_upkeep) {
@@ -32,13 +27,13 @@ void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderS
   // per-thread buffers are reused from frame to frame instead of being
   // allocated, zeroed and faulted in anew (which cost more than the
   // transform itself).
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   thread_local ScreenVertices screen;
   transform_vertices(input.mesh, input.mvp, vp, screen);
   stats.vertex_ms += ms_since(t0);
 
   // Assembly, setup, (culling,) rasterization: every face, in batches.
-  t0 = std::chrono::steady_clock::now();
+  t0 = Clock::now();
   TriangleBatch batch(target, stats, pyramid, capacity);
   batch.set_lazy_upkeep(lazy_upkeep);
   batch.add_faces(input.mesh, input.mvp, vp, screen, 0, input.mesh.n_faces,
@@ -361,7 +356,7 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
 }
 
 void TriangleBatch::update_pyramid() {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   // The level-3 cells under every 16 x 16 block drawn into since the last
   // update, listed once; the pyramid recomputes them from the pixels and
   // climbs from there.
