@@ -82,10 +82,9 @@ def exact_triangulation(points, sizes, faces):
     return True
 
 
-@SETTINGS
-@given(scene=polygon_scenes(), cull=st.booleans())
-def test_random_polygons_equal_reference(scene, cull):
-    v, sizes, indices, points = scene
+def render_both(v, sizes, indices, cull):
+    """The polygons drawn by the core and by the reference: the same depth,
+    ids and covered pixels (asserted); returns (ids, stats, reference stats)."""
     faces, _ = triangulate_polygons(v, sizes, indices)
     depth, ids, stats = render_polygons_core(v, faces, sizes, indices, cull)
     ref_depth, ref_ids, ref_stats = reference.render_polygons(v, faces, sizes, indices, MVP,
@@ -93,6 +92,14 @@ def test_random_polygons_equal_reference(scene, cull):
     np.testing.assert_array_equal(ids, ref_ids)
     np.testing.assert_array_equal(depth, ref_depth)
     assert stats["pixels_covered"] == ref_stats["pixels_covered"]
+    return ids, stats, ref_stats
+
+
+@SETTINGS
+@given(scene=polygon_scenes(), cull=st.booleans())
+def test_random_polygons_equal_reference(scene, cull):
+    v, sizes, indices, points = scene
+    ids, stats, ref_stats = render_both(v, sizes, indices, cull)
     assert stats["pixels_tested"] == stats["pixels_covered"]  # exact spans
     for key in ("triangles_in", "culled_backface", "culled_degenerate", "rasterized",
                 "clipped", "clip_pieces", "culled_frustum"):
@@ -110,14 +117,8 @@ def test_random_polygons_equal_reference(scene, cull):
 def test_polygons_crossing_near_and_far_planes_equal_reference(scene, cull):
     # Such polygons are drawn as their (clipped) triangles, the others natively.
     v, sizes, indices, _ = scene
-    faces, _ = triangulate_polygons(v, sizes, indices)
-    depth, ids, stats = render_polygons_core(v, faces, sizes, indices, cull)
-    ref_depth, ref_ids, ref_stats = reference.render_polygons(v, faces, sizes, indices, MVP,
-                                                              SIZE, SIZE, cull)
-    np.testing.assert_array_equal(ids, ref_ids)
-    np.testing.assert_array_equal(depth, ref_depth)
+    _, stats, ref_stats = render_both(v, sizes, indices, cull)
     assert_same_counters(stats, ref_stats)
-    assert stats["pixels_covered"] == ref_stats["pixels_covered"]
 
 
 def test_steep_polygon_scenes_do_cross_the_clip_planes():

@@ -91,6 +91,22 @@ def _outcodes(cx, cy, cz, cw, gx: float, gy: float) -> np.ndarray:
     return np.where(finite, oc, OUT_INVALID)
 
 
+def _vertex_stage(vertices, mvp, half_w, half_h, gx, gy):
+    """Every vertex once: clip coordinates, outcodes, and the window
+    coordinates (fixed-point x, y; z) of the vertices that need no clipping
+    (zeros elsewhere)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        cx, cy, cz, cw = _transform(mvp, np.asarray(vertices, dtype=np.float64))
+    oc = _outcodes(cx, cy, cz, cw, gx, gy)
+    direct = (oc & (OUT_CLIP | OUT_INVALID)) == 0
+    vx = np.zeros(len(oc), np.int64)
+    vy = np.zeros(len(oc), np.int64)
+    vz = np.zeros(len(oc), np.float64)
+    vx[direct], vy[direct], vz[direct] = _to_screen(
+        cx[direct], cy[direct], cz[direct], cw[direct], half_w, half_h)
+    return (cx, cy, cz, cw), oc, (vx, vy, vz)
+
+
 def _to_screen(cx, cy, cz, cw, half_w: float, half_h: float):
     """Divide, viewport, clamp depth, snap: (x_fx int64, y_fx int64, z float64)."""
     inv_w = 1.0 / cw
@@ -189,15 +205,7 @@ def vertex_stage(vertices: np.ndarray, faces: np.ndarray, mvp: np.ndarray, width
 
     # Per vertex: clip coordinates, outcodes, and window coordinates where no
     # clipping is needed.
-    with np.errstate(over="ignore", invalid="ignore"):
-        cx, cy, cz, cw = _transform(mvp, np.asarray(vertices, dtype=np.float64))
-    oc = _outcodes(cx, cy, cz, cw, gx, gy)
-    direct = (oc & (OUT_CLIP | OUT_INVALID)) == 0
-    vx = np.zeros(len(oc), np.int64)
-    vy = np.zeros(len(oc), np.int64)
-    vz = np.zeros(len(oc), np.float64)
-    vx[direct], vy[direct], vz[direct] = _to_screen(
-        cx[direct], cy[direct], cz[direct], cw[direct], half_w, half_h)
+    (cx, cy, cz, cw), oc, (vx, vy, vz) = _vertex_stage(vertices, mvp, half_w, half_h, gx, gy)
 
     # Per face: invalid, outside the view volume, needing clipping, or direct.
     foc = oc[faces]
@@ -467,15 +475,7 @@ def render_polygons(vertices: np.ndarray, faces: np.ndarray, sizes: np.ndarray,
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     half_w, half_h = 0.5 * width, 0.5 * height
     gx, gy = GUARD_BAND_PX / half_w, GUARD_BAND_PX / half_h
-    with np.errstate(over="ignore", invalid="ignore"):
-        cx, cy, cz, cw = _transform(mvp, np.asarray(vertices, dtype=np.float64))
-    oc = _outcodes(cx, cy, cz, cw, gx, gy)
-    direct = (oc & (OUT_CLIP | OUT_INVALID)) == 0
-    vx = np.zeros(len(oc), np.int64)
-    vy = np.zeros(len(oc), np.int64)
-    vz = np.zeros(len(oc), np.float64)
-    vx[direct], vy[direct], vz[direct] = _to_screen(
-        cx[direct], cy[direct], cz[direct], cw[direct], half_w, half_h)
+    (cx, cy, cz, cw), oc, (vx, vy, vz) = _vertex_stage(vertices, mvp, half_w, half_h, gx, gy)
 
     stats = dict.fromkeys(STAT_KEYS, 0)
     offsets = np.concatenate([[0], np.cumsum(sizes)])
