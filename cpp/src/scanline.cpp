@@ -995,13 +995,10 @@ void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats&
   const Viewport vp(target.width, target.height);
 
   // Vertex stage: shared with every algorithm, each vertex once.
-  auto t0 = Clock::now();
-  thread_local ScreenVertices screen;
-  transform_vertices(input.mesh, input.mvp, vp, screen);
-  stats.vertex_ms += ms_since(t0);
+  const ScreenVertices& screen = transform_mesh(input, vp, stats);
 
   // Assembly into the tables, then the row walk.
-  t0 = Clock::now();
+  const auto t0 = Clock::now();
   thread_local ScanlineTables tables;
   tables.reset(target.width, target.height);
   auto add_faces = [&](int64_t begin, int64_t end) {

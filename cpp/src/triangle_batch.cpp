@@ -23,17 +23,11 @@ void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderS
                           ZPyramid* pyramid, int capacity, bool lazy_upkeep) {
   const Viewport vp(target.width, target.height);
 
-  // Vertex stage: each vertex once, however many faces share it. The
-  // per-thread buffers are reused from frame to frame instead of being
-  // allocated, zeroed and faulted in anew (which cost more than the
-  // transform itself).
-  auto t0 = Clock::now();
-  thread_local ScreenVertices screen;
-  transform_vertices(input.mesh, input.mvp, vp, screen);
-  stats.vertex_ms += ms_since(t0);
+  // Vertex stage: each vertex once, however many faces share it.
+  const ScreenVertices& screen = transform_mesh(input, vp, stats);
 
   // Assembly, setup, (culling,) rasterization: every face, in batches.
-  t0 = Clock::now();
+  const auto t0 = Clock::now();
   TriangleBatch batch(target, stats, pyramid, capacity);
   batch.set_lazy_upkeep(lazy_upkeep);
   batch.add_faces(input.mesh, input.mvp, vp, screen, 0, input.mesh.n_faces,

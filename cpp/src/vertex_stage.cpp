@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "simd.h"
+#include "timing.h"
 
 namespace zbuffer {
 
@@ -145,6 +146,15 @@ int clip_polygon(ClipVertex* poly, int n, const Viewport& vp) {
       return 0;
   }
   return n;
+}
+
+const ScreenVertices& transform_mesh(const RenderInput& input, const Viewport& vp,
+                                     RenderStats& stats) {
+  const auto t0 = Clock::now();
+  thread_local ScreenVertices screen;
+  transform_vertices(input.mesh, input.mvp, vp, screen);
+  stats.vertex_ms += ms_since(t0);
+  return screen;
 }
 
 }  // namespace zbuffer

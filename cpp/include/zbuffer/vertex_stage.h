@@ -153,6 +153,14 @@ inline ScreenVertex to_screen(const ClipVertex& c, const Viewport& vp) {
 void transform_vertices(const MeshView& mesh, const double* mvp,
                         const Viewport& vp, ScreenVertices& out);
 
+// The vertex stage of a whole render: every vertex of input.mesh once, into
+// a buffer of the calling thread that is reused from frame to frame
+// (allocating, zeroing and faulting in a new one cost more than the
+// transform itself), timed into stats.vertex_ms. Valid until the thread's
+// next call.
+const ScreenVertices& transform_mesh(const RenderInput& input, const Viewport& vp,
+                                     RenderStats& stats);
+
 // Clip Space Polygon Clipping
 
 // Signed distance of a clip-space vertex to clip plane `plane` (0 near,
