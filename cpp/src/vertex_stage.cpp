@@ -1,8 +1,9 @@
 // Vertex stage: per-vertex transform and Sutherland-Hodgman clipping.
 //
-// transform_vertices has a scalar loop and an AVX-512 loop (8 vertices per
-// instruction). Both evaluate vertex_stage.h's formulas with the same IEEE
-// operations in the same order, so they produce the same bits.
+// transform_vertices has a scalar loop, an AVX-512 loop (8 vertices per
+// instruction) and an AVX2 loop (4). All three evaluate vertex_stage.h's
+// formulas with the same IEEE operations in the same order, so they produce
+// the same bits.
 #include "zbuffer/vertex_stage.h"
 
 #include <cmath>
@@ -95,15 +96,86 @@ void transform_8(const double* p, const double* m, const Viewport& vp, int32_t* 
 }
 #endif
 
+#ifdef ZBUFFER_AVX2
+// Four vertices, AVX2: transform_8's operations with 4 binary64 lanes.
+void transform_4(const double* p, const double* m, const Viewport& vp, int32_t* x_out,
+                 int32_t* y_out, uint32_t* oc_out, double* z_out) {
+  const __m256d x = _mm256_setr_pd(p[0], p[3], p[6], p[9]);
+  const __m256d y = _mm256_setr_pd(p[1], p[4], p[7], p[10]);
+  const __m256d z = _mm256_setr_pd(p[2], p[5], p[8], p[11]);
+  __m256d clip[4];
+  for (int r = 0; r < 4; ++r) {  // as simd::transform8 (and transform_point)
+    const __m256d xy = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(m[4 * r]), x),
+                                     _mm256_mul_pd(_mm256_set1_pd(m[4 * r + 1]), y));
+    clip[r] = _mm256_add_pd(_mm256_add_pd(xy, _mm256_mul_pd(_mm256_set1_pd(m[4 * r + 2]), z)),
+                            _mm256_set1_pd(m[4 * r + 3]));
+  }
+  const __m256d cx = clip[0], cy = clip[1], cz = clip[2], cw = clip[3];
+  const __m256d zero = _mm256_setzero_pd();
+
+  // Outcodes, as outcode() computes them; lane masks narrowed to int32.
+  const __m256i narrow = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
+  auto lanes32 = [&](__m256d mask) {
+    return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), narrow));
+  };
+  auto below_zero = [&](__m256d v) { return lanes32(_mm256_cmp_pd(v, zero, _CMP_LT_OQ)); };
+  auto bit = [](__m128i lanes, uint32_t b) { return _mm_and_si128(lanes, _mm_set1_epi32(int(b))); };
+  __m256d finite = _mm256_cmp_pd(_mm256_sub_pd(cx, cx), zero, _CMP_EQ_OQ);  // v - v == 0
+  for (int r = 1; r < 4; ++r)
+    finite = _mm256_and_pd(finite, _mm256_cmp_pd(_mm256_sub_pd(clip[r], clip[r]), zero, _CMP_EQ_OQ));
+  const __m128i invalid = _mm_xor_si128(lanes32(finite), _mm_set1_epi32(-1));
+  const __m256d gxw = _mm256_mul_pd(_mm256_set1_pd(vp.guard_x), cw);
+  const __m256d gyw = _mm256_mul_pd(_mm256_set1_pd(vp.guard_y), cw);
+  __m128i oc = bit(below_zero(_mm256_add_pd(cx, cw)), kOutLeft);
+  oc = _mm_or_si128(oc, bit(below_zero(_mm256_sub_pd(cw, cx)), kOutRight));
+  oc = _mm_or_si128(oc, bit(below_zero(_mm256_add_pd(cy, cw)), kOutBottom));
+  oc = _mm_or_si128(oc, bit(below_zero(_mm256_sub_pd(cw, cy)), kOutTop));
+  const __m128i behind = lanes32(_mm256_cmp_pd(cw, _mm256_set1_pd(kMinClipW), _CMP_NGE_UQ));
+  oc = _mm_or_si128(oc, bit(_mm_or_si128(below_zero(_mm256_add_pd(cz, cw)), behind), kOutNear));
+  oc = _mm_or_si128(oc, bit(below_zero(_mm256_sub_pd(cw, cz)), kOutFar));
+  oc = _mm_or_si128(oc, bit(below_zero(_mm256_add_pd(cx, gxw)), kOutGuardLeft));
+  oc = _mm_or_si128(oc, bit(below_zero(_mm256_sub_pd(gxw, cx)), kOutGuardRight));
+  oc = _mm_or_si128(oc, bit(below_zero(_mm256_add_pd(cy, gyw)), kOutGuardBottom));
+  oc = _mm_or_si128(oc, bit(below_zero(_mm256_sub_pd(gyw, cy)), kOutGuardTop));
+  oc = _mm_blendv_epi8(oc, _mm_set1_epi32(int(kOutInvalid)), invalid);
+  const __m128i direct =
+      _mm_cmpeq_epi32(_mm_and_si128(oc, _mm_set1_epi32(int(kOutClip | kOutInvalid))), _mm_setzero_si128());
+
+  // Divide, viewport, clamp depth, snap (to_screen).
+  const __m256d one = _mm256_set1_pd(1.0), half = _mm256_set1_pd(0.5);
+  const __m256d inv_w = _mm256_div_pd(one, cw);
+  const __m256d xn = _mm256_mul_pd(cx, inv_w);
+  const __m256d yn = _mm256_mul_pd(cy, inv_w);
+  const __m256d zn = _mm256_mul_pd(cz, inv_w);
+  const __m256d xw = _mm256_mul_pd(_mm256_add_pd(xn, one), _mm256_set1_pd(vp.half_w));
+  const __m256d yw = _mm256_mul_pd(_mm256_sub_pd(one, yn), _mm256_set1_pd(vp.half_h));
+  __m256d zw = _mm256_add_pd(_mm256_mul_pd(zn, half), half);
+  zw = _mm256_blendv_pd(zw, zero, _mm256_cmp_pd(zw, zero, _CMP_LT_OQ));
+  zw = _mm256_blendv_pd(zw, one, _mm256_cmp_pd(zw, one, _CMP_GT_OQ));
+  const __m256d scale = _mm256_set1_pd(double(kSubpixelScale));
+  // cvtpd_epi32 rounds in the current mode (to nearest even), like nearbyint.
+  const __m128i xf = _mm_and_si128(direct, _mm256_cvtpd_epi32(_mm256_mul_pd(xw, scale)));
+  const __m128i yf = _mm_and_si128(direct, _mm256_cvtpd_epi32(_mm256_mul_pd(yw, scale)));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(x_out), xf);
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(y_out), yf);
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(oc_out), oc);
+  _mm256_storeu_pd(z_out, _mm256_and_pd(_mm256_castsi256_pd(_mm256_cvtepi32_epi64(direct)), zw));
+}
+#endif
+
 }  // namespace
 
 void transform_vertices(const MeshView& mesh, const double* mvp, const Viewport& vp,
                         ScreenVertices& out) {
   out.resize(size_t(mesh.n_vertices));
   int64_t i = 0;
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512)
   for (; i + 8 <= mesh.n_vertices; i += 8)
     transform_8(mesh.positions + 3 * i, mvp, vp, &out.x_fx[i], &out.y_fx[i], &out.outcode[i],
+                &out.z[i]);
+#elif defined(ZBUFFER_AVX2)
+  for (; i + 4 <= mesh.n_vertices; i += 4)
+    transform_4(mesh.positions + 3 * i, mvp, vp, &out.x_fx[i], &out.y_fx[i], &out.outcode[i],
                 &out.z[i]);
 #endif
   for (; i < mesh.n_vertices; ++i) transform_vertex(mesh, mvp, vp, i, out);
