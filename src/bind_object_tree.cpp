@@ -14,6 +14,7 @@
 #include "zbuffer/bvh.h"
 #include "zbuffer/object_tree.h"
 #include "zbuffer/octree.h"
+#include "zbuffer/zpyramid.h"
 
 namespace zbuffer_py {
 
@@ -53,7 +54,7 @@ std::unique_ptr<Tree> build(const std::string& kind, py::handle positions_obj,
 }
 
 py::tuple render(Tree& self, py::handle mvp_obj, int width, int height, bool cull_backfaces,
-                 bool temporal) {
+                 bool temporal, bool record_culls) {
   check_image_size(width, height);
   zbuffer::RenderInput input;
   read_mvp(mvp_obj, input.mvp);
@@ -63,11 +64,17 @@ py::tuple render(Tree& self, py::handle mvp_obj, int width, int height, bool cul
   auto [depth, ids] = allocate_planes(width, height);
   zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
   zbuffer::RenderStats stats;
+  std::unique_ptr<zbuffer::CullMap> culls;
+  if (record_culls) {
+    culls = std::make_unique<zbuffer::CullMap>(width, height);
+    input.culls = culls.get();
+  }
   {
     py::gil_scoped_release release;
     std::lock_guard<std::mutex> lock(self.mutex);
     zbuffer::render_tree_frame(self.tree, input, target, stats, self.frame, temporal);
   }
+  if (culls) return py::make_tuple(depth, ids, stats_dict(stats), cull_levels(*culls));
   return py::make_tuple(depth, ids, stats_dict(stats));
 }
 
@@ -131,7 +138,9 @@ void bind_object_tree(py::module_& m) {
       .def_property_readonly("memory_bytes", [](const Tree& t) { return t.tree.memory_bytes(); })
       .def("render", &render, py::arg("mvp"), py::arg("width"), py::arg("height"),
            py::arg("cull_backfaces") = false, py::arg("temporal") = false,
-           "Render one frame: (depth, triangle_id, stats).")
+           py::arg("record_culls") = false,
+           "Render one frame: (depth, triangle_id, stats), and with record_culls the\n"
+           "triangles culled by tests that read each pyramid cell, per level.")
       .def("nodes", &nodes,
            "The nodes as arrays: lo, hi (K, 3) float64; depth, parent, first_child,\n"
            "n_children (K,) int32; n_triangles, own_triangles (K,) int64; fate (K,) uint8\n"

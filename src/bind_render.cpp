@@ -60,12 +60,15 @@ zbuffer::PolygonView polygon_view(const py::array_t<int64_t>& offsets,
 py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_obj,
                  int width, int height, const std::string& algo, bool cull_backfaces,
                  py::handle face_ids_obj, py::handle polygon_offsets_obj,
-                 py::handle polygon_indices_obj) {
+                 py::handle polygon_indices_obj, bool record_culls) {
   const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
   if (!algorithm)
     throw py::value_error("unknown algorithm \"" + algo + "\"; valid names are " +
                           zbuffer::algorithm_names());
   check_image_size(width, height);
+  if (record_culls && !algorithm->pyramid)
+    throw py::value_error("record_culls: algorithm \"" + algo + "\" has no Z-pyramid to cull "
+                          "with; the hiz algorithms have one");
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
   auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
 
@@ -99,10 +102,16 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   auto [depth, ids] = allocate_planes(width, height);
   zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
   zbuffer::RenderStats stats;
+  std::unique_ptr<zbuffer::CullMap> culls;
+  if (record_culls) {
+    culls = std::make_unique<zbuffer::CullMap>(width, height);
+    input.culls = culls.get();
+  }
   {
     py::gil_scoped_release release;
     zbuffer::render(*algorithm, input, target, stats);
   }
+  if (culls) return py::make_tuple(depth, ids, stats_dict(stats), cull_levels(*culls));
   return py::make_tuple(depth, ids, stats_dict(stats));
 }
 
@@ -122,7 +131,10 @@ void bind_render(py::module_& m) {
         py::arg("width"), py::arg("height"), py::arg("algo") = "zbuffer",
         py::arg("cull_backfaces") = false, py::arg("face_ids") = py::none(),
         py::arg("polygon_offsets") = py::none(), py::arg("polygon_indices") = py::none(),
-        "Render depth and triangle ids; returns (depth, triangle_id, stats). With face_ids,\n"
+        py::arg("record_culls") = false,
+        "Render depth and triangle ids; returns (depth, triangle_id, stats), and with\n"
+        "record_culls (algorithms with a Z-pyramid) a fourth item: per pyramid level an\n"
+        "int64 array of the triangles culled by tests that read each cell. With face_ids,\n"
         "face f is reported as face_ids[f] (faces passed in another order). With polygons\n"
         "(int64 offsets, int32 indices; faces = their triangulation in polygon order), an\n"
         "algorithm that draws polygons draws them natively, each with its first triangle's id.");

@@ -1,6 +1,7 @@
 // Shared by the render bindings (render_common.h).
 #include "render_common.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -9,6 +10,7 @@
 
 #include "zbuffer/conventions.h"
 #include "zbuffer/mesh_checks.h"
+#include "zbuffer/zpyramid.h"
 
 namespace zbuffer_py {
 
@@ -93,6 +95,16 @@ py::dict stats_dict(const zbuffer::RenderStats& s) {
 // Their start addresses differ by 2 KiB modulo 4 KiB: at widths that are a
 // multiple of 1024 pixels every row of both planes would otherwise fall in
 // the same L1 cache set, and a triangle's rows would evict each other.
+py::list cull_levels(const zbuffer::CullMap& map) {
+  py::list out;
+  for (int k = 0; k < map.levels(); ++k) {
+    py::array_t<int64_t> level({py::ssize_t(map.height(k)), py::ssize_t(map.width(k))});
+    std::copy_n(map.level(k), size_t(map.width(k)) * size_t(map.height(k)), level.mutable_data());
+    out.append(level);
+  }
+  return out;
+}
+
 std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height) {
   const size_t n = size_t(width) * size_t(height);
   py::array_t<uint8_t> block(py::ssize_t(2 * 4 * n + 4096 + 64));

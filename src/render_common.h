@@ -25,6 +25,9 @@ void read_mvp(py::handle mvp_obj, double* out);
 // Every counter and time of a render, by name.
 py::dict stats_dict(const zbuffer::RenderStats& s);
 
+// A CullMap's levels as a list of (h, w) int64 arrays.
+py::list cull_levels(const zbuffer::CullMap& map);
+
 // The depth and id planes, as two C-contiguous (H, W) arrays in one block.
 std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height);
 

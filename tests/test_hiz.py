@@ -94,3 +94,55 @@ def test_pyramid_levels_reject_bad_input():
         zbuffer._core.pyramid_levels(np.zeros((4, 4)))
     with pytest.raises(ValueError, match="depth must have shape"):
         zbuffer._core.pyramid_levels(np.zeros(4, np.float32))
+
+
+@pytest.mark.parametrize("algo", HIERARCHICAL)
+@pytest.mark.parametrize("built_once", [False, True])
+def test_recorded_culls_lie_under_drawn_cells_and_change_nothing(algo, built_once):
+    mesh = occluded_scene(seed=3)
+    cam = zbuffer.Camera.look_at((0.2, 0.1, 6.0), (0, 0, 0), fov_y=40, near=1.0, far=20.0)
+    if built_once:
+        scene = zbuffer.Scene(mesh)
+        render = lambda **kw: scene.render(cam, algo, 160, 120, shading="none", **kw)  # noqa: E731
+    else:
+        render = lambda **kw: zbuffer.render(mesh, algo, cam, 160, 120, shading="none", **kw)  # noqa: E731
+    plain, res = render(), render(record_culls=True)
+    assert plain.culls is None
+    assert_same_visibility(res, plain)
+    counters = {k for k, v in plain.stats.items() if isinstance(v, int)}
+    assert {k: res.stats[k] for k in counters} == {k: plain.stats[k] for k in counters}
+    pyramid = res.pyramid()
+    assert [c.shape for c in res.culls] == [p.shape for p in pyramid]
+    assert all(c.dtype == np.int64 and c.min() >= 0 for c in res.culls)
+    # A test culls only against cells that hold a drawn depth (+inf never
+    # culls, and depths only decrease): every counted cell is finite at the end.
+    for counts, level in zip(res.culls, pyramid):
+        assert np.isfinite(level[counts > 0]).all()
+    # Each culled triangle counts in the 1 to 9 cells its test read; a node
+    # culled whole counts its (at least one) triangles in up to 4 x 4 cells.
+    total = sum(int(c.sum()) for c in res.culls)
+    hidden, nodes = res.stats["culled_hidden"], res.stats["nodes_hidden"]
+    assert hidden + nodes > 0
+    assert hidden + nodes <= total
+    if algo == "hiz":
+        assert total <= 9 * hidden
+    else:
+        assert total <= 9 * hidden + 16 * res.stats["culled_in_nodes"]
+
+
+@pytest.mark.parametrize("algo", ["zbuffer", "scanline"])
+def test_record_culls_needs_a_pyramid(algo):
+    mesh = occluded_scene()
+    with pytest.raises(ValueError, match="no Z-pyramid"):
+        zbuffer.render(mesh, algo, width=32, height=32, record_culls=True)
+    with pytest.raises(TypeError, match="record_culls must be a bool"):
+        zbuffer.render(mesh, "hiz", width=32, height=32, record_culls="yes")
+
+
+def test_most_culling_cells_orders_by_count():
+    from zbuffer.viz import most_culling_cells
+
+    counts = np.array([[0, 5, 1], [7, 0, 5]], dtype=np.int64)
+    assert most_culling_cells(counts, 3).tolist() == [[1, 0], [0, 1], [1, 2]]
+    assert most_culling_cells(counts, 10).tolist() == [[1, 0], [0, 1], [1, 2], [0, 2]]
+    assert most_culling_cells(np.zeros((2, 2), np.int64), 4).shape == (0, 2)

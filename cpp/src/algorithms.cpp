@@ -11,14 +11,14 @@ const std::vector<Algorithm>& algorithms() {
   static const std::vector<Algorithm> registry = {
       {"zbuffer", "plain Z-buffer: every triangle, its whole pixel box", &render_zbuffer},
       {"hiz", "hierarchical Z-buffer: triangles and 8x8 tiles tested against a Z-pyramid",
-       &render_hiz},
+       &render_hiz, /*polygons=*/false, /*pyramid=*/true},
       {"scanline",
        "scanline Z-buffer: sorted polygon and edge tables, active lists, one row of depth",
        &render_scanline, /*polygons=*/true},
       {"hiz_octree", "hierarchical Z-buffer over an object-space octree, front to back",
-       &render_hiz_octree},
+       &render_hiz_octree, /*polygons=*/false, /*pyramid=*/true},
       {"hiz_bvh", "hierarchical Z-buffer over a bounding volume hierarchy, nearest child first",
-       &render_hiz_bvh},
+       &render_hiz_bvh, /*polygons=*/false, /*pyramid=*/true},
   };
   return registry;
 }

@@ -21,6 +21,7 @@ void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stat
   // but cost more upkeep: 128 instead of 512 made single unoccluded meshes
   // ~10% slower.
   ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true);
+  pyramid.record_culls(input.culls);
   render_faces_batched(input, target, stats, &pyramid, TriangleBatch::kCapacity,
                        /*lazy_upkeep=*/true);
   stats.depth_storage_bytes = pyramid.storage_bytes();

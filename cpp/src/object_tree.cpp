@@ -274,17 +274,25 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
   return true;
 }
 
-// The farthest depth the pyramid holds over a node's rectangle: the maximum
-// of the cells covering it at the finest kept level where it spans at most
-// four cells a side (ZPyramid::max_over stops at two, which for the small
-// boxes of leaves reads up to four times the area).
-float farthest_under(const ZPyramid& pyramid, const ProjectedNode& r) {
+// The level a node's rectangle is tested at: the finest kept level where
+// it spans at most four cells a side (ZPyramid::max_over stops at two, which
+// for the small boxes of leaves reads up to four times the area).
+int node_level(const ZPyramid& pyramid, const ProjectedNode& r) {
   if (pyramid.levels() <= pyramid.first_level())  // a tiny image: no coarse levels
-    return pyramid.max_over(r.x0, r.y0, r.x1, r.y1);
+    return pyramid.query_level(r.x0, r.y0, r.x1, r.y1);
   int k = pyramid.first_level();
   while (k + 1 < pyramid.levels() &&
          (((r.x1 >> k) - (r.x0 >> k)) > 3 || ((r.y1 >> k) - (r.y0 >> k)) > 3))
     ++k;
+  return k;
+}
+
+// The farthest depth the pyramid holds over a node's rectangle: the maximum
+// of the cells covering it at node_level.
+float farthest_under(const ZPyramid& pyramid, const ProjectedNode& r) {
+  if (pyramid.levels() <= pyramid.first_level())
+    return pyramid.max_over(r.x0, r.y0, r.x1, r.y1);
+  const int k = node_level(pyramid, r);
   const float* cells = pyramid.level(k);
   const int w = pyramid.width(k);
   float m = -std::numeric_limits<float>::infinity();
@@ -321,6 +329,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   const uint32_t now = ++frame.frame;
 
   ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true);
+  pyramid.record_culls(input.culls);
   TriangleBatch batch(target, stats, &pyramid);
   thread_local ScreenVertices screen;
   thread_local std::vector<int32_t> kept_faces, kept_ids;
@@ -434,6 +443,8 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
       if (item.z_near > farthest_under(pyramid, item)) {
         frame.node_fate[size_t(item.node)] = kNodeHidden;  // and its whole subtree
         ++stats.nodes_hidden;
+        pyramid.count_culled(node_level(pyramid, item), item.x0, item.y0, item.x1, item.y1,
+                             tree.nodes[size_t(item.node)].n_triangles);
         continue;
       }
     }

@@ -268,6 +268,13 @@ void TriangleBatch::cull_hidden() {
         if (hidden) {
           culled += __builtin_popcount(hidden);
           small_tested_ -= _mm512_mask_reduce_add_epi32(hidden, _mm512_mullo_epi32(w, h));
+          if (pyramid_->recording_culls())
+            for (int k = 0; k < 16; ++k)
+              if (hidden >> k & 1) {
+                const int t = group_[g][n + k];
+                pyramid_->count_culled(kTileShift, x0_[t], y0_[t], x0_[t] + box_w_[t] - 1,
+                                       y0_[t] + box_h_[t] - 1, 1);
+              }
         }
         // Mark the (at most 2 x 2) 16 x 16 blocks under the survivors' boxes.
         if (shown) {
@@ -304,6 +311,9 @@ void TriangleBatch::cull_hidden() {
       if (z_lo_[i] > bound) {
         ++culled;
         small_tested_ -= int64_t(box_w_[i]) * box_h_[i];
+        if (pyramid_->recording_culls())
+          pyramid_->count_culled(tile_cells_ ? kTileShift : pyramid_->query_level(x0_[i], y0_[i], x1, y1),
+                                 x0_[i], y0_[i], x1, y1, 1);
         continue;
       }
       mark_tiles(x0_[i], y0_[i], x1, y1);
@@ -315,6 +325,8 @@ void TriangleBatch::cull_hidden() {
   for (const TriangleSetup& s : large_) {
     if (s.z_lo > pyramid_->max_over(s.x_min, s.y_min, s.x_max, s.y_max)) {
       ++culled;
+      pyramid_->count_culled(pyramid_->query_level(s.x_min, s.y_min, s.x_max, s.y_max), s.x_min,
+                             s.y_min, s.x_max, s.y_max, 1);
       continue;
     }
     large_[kept++] = s;

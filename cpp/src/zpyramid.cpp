@@ -122,8 +122,7 @@ int64_t ZPyramid::update_cells(std::vector<int32_t>& cells) {
 }
 
 float ZPyramid::max_over(int x0, int y0, int x1, int y1) const {
-  int k = 0;
-  while ((x1 >> k) - (x0 >> k) > 1 || (y1 >> k) - (y0 >> k) > 1) k = k == 0 ? first_ : k + 1;
+  const int k = query_level(x0, y0, x1, y1);
   const float* cells = level(k);
   const int w = widths_[k];
   const int i0 = x0 >> k, i1 = x1 >> k, j0 = y0 >> k, j1 = y1 >> k;

@@ -1,6 +1,6 @@
 """Type stubs for zbuffer's compiled core (private: use the zbuffer package)."""
 
-from typing import Dict, List, Optional, Tuple, Union
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -34,7 +34,8 @@ class ObjectTree:
         height: int,
         cull_backfaces: bool = False,
         temporal: bool = False,
-    ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.int32], Dict[str, Union[int, float]]]: ...
+        record_culls: bool = False,
+    ) -> Tuple[Any, ...]: ...  # (depth, triangle_id, stats[, culls per pyramid level])
     def nodes(self) -> Dict[str, np.ndarray]: ...
 
 def build_octree(
@@ -61,7 +62,8 @@ def render(
     face_ids: Optional[npt.NDArray[np.int32]] = None,
     polygon_offsets: Optional[npt.NDArray[np.int64]] = None,
     polygon_indices: Optional[npt.NDArray[np.int32]] = None,
-) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.int32], Dict[str, Union[int, float]]]: ...
+    record_culls: bool = False,
+) -> Tuple[Any, ...]: ...  # (depth, triangle_id, stats[, culls per pyramid level])
 def pyramid_levels(depth: npt.NDArray[np.float32]) -> List[npt.NDArray[np.float32]]: ...
 def spatial_order(
     positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32]

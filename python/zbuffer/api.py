@@ -50,7 +50,7 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
            width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], *,
            cull_backfaces: bool = False, shading: str = "flat", light_dir=None,
            ambient: float = DEFAULT_AMBIENT, diffuse: float = DEFAULT_DIFFUSE, color=None,
-           background=DEFAULT_BACKGROUND) -> RenderResult:
+           background=DEFAULT_BACKGROUND, record_culls: bool = False) -> RenderResult:
     """Render a mesh with one of the depth algorithms.
 
     Parameters
@@ -86,6 +86,11 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         vertex or face colours. Default: the mesh's colours, else light grey.
     background : (3,) array_like
         Colour of pixels where nothing was drawn (uint8 0-255 or float 0-1).
+    record_culls : bool
+        Algorithms with a Z-pyramid (``hiz``, ``hiz_octree``, ``hiz_bvh``):
+        also record where the pyramid culled, cell by cell, in
+        ``RenderResult.culls`` (for :func:`zbuffer.viz.show_pyramid`). Costs
+        a little time per culled triangle; ValueError for other algorithms.
 
     Returns
     -------
@@ -111,10 +116,16 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         # Polygons as written; faces in polygon order for those drawn as triangles.
         faces, face_ids = mesh.faces, None
         offsets, indices = mesh.polygon_offsets, mesh.polygon_indices
-    depth, triangle_id, stats = _core.render(
-        mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces), face_ids,
-        offsets, indices)
-    return finish(mesh, camera, mvp, params, algo, depth, triangle_id, stats, start)
+    out = _core.render(mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces),
+                       face_ids, offsets, indices, check_record_culls(record_culls))
+    return finish(mesh, camera, mvp, params, algo, *out, start=start)
+
+
+def check_record_culls(record_culls) -> bool:
+    """``record_culls`` as a bool (TypeError unless it is one)."""
+    if not isinstance(record_culls, (bool, np.bool_)):
+        raise TypeError(f"record_culls must be a bool, got {record_culls!r}")
+    return bool(record_culls)
 
 
 def check_algorithm(algo) -> None:
@@ -126,7 +137,8 @@ def check_algorithm(algo) -> None:
 
 
 def finish(mesh: Mesh, camera: Camera, mvp: np.ndarray, params: ShadingParams, algo: str,
-           depth: np.ndarray, triangle_id: np.ndarray, stats: dict, start: float) -> RenderResult:
+           depth: np.ndarray, triangle_id: np.ndarray, stats: dict, culls=None, *,
+           start: float) -> RenderResult:
     """Shade (unless shading is "none"), time, and wrap up a render."""
     image = None
     shade_ms = 0.0
@@ -137,4 +149,4 @@ def finish(mesh: Mesh, camera: Camera, mvp: np.ndarray, params: ShadingParams, a
     stats["shade_ms"] = shade_ms
     stats["total_ms"] = (time.perf_counter() - start) * 1e3
     return RenderResult(image=image, depth=depth, triangle_id=triangle_id, stats=stats,
-                        camera=camera, mvp=mvp, algo=algo)
+                        camera=camera, mvp=mvp, algo=algo, culls=culls)

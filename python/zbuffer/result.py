@@ -31,6 +31,12 @@ class RenderResult:
     mvp : (4, 4) float64
         The model-view-projection matrix used.
     algo : str
+    culls : list of (h, w) int64 arrays, or None
+        With ``record_culls=True`` (algorithms with a Z-pyramid): per
+        pyramid level, shaped like :meth:`pyramid`'s, how many triangles
+        were culled by occlusion tests that read each cell (a triangle
+        culled by the maximum of four cells counts in each; a tree node
+        culled whole counts its triangles). None otherwise.
     """
 
     image: Optional[np.ndarray]
@@ -40,6 +46,7 @@ class RenderResult:
     camera: Camera
     mvp: np.ndarray
     algo: str = "zbuffer"
+    culls: Optional[List[np.ndarray]] = None
     width: int = field(init=False)
     height: int = field(init=False)
 

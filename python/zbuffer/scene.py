@@ -10,7 +10,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from . import _core
-from .api import check_algorithm, finish
+from .api import check_algorithm, check_record_culls, finish
 from .camera import Camera
 from .mesh import as_mesh
 from .options import DEFAULT_SIZE, prepare
@@ -143,7 +143,7 @@ class Scene:
                temporal: bool = False, cull_backfaces: bool = False, shading: str = "flat",
                light_dir=None, ambient: float = DEFAULT_AMBIENT,
                diffuse: float = DEFAULT_DIFFUSE, color=None,
-               background=DEFAULT_BACKGROUND) -> RenderResult:
+               background=DEFAULT_BACKGROUND, record_culls: bool = False) -> RenderResult:
         """Render one frame; arguments as for :func:`zbuffer.render`.
 
         Parameters
@@ -172,16 +172,17 @@ class Scene:
         mesh, camera, mvp, width, height, params = prepare(
             self.mesh, camera, width, height, shading, light_dir, ambient, diffuse, color,
             background)
+        record_culls = check_record_culls(record_culls)
         if algo not in TREE_ALGORITHMS:
             faces, face_ids = mesh.faces_for_render()
-            depth, triangle_id, stats = _core.render(
-                mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces), face_ids)
+            out = _core.render(mesh.vertices, faces, mvp, width, height, algo,
+                               bool(cull_backfaces), face_ids, record_culls=record_culls)
         else:
             build_ms = self.build(algo)
-            depth, triangle_id, stats = self._trees[algo].render(
-                mvp, width, height, bool(cull_backfaces), bool(temporal))
-            stats["build_ms"] = build_ms
-        return finish(mesh, camera, mvp, params, algo, depth, triangle_id, stats, start)
+            out = self._trees[algo].render(mvp, width, height, bool(cull_backfaces),
+                                           bool(temporal), record_culls)
+            out[2]["build_ms"] = build_ms
+        return finish(mesh, camera, mvp, params, algo, *out, start=start)
 
     def _require_tree(self, algo: str) -> None:
         check_algorithm(algo)

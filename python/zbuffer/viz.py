@@ -21,7 +21,8 @@ from .result import RenderResult
 
 __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms",
            "show_tree", "tree_grid", "frustum_grid", "id_colors", "depth_for_display",
-           "load_benchmark", "plot_grid_times", "plot_grid_culling"]
+           "most_culling_cells", "load_benchmark", "plot_grid_times", "plot_grid_culling",
+           "plot_models"]
 
 
 def _pyvista():
@@ -63,7 +64,7 @@ def _image_plane(pv, values: np.ndarray):
 
 
 def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
-               scalar_bar=True):
+               scalar_bar=True, bar_title=None):
     grid = _image_plane(pv, values)
     if rgb:
         plotter.add_mesh(grid, scalars="values", rgb=True, show_scalar_bar=False)
@@ -71,7 +72,8 @@ def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
         plotter.add_mesh(grid, scalars="values", cmap=cmap, clim=clim, nan_color="black",
                          show_scalar_bar=False)
         if scalar_bar:
-            plotter.add_scalar_bar(title=title, vertical=True, n_labels=3, fmt="%.4f")
+            plotter.add_scalar_bar(title=title if bar_title is None else bar_title, vertical=True,
+                                   n_labels=3, fmt="%.4f")
     plotter.add_text(title, font_size=10)
     plotter.view_xy()
     plotter.enable_parallel_projection()
@@ -135,7 +137,8 @@ def _levels(source) -> List[np.ndarray]:
 
 
 def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: Union[str, bool, None] = None,
-                 levels: Optional[Iterable[int]] = None, window_size=None):
+                 levels: Optional[Iterable[int]] = None, window_size=None,
+                 highlight_culls: Union[bool, int] = False):
     """Z-pyramid levels side by side, one shared colour scale (depth of the
     farthest pixel under each cell; black where nothing was drawn).
 
@@ -149,9 +152,18 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
         offscreen and only return the picture).
     levels : iterable of int, optional
         Which levels to show (default: all down to 4 x 4 cells or less).
+    highlight_culls : bool or int
+        Outline in red, on every level shown, the cells that culled the most
+        triangles (True: the top 5 of each level; an int: that many), and
+        give each level's total in its title. Needs a render made with
+        ``record_culls=True`` (:attr:`RenderResult.culls`).
     """
     pv = _pyvista()
     pyramid = _levels(source)
+    top = _highlight_count(highlight_culls)
+    if top and (not isinstance(source, RenderResult) or source.culls is None):
+        raise ValueError("highlight_culls needs a RenderResult rendered with record_culls=True "
+                         "by an algorithm with a Z-pyramid (hiz, hiz_octree, hiz_bvh)")
     chosen = list(levels) if levels is not None else [
         k for k, level in enumerate(pyramid) if k == 0 or min(pyramid[k - 1].shape) > 4]
     shown = [depth_for_display(pyramid[k]) for k in chosen]
@@ -163,9 +175,51 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
     for k, (level, values) in enumerate(zip(chosen, shown)):
         plotter.subplot(0, k)
         h, w = values.shape
-        _add_image(plotter, pv, values, f"level {level}: {w}x{h}", clim=clim, cmap="viridis_r",
-                   scalar_bar=k == cols - 1)
+        title = f"level {level}: {w}x{h}"
+        if top:
+            counts = source.culls[level]
+            title += f", {int(counts.sum()):,} culled"
+        _add_image(plotter, pv, values, title, clim=clim, cmap="viridis_r",
+                   scalar_bar=k == cols - 1, bar_title="depth")
+        if top:
+            outlines = _cell_outlines(pv, most_culling_cells(counts, top), h)
+            if outlines is not None:
+                plotter.add_mesh(outlines, color="red", line_width=3)
     return _finish(plotter, screenshot)
+
+
+def _highlight_count(highlight) -> int:
+    if isinstance(highlight, (bool, np.bool_)):
+        return 5 if highlight else 0
+    if isinstance(highlight, (int, np.integer)) and highlight >= 0:
+        return int(highlight)
+    raise ValueError(f"highlight_culls must be a bool or a count >= 0, got {highlight!r}")
+
+
+def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
+    """(k, 2) int array of (row, column) of the at most ``n`` cells of one
+    level of :attr:`RenderResult.culls` with the highest counts, highest
+    first (cells that culled nothing are left out; ties by position)."""
+    flat = np.asarray(counts).ravel()
+    order = np.argsort(-flat, kind="stable")[:n]
+    order = order[flat[order] > 0]
+    return np.stack(np.unravel_index(order, np.shape(counts)), axis=1)
+
+
+def _cell_outlines(pv, cells: np.ndarray, h: int):
+    """The outlines of cells (row, column) of an image plane of h rows, as
+    one PolyData of line loops, just above the plane; None for no cells."""
+    if len(cells) == 0:
+        return None
+    rows, cols = cells[:, 0], cells[:, 1]
+    x0, x1 = cols.astype(float), cols + 1.0
+    y0, y1 = h - rows - 1.0, h - rows.astype(float)
+    corners = np.stack([np.stack([x0, y0], 1), np.stack([x1, y0], 1),
+                        np.stack([x1, y1], 1), np.stack([x0, y1], 1)], 1)  # (k, 4, 2)
+    points = np.concatenate([corners.reshape(-1, 2), np.full((4 * len(cells), 1), 0.01)], 1)
+    base = 4 * np.arange(len(cells))[:, None]
+    lines = np.concatenate([np.full((len(cells), 1), 5), base + [0, 1, 2, 3, 0]], 1)
+    return pv.PolyData(points, lines=lines.ravel())
 
 
 def show_pyramid_stack(source: Union[RenderResult, Sequence[np.ndarray]],

@@ -56,6 +56,21 @@ def test_pyramid_views(result, tmp_path):
     assert not_blank(stack)
 
 
+def test_pyramid_view_outlines_the_cells_that_culled_most(tmp_path):
+    mesh = scenes.default_scene()  # its torus hides part of what is behind it
+    res = zbuffer.render(mesh, algo="hiz", width=128, height=96, shading="none",
+                         record_culls=True)
+    assert sum(int(c.sum()) for c in res.culls) > 0
+    red = lambda img: ((img[..., 0] > 200) & (img[..., 1] < 60) & (img[..., 2] < 60)).sum()  # noqa: E731
+    plain = viz.show_pyramid(res, screenshot=True, levels=[3, 4])
+    marked = viz.show_pyramid(res, screenshot=str(tmp_path / "culls.png"), levels=[3, 4],
+                              highlight_culls=3)
+    assert red(marked) > red(plain) + 20
+    with pytest.raises(ValueError, match="record_culls=True"):
+        viz.show_pyramid(zbuffer.render(mesh, algo="hiz", width=32, height=32),
+                         screenshot=True, highlight_culls=True)
+
+
 def test_compare_algorithms_shows_zero_differences(tmp_path):
     results = viz.compare_algorithms(scenes.default_scene(), width=96, height=72,
                                      screenshot=str(tmp_path / "cmp.png"))

@@ -23,6 +23,7 @@ struct Algorithm {
   const char* summary;  // one line for help texts
   AlgorithmFn render;
   bool polygons = false;  // draws RenderInput::polygons natively
+  bool pyramid = false;   // tests against a Z-pyramid (fills RenderInput::culls)
 };
 
 // All algorithms, in the order they are presented to users.

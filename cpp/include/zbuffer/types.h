@@ -7,6 +7,8 @@
 
 namespace zbuffer {
 
+class CullMap;  // zpyramid.h
+
 // A triangle mesh as two row-major arrays.
 // Design decision: a non-owning view of (N, 3) float64 positions and (M, 3)
 // int32 faces. Good: numpy arrays pass through without copies and every
@@ -54,6 +56,8 @@ struct RenderInput {
   PolygonView polygons;         // optional: the faces grouped into polygons
   double mvp[16] = {};        // row-major model-view-projection matrix
   bool cull_backfaces = false;  // drop triangles wound clockwise in NDC
+  // Non-null: the algorithms with a Z-pyramid count there where it culled.
+  CullMap* culls = nullptr;
 };
 
 // Counters and timings of one render. Triangle counters follow a triangle

@@ -9,6 +9,8 @@
 
 namespace zbuffer {
 
+class CullMap;
+
 // Design decision: level 0 is the depth buffer itself (not copied); level k
 // (k >= 1) is an owned float array of ceil(w / 2^k) x ceil(h / 2^k) cells,
 // each the maximum of its two-by-two children that lie inside the image, i.e.
@@ -61,8 +63,21 @@ class ZPyramid {
 
   // An upper bound of the depth over pixels [x0, x1] x [y0, y1] (inside the
   // image): the maximum of the at most 2 x 2 cells covering the rectangle at
-  // the finest kept level where it spans no more than two cells a side.
+  // the finest kept level where it spans no more than two cells a side
+  // (query_level).
   float max_over(int x0, int y0, int x1, int y1) const;
+  int query_level(int x0, int y0, int x1, int y1) const {
+    int k = 0;
+    while ((x1 >> k) - (x0 >> k) > 1 || (y1 >> k) - (y0 >> k) > 1) k = k == 0 ? first_ : k + 1;
+    return k;
+  }
+
+  // Recording where tests culled (for display; off unless a map is given):
+  // the algorithms that test against this pyramid call count_culled after
+  // each test that culled, with the level and pixel rectangle it read.
+  void record_culls(CullMap* map) { culls_ = map; }
+  bool recording_culls() const { return culls_ != nullptr; }
+  inline void count_culled(int level, int x0, int y0, int x1, int y1, int64_t triangles) const;
 
   // The same bound from the cells of kept level k (>= first_level) alone,
   // for a rectangle spanning at most 3 cells a side there.
@@ -88,6 +103,50 @@ class ZPyramid {
   std::vector<int32_t> next_;
   std::vector<int> widths_, heights_;
   std::vector<std::vector<float>> cells_;  // by level; empty for 0 and skipped levels
+  CullMap* culls_ = nullptr;
 };
+
+// Where the pyramid culled, cell by cell: for every level of a pyramid over
+// a width x height image (levels as ZPyramid's, all of them), the number of
+// triangles culled by tests that read the cell -- a triangle culled by the
+// maximum of four cells counts in each of them, a tree node culled whole
+// counts its triangles. Filled only when a render asks for it
+// (record_culls): the hot loops test one pointer and otherwise do nothing.
+class CullMap {
+ public:
+  CullMap(int width, int height) {
+    int w = width, h = height;
+    for (;;) {
+      widths_.push_back(w);
+      heights_.push_back(h);
+      counts_.emplace_back(size_t(w) * size_t(h), 0);
+      if (w == 1 && h == 1) break;
+      w = (w + 1) / 2;
+      h = (h + 1) / 2;
+    }
+  }
+  int levels() const { return int(counts_.size()); }
+  int width(int level) const { return widths_[level]; }
+  int height(int level) const { return heights_[level]; }
+  const int64_t* level(int k) const { return counts_[size_t(k)].data(); }
+
+  // `triangles` culled by a test that read the cells of `level` covering
+  // pixels [x0, x1] x [y0, y1].
+  void add(int level, int x0, int y0, int x1, int y1, int64_t triangles) {
+    int64_t* cells = counts_[size_t(level)].data();
+    const int w = widths_[size_t(level)];
+    for (int j = y0 >> level; j <= (y1 >> level); ++j)
+      for (int i = x0 >> level; i <= (x1 >> level); ++i) cells[size_t(j) * w + i] += triangles;
+  }
+
+ private:
+  std::vector<int> widths_, heights_;
+  std::vector<std::vector<int64_t>> counts_;
+};
+
+inline void ZPyramid::count_culled(int level, int x0, int y0, int x1, int y1,
+                                   int64_t triangles) const {
+  if (culls_) culls_->add(level, x0, y0, x1, y1, triangles);
+}
 
 }  // namespace zbuffer
