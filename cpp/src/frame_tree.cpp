@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "morton.h"
+#include "simd.h"
 
 namespace zbuffer {
 
@@ -39,21 +40,36 @@ struct Buckets {
   }
   void add(int64_t f, int32_t b, const uint32_t* lo, const uint32_t* hi) {
     of_face[size_t(f)] = b;
-    if (b != run_) {
-      end_run();
-      run_ = b;
-      run_count_ = 0;
+    add_run(b, 1, lo, hi);
+  }
+#ifdef ZBUFFER_AVX512
+  // add() for faces f .. f + 15, buckets b and grid boxes lo/hi by axis. Sixteen
+  // faces of one bucket (the usual case) are folded in as one run.
+  void add16(int64_t f, __m512i b, const __m512i* lo, const __m512i* hi) {
+    _mm512_storeu_si512(&of_face[size_t(f)], b);
+    const int32_t b0 = _mm_cvtsi128_si32(_mm512_castsi512_si128(b));
+    if (_mm512_cmpneq_epi32_mask(b, _mm512_set1_epi32(b0)) == 0) {
+      uint32_t l[3], h[3];
       for (int a = 0; a < 3; ++a) {
-        run_lo_[a] = lo[a];
-        run_hi_[a] = hi[a];
+        l[a] = _mm512_reduce_min_epu32(lo[a]);
+        h[a] = _mm512_reduce_max_epu32(hi[a]);
       }
+      add_run(b0, 16, l, h);
+      return;
     }
-    ++run_count_;
+    alignas(64) int32_t bs[16];
+    alignas(64) uint32_t ls[3][16], hs[3][16];
+    _mm512_store_si512(bs, b);
     for (int a = 0; a < 3; ++a) {
-      run_lo_[a] = std::min(run_lo_[a], lo[a]);
-      run_hi_[a] = std::max(run_hi_[a], hi[a]);
+      _mm512_store_si512(ls[a], lo[a]);
+      _mm512_store_si512(hs[a], hi[a]);
+    }
+    for (int k = 0; k < 16; ++k) {
+      const uint32_t l[3] = {ls[0][k], ls[1][k], ls[2][k]}, h[3] = {hs[0][k], hs[1][k], hs[2][k]};
+      add_run(bs[k], 1, l, h);
     }
   }
+#endif
   // Counts to starts, and the faces (and their ids) into bucket order.
   void scatter(const MeshView& mesh, ObjectTree& tree) {
     end_run();
@@ -87,6 +103,23 @@ struct Buckets {
   }
 
  private:
+  // `count` more faces in bucket b, with the grid box lo .. hi.
+  void add_run(int32_t b, int64_t count, const uint32_t* lo, const uint32_t* hi) {
+    if (b != run_) {
+      end_run();
+      run_ = b;
+      run_count_ = 0;
+      for (int a = 0; a < 3; ++a) {
+        run_lo_[a] = lo[a];
+        run_hi_[a] = hi[a];
+      }
+    }
+    run_count_ += count;
+    for (int a = 0; a < 3; ++a) {
+      run_lo_[a] = std::min(run_lo_[a], lo[a]);
+      run_hi_[a] = std::max(run_hi_[a], hi[a]);
+    }
+  }
   void end_run() {
     if (run_ < 0) return;
     start[size_t(run_) + 1] += run_count_;
@@ -118,6 +151,61 @@ inline void face_cells(const VertexGrid& grid, const int32_t* idx, uint32_t* lo,
     hi[a] = std::max({v0, v1, v2});
   }
 }
+
+#ifdef ZBUFFER_AVX512
+// The vertex indices of faces f .. f + 15, one vector per corner: the 48
+// int32 of the 16 faces loaded as three vectors and deinterleaved by two
+// permutes per corner.
+inline void corners16(const int32_t* faces, __m512i* idx) {
+  struct Perms {
+    alignas(64) int32_t a[3][16], b[3][16];
+    Perms() {
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 16; ++k) {
+          const int e = 3 * k + j;  // element of the 48
+          a[j][k] = e < 32 ? e : 0;         // from the first two vectors
+          b[j][k] = e < 32 ? k : e - 16;    // ...kept, or from the third
+        }
+    }
+  };
+  static const Perms perms;
+  const __m512i v0 = _mm512_loadu_si512(faces), v1 = _mm512_loadu_si512(faces + 16),
+                v2 = _mm512_loadu_si512(faces + 32);
+  for (int j = 0; j < 3; ++j) {
+    const __m512i t = _mm512_permutex2var_epi32(v0, _mm512_load_si512(perms.a[j]), v1);
+    idx[j] = _mm512_permutex2var_epi32(t, _mm512_load_si512(perms.b[j]), v2);
+  }
+}
+
+// The grid cells of 16 faces' corners (c[j]: corner j), and each face's box
+// lo .. hi per axis, as face_cells computes it.
+inline void face_cells16(const VertexGrid& grid, const int32_t* faces, __m512i* c, __m512i* lo,
+                         __m512i* hi) {
+  __m512i idx[3];
+  corners16(faces, idx);
+  for (int j = 0; j < 3; ++j) c[j] = _mm512_i32gather_epi32(idx[j], grid.cell.data(), 4);
+  const __m512i mask = _mm512_set1_epi32(int(VertexGrid::kMask));
+  for (int a = 0; a < 3; ++a) {
+    const int shift = VertexGrid::kBits * a;
+    __m512i v[3];
+    for (int j = 0; j < 3; ++j) v[j] = _mm512_and_si512(_mm512_srli_epi32(c[j], unsigned(shift)), mask);
+    lo[a] = _mm512_min_epu32(_mm512_min_epu32(v[0], v[1]), v[2]);
+    hi[a] = _mm512_max_epu32(_mm512_max_epu32(v[0], v[1]), v[2]);
+  }
+}
+
+// spread_bits_10 on 16 lanes.
+inline __m512i spread_bits_10_16(__m512i v) {
+  auto step = [](__m512i x, unsigned s, int m) {
+    return _mm512_and_si512(_mm512_or_si512(x, _mm512_slli_epi32(x, s)), _mm512_set1_epi32(m));
+  };
+  v = _mm512_and_si512(v, _mm512_set1_epi32(0x3FF));
+  v = step(v, 16, 0x030000FF);
+  v = step(v, 8, 0x0300F00F);
+  v = step(v, 4, 0x030C30C3);
+  return step(v, 2, 0x09249249);
+}
+#endif
 
 void set_bounds(TreeNode& node, const VertexGrid& grid, const uint32_t* lo, const uint32_t* hi) {
   for (int a = 0; a < 3; ++a) {
@@ -153,10 +241,20 @@ class FrameOctree {
     for (int l = depth_; l >= 0; --l) size_[l] = l == depth_ ? 1 : 1 + 8 * size_[l + 1];
   }
 
-  void build() {
+  void build(bool vector) {
     const int coarsen = VertexGrid::kBits - depth_;
     b_.reset(size_t(size_[0]), size_t(mesh_.n_faces));
-    for (int64_t f = 0; f < mesh_.n_faces; ++f) {
+    int64_t f = 0;
+#ifdef ZBUFFER_AVX512
+    if (vector)
+      for (; f + 16 <= mesh_.n_faces; f += 16) {
+        __m512i c[3], lo[3], hi[3];
+        face_cells16(grid_, mesh_.faces + 3 * f, c, lo, hi);
+        b_.add16(f, bucket16(lo, hi), lo, hi);
+      }
+#endif
+    (void)vector;
+    for (; f < mesh_.n_faces; ++f) {
       uint32_t lo[3], hi[3];
       face_cells(grid_, mesh_.faces + 3 * f, lo, hi);
       // The smallest enclosing cell at depth <= T (octree.h, the simpler rule).
@@ -184,6 +282,39 @@ class FrameOctree {
                               4 * __builtin_popcountll(m & 0x924924924924ull);
     return level + (int64_t(m << (3 * (depth_ - level + 1))) - digit_sum) / 7;
   }
+
+#ifdef ZBUFFER_AVX512
+  // The buckets of 16 faces with grid boxes lo .. hi: build()'s rule and
+  // preorder(), computed digit by digit. The cell at `level` enclosing a box
+  // has the octal digits d_1 .. d_level of its depth-T cell (x, y, z), digit
+  // l being bit T - l of x, y and z; its pre-order number is the sum over
+  // l <= level of 1 + d_l size_[l].
+  __m512i bucket16(const __m512i* lo, const __m512i* hi) const {
+    const unsigned coarsen = unsigned(VertexGrid::kBits - depth_);
+    __m512i cell[3], differ = _mm512_setzero_si512();
+    for (int a = 0; a < 3; ++a) {
+      cell[a] = _mm512_srli_epi32(lo[a], coarsen);
+      differ = _mm512_or_si512(differ, _mm512_xor_si512(cell[a], _mm512_srli_epi32(hi[a], coarsen)));
+    }
+    // Levels up from depth T: the bit length of `differ` (< 2^T).
+    __m512i up = _mm512_setzero_si512();
+    const __m512i one = _mm512_set1_epi32(1);
+    for (int k = 0; k < depth_; ++k)
+      up = _mm512_mask_add_epi32(up, _mm512_cmpge_epu32_mask(differ, _mm512_set1_epi32(1 << k)), up, one);
+    const __m512i level = _mm512_sub_epi32(_mm512_set1_epi32(depth_), up);
+    __m512i index = level;
+    for (int l = 1; l <= depth_; ++l) {
+      const unsigned bit = unsigned(depth_ - l);
+      __m512i digit = _mm512_setzero_si512();
+      for (int a = 0; a < 3; ++a)
+        digit = _mm512_or_si512(digit, _mm512_slli_epi32(_mm512_and_si512(_mm512_srli_epi32(cell[a], bit), one), unsigned(a)));
+      const __mmask16 in = _mm512_cmple_epi32_mask(_mm512_set1_epi32(l), level);
+      index = _mm512_mask_add_epi32(index, in, index,
+                                    _mm512_mullo_epi32(digit, _mm512_set1_epi32(int32_t(size_[l]))));
+    }
+    return index;
+  }
+#endif
 
   // Node `i` of the tree is bucket `index` at `level`.
   void build_node(int32_t i, int64_t index, int level) {
@@ -231,9 +362,32 @@ class FrameBvh {
     bits_ = 3 * frame_tree_depth(mesh.n_faces, params.leaf_size);
   }
 
-  void build() {
+  void build(bool vector) {
     b_.reset(size_t(1) << bits_, size_t(mesh_.n_faces));
-    for (int64_t f = 0; f < mesh_.n_faces; ++f) {
+    int64_t f = 0;
+#ifdef ZBUFFER_AVX512
+    if (vector) {
+      // As below: the centroid's cell (the sum of three 10-bit values is
+      // under 2^17, where s * 43691 >> 17 is s / 3 exactly), its Morton code.
+      const __m512i third = _mm512_set1_epi32(43691), mask = _mm512_set1_epi32(int(VertexGrid::kMask));
+      for (; f + 16 <= mesh_.n_faces; f += 16) {
+        __m512i c[3], lo[3], hi[3];
+        face_cells16(grid_, mesh_.faces + 3 * f, c, lo, hi);
+        __m512i code = _mm512_setzero_si512();
+        for (int a = 0; a < 3; ++a) {
+          const unsigned shift = unsigned(VertexGrid::kBits * a);
+          __m512i sum = _mm512_setzero_si512();
+          for (int j = 0; j < 3; ++j)
+            sum = _mm512_add_epi32(sum, _mm512_and_si512(_mm512_srli_epi32(c[j], shift), mask));
+          const __m512i q = _mm512_srli_epi32(_mm512_mullo_epi32(sum, third), 17);
+          code = _mm512_or_si512(code, _mm512_slli_epi32(spread_bits_10_16(q), unsigned(a)));
+        }
+        b_.add16(f, _mm512_srli_epi32(code, unsigned(30 - bits_)), lo, hi);
+      }
+    }
+#endif
+    (void)vector;
+    for (; f < mesh_.n_faces; ++f) {
       uint32_t lo[3], hi[3];
       face_cells(grid_, mesh_.faces + 3 * f, lo, hi);
       const int32_t* idx = mesh_.faces + 3 * f;
@@ -295,20 +449,22 @@ int frame_tree_depth(int64_t faces, int leaf_size) {
   return std::max(1, std::min(kMaxFrameDepth, depth));
 }
 
-void build_octree_for_frame(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree) {
+void build_octree_for_frame(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree,
+                            bool vector) {
   begin(mesh, tree);
   if (mesh.n_faces == 0) return;
   thread_local VertexGrid grid;
   grid.build(mesh);
-  FrameOctree(mesh, params, tree, grid).build();
+  FrameOctree(mesh, params, tree, grid).build(vector);
 }
 
-void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTree& tree) {
+void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTree& tree,
+                         bool vector) {
   begin(mesh, tree);
   if (mesh.n_faces == 0) return;
   thread_local VertexGrid grid;
   grid.build(mesh);
-  FrameBvh(mesh, params, tree, grid).build();
+  FrameBvh(mesh, params, tree, grid).build(vector);
 }
 
 }  // namespace zbuffer

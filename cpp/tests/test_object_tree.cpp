@@ -2,6 +2,7 @@
 // their triangles and their children, and Greene's rule draws a face that
 // several cells share at most once per frame.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -37,6 +38,23 @@ Soup random_soup(uint64_t seed, int n) {
       s.faces.push_back(int32_t(s.faces.size()));
     }
   }
+  return s;
+}
+
+// A wavy sheet of (n - 1)^2 quads in [-1, 1]^3, two triangles each, listed
+// row by row: neighbouring faces follow each other, as in real meshes.
+Soup wavy_sheet(int n) {
+  Soup s;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const double x = 2.0 * i / (n - 1) - 1.0, y = 2.0 * j / (n - 1) - 1.0;
+      s.pos.insert(s.pos.end(), {x, y, 0.5 * std::sin(3 * x) * std::cos(2 * y)});
+    }
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      const int32_t v = j * n + i;
+      s.faces.insert(s.faces.end(), {v, v + 1, v + n, v + 1, v + n + 1, v + n});
+    }
   return s;
 }
 
@@ -209,9 +227,45 @@ void test_frame_trees() {
   }
 }
 
+// The per-frame builders' vector face pass (AVX-512 builds) gives the very
+// tree of the scalar pass: same nodes, bounds, clusters and face order.
+void test_frame_tree_vector_pass_equals_scalar() {
+  const Soup soups[] = {random_soup(7, 5001), wavy_sheet(90), wavy_sheet(17)};
+  for (const Soup& soup : soups)
+    for (int leaf : {1, 8, 128})
+      for (int kind = 0; kind < 2; ++kind) {
+        ObjectTree fast, slow;
+        if (kind == 0) {
+          OctreeParams p;
+          p.leaf_size = leaf;
+          build_octree_for_frame(soup.view(), p, fast, /*vector=*/true);
+          build_octree_for_frame(soup.view(), p, slow, /*vector=*/false);
+        } else {
+          BvhParams p;
+          p.leaf_size = leaf;
+          build_bvh_for_frame(soup.view(), p, fast, /*vector=*/true);
+          build_bvh_for_frame(soup.view(), p, slow, /*vector=*/false);
+        }
+        CHECK(fast.nodes.size() == slow.nodes.size() && fast.clusters.size() == slow.clusters.size());
+        CHECK(fast.nodes.size() > 1);
+        for (size_t i = 0; i < std::min(fast.nodes.size(), slow.nodes.size()); ++i) {
+          const TreeNode &a = fast.nodes[i], &b = slow.nodes[i];
+          CHECK(a.first_child == b.first_child && a.n_children == b.n_children &&
+                a.cluster == b.cluster && a.depth == b.depth && a.n_triangles == b.n_triangles);
+          CHECK(std::memcmp(a.lo, b.lo, sizeof a.lo) == 0 && std::memcmp(a.hi, b.hi, sizeof a.hi) == 0);
+        }
+        for (size_t c = 0; c < std::min(fast.clusters.size(), slow.clusters.size()); ++c)
+          CHECK(fast.clusters[c].face_begin == slow.clusters[c].face_begin &&
+                fast.clusters[c].face_end == slow.clusters[c].face_end &&
+                fast.clusters[c].node == slow.clusters[c].node);
+        CHECK(fast.faces == slow.faces && fast.ids == slow.ids);
+      }
+}
+
 }  // namespace
 
 int main() {
+  test_frame_tree_vector_pass_equals_scalar();
   test_structures();
   test_frame_trees();
   test_greene_draws_each_face_once();
