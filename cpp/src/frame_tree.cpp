@@ -367,8 +367,8 @@ class FrameBvh {
     int64_t f = 0;
 #ifdef ZBUFFER_AVX512
     if (vector) {
-      // As below: the centroid's cell (the sum of three 10-bit values is
-      // under 2^17, where s * 43691 >> 17 is s / 3 exactly), its Morton code.
+      // VertexGrid::centroid_code (the sum of three 10-bit values is under
+      // 2^17, where s * 43691 >> 17 is s / 3 exactly), its top bits.
       const __m512i third = _mm512_set1_epi32(43691), mask = _mm512_set1_epi32(int(VertexGrid::kMask));
       for (; f + 16 <= mesh_.n_faces; f += 16) {
         __m512i c[3], lo[3], hi[3];
@@ -390,13 +390,7 @@ class FrameBvh {
     for (; f < mesh_.n_faces; ++f) {
       uint32_t lo[3], hi[3];
       face_cells(grid_, mesh_.faces + 3 * f, lo, hi);
-      const int32_t* idx = mesh_.faces + 3 * f;
-      uint32_t q[3];
-      for (int a = 0; a < 3; ++a)
-        q[a] = (VertexGrid::axis(grid_.cell[size_t(idx[0])], a) +
-                VertexGrid::axis(grid_.cell[size_t(idx[1])], a) +
-                VertexGrid::axis(grid_.cell[size_t(idx[2])], a)) / 3;
-      b_.add(f, int32_t(morton_30(q[0], q[1], q[2]) >> (30 - bits_)), lo, hi);
+      b_.add(f, int32_t(grid_.centroid_code(mesh_.faces + 3 * f) >> (30 - bits_)), lo, hi);
     }
     b_.scatter(mesh_, tree_);
     used_.clear();

@@ -110,6 +110,17 @@ struct VertexGrid {
     }
   }
   static uint32_t axis(uint32_t packed, int a) { return (packed >> (kBits * a)) & kMask; }
+
+  // The 30-bit Morton code of face `idx`'s centroid cell: per axis the mean
+  // of its corners' cells, rounded down. The visiting order (mesh_order.cpp)
+  // sorts faces by it and the per-frame BVH buckets them by its top bits,
+  // so that a mesh visited in that order arrives at the BVH bucket by bucket.
+  uint32_t centroid_code(const int32_t* idx) const {
+    const uint32_t c0 = cell[size_t(idx[0])], c1 = cell[size_t(idx[1])], c2 = cell[size_t(idx[2])];
+    uint32_t q[3];
+    for (int a = 0; a < 3; ++a) q[a] = (axis(c0, a) + axis(c1, a) + axis(c2, a)) / 3;
+    return morton_30(q[0], q[1], q[2]);
+  }
 };
 
 }  // namespace zbuffer

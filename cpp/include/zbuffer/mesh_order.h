@@ -14,8 +14,10 @@
 namespace zbuffer {
 
 // Writes to order[0 .. n_faces) a permutation of the faces sorted along a
-// Z-order (Morton) curve through their centroids, 10 bits per axis; ties keep
-// the input order. Meant to be computed once per mesh and reused.
+// Z-order (Morton) curve through their centroids, 10 bits per axis of the
+// cube around the vertices (the grid of the per-frame trees, so that their
+// buckets come in order too); ties keep the input order. Meant to be
+// computed once per mesh and reused.
 void spatial_order(const MeshView& mesh, int32_t* order);
 
 }  // namespace zbuffer
