@@ -43,30 +43,24 @@ struct Buckets {
     add_run(b, 1, lo, hi);
   }
 #ifdef ZBUFFER_AVX512
-  // add() for faces f .. f + 15, buckets b and grid boxes lo/hi by axis. Sixteen
-  // faces of one bucket (the usual case) are folded in as one run.
+  // add() for faces f .. f + 15, buckets b and grid boxes lo/hi by axis: the
+  // faces of each bucket among them are folded in as one run, bucket by
+  // bucket (usually one: meshes visited in spatial order list neighbours
+  // together). Counts and boxes do not depend on the order runs come in.
   void add16(int64_t f, __m512i b, const __m512i* lo, const __m512i* hi) {
     _mm512_storeu_si512(&of_face[size_t(f)], b);
-    const int32_t b0 = _mm_cvtsi128_si32(_mm512_castsi512_si128(b));
-    if (_mm512_cmpneq_epi32_mask(b, _mm512_set1_epi32(b0)) == 0) {
+    alignas(64) int32_t bs[16];
+    _mm512_store_si512(bs, b);
+    for (__mmask16 left = 0xFFFF; left;) {
+      const int32_t bucket = bs[__builtin_ctz(left)];
+      const __mmask16 same = _mm512_mask_cmpeq_epi32_mask(left, b, _mm512_set1_epi32(bucket));
       uint32_t l[3], h[3];
       for (int a = 0; a < 3; ++a) {
-        l[a] = _mm512_reduce_min_epu32(lo[a]);
-        h[a] = _mm512_reduce_max_epu32(hi[a]);
+        l[a] = _mm512_mask_reduce_min_epu32(same, lo[a]);
+        h[a] = _mm512_mask_reduce_max_epu32(same, hi[a]);
       }
-      add_run(b0, 16, l, h);
-      return;
-    }
-    alignas(64) int32_t bs[16];
-    alignas(64) uint32_t ls[3][16], hs[3][16];
-    _mm512_store_si512(bs, b);
-    for (int a = 0; a < 3; ++a) {
-      _mm512_store_si512(ls[a], lo[a]);
-      _mm512_store_si512(hs[a], hi[a]);
-    }
-    for (int k = 0; k < 16; ++k) {
-      const uint32_t l[3] = {ls[0][k], ls[1][k], ls[2][k]}, h[3] = {hs[0][k], hs[1][k], hs[2][k]};
-      add_run(bs[k], 1, l, h);
+      add_run(bucket, __builtin_popcount(same), l, h);
+      left &= __mmask16(~same);
     }
   }
 #endif
