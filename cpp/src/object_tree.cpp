@@ -3,7 +3,6 @@
 #include "zbuffer/object_tree.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -14,15 +13,9 @@
 #include "zbuffer/vertex_stage.h"
 #include "zbuffer/zpyramid.h"
 #include "simd.h"
+#include "timing.h"
 
 namespace zbuffer {
-
-namespace {
-using Clock = std::chrono::steady_clock;
-double ms_between(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double, std::milli>(b - a).count();
-}
-}  // namespace
 
 int64_t ObjectTree::memory_bytes() const {
   return int64_t(nodes.size() * sizeof(TreeNode) + clusters.size() * sizeof(TriangleCluster) +

@@ -3,12 +3,13 @@
 // vector loop shares.
 //
 // A build with AVX-512 F/DQ/VL/BW (e.g. -march=native on a recent x86) gets
-// the vector loops; a build with AVX2 but not AVX-512 (most AMD processors
-// before Zen 4, Intel's client cores) gets the AVX2 rectangle loop
-// (raster.cpp) and scalar code elsewhere; any other build gets the scalar
-// loops. Both perform the
-// same IEEE operations per pixel and per vertex, so they produce the same
-// bits; tests hold the vector loops to the scalar ones.
+// the 16-lane loops; a build with AVX2 but not AVX-512 (most AMD processors
+// before Zen 4, Intel's client cores) gets 8-lane loops for the vertex
+// stage, face setup, rasterization and shading (the scanline and the
+// per-frame trees' face pass stay scalar there); any other build gets the
+// scalar loops. All perform the same IEEE operations per pixel and per
+// vertex, so they produce the same bits; tests hold the vector loops to the
+// scalar ones.
 #pragma once
 
 #if defined(__AVX512F__) && defined(__AVX512DQ__) && defined(__AVX512VL__) && \

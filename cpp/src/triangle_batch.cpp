@@ -160,6 +160,21 @@ void TriangleBatch::store_small(Put put, PutF put_f, const Box& box, const Setup
   put(id_, ids);
 }
 
+template <class Lanes>
+void TriangleBatch::add_unbatched(const Lanes& lanes, unsigned large, unsigned clip,
+                                  const MeshView& mesh, const double* mvp, const Viewport& vp,
+                                  const ScreenVertices& sv, int64_t first, bool cull_backfaces) {
+  // Large faces: the scalar setup from the assembled triangle.
+  for (unsigned m = large; m; m &= m - 1) {
+    const int lane = __builtin_ctz(m);
+    large_.push_back(setup_triangle(lanes.triangle(lane, mesh.id(first + lane)),
+                                    target_.width, target_.height));
+  }
+  // Faces that need clipping: the scalar assembly.
+  for (unsigned m = clip; m; m &= m - 1)
+    add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces);
+}
+
 // Drawing
 
 void TriangleBatch::flush() {
@@ -539,19 +554,7 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     n_small_ += count;
   }
 
-  if (scalar_setup) {
-    // Large faces: the scalar setup from the assembled triangle.
-    const simd::Lanes16 lanes(f);
-    for (unsigned m = scalar_setup; m; m &= m - 1) {
-      const int lane = __builtin_ctz(m);
-      large_.push_back(setup_triangle(lanes.triangle(lane, mesh.id(first + lane)),
-                                      target_.width, target_.height));
-    }
-  }
-
-  // Faces that need clipping: the scalar assembly.
-  for (unsigned m = f.clip; m; m &= m - 1)
-    add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces);
+  add_unbatched(simd::Lanes16(f), scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
 }
 
 #else  // no AVX-512: faces are set up one at a time (the scalar entry points)
@@ -714,19 +717,7 @@ void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const V
     n_small_ += count_small;
   }
 
-  if (scalar_setup) {
-    // Large faces: the scalar setup from the assembled triangle.
-    const simd::Lanes8 lanes(f);
-    for (unsigned m = scalar_setup; m; m &= m - 1) {
-      const int lane = __builtin_ctz(m);
-      large_.push_back(setup_triangle(lanes.triangle(lane, mesh.id(first + lane)),
-                                      target_.width, target_.height));
-    }
-  }
-
-  // Faces that need clipping: the scalar assembly.
-  for (unsigned m = f.clip; m; m &= m - 1)
-    add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces);
+  add_unbatched(simd::Lanes8(f), scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
 }
 
 #else  // scalar build: no triangle is batched (TriangleBatch::add)
