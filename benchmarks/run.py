@@ -22,7 +22,8 @@ Suites (each also runs alone, see its docstring):
 
 Each suite writes ``<suite>.json`` and ``<suite>.md`` into the output folder
 and prints a progress bar; this script adds ``<date>-<host>.json`` (all of
-them, with the machine, the versions and the git revision) and regenerates
+them, with the machine, the versions and the git revision; a later run of
+some suites the same day keeps the others' earlier entries) and regenerates
 ``RESULTS.md``: per suite, what its numbers mean, where each speed target
 named in the issues stands in this run (read from the JSON by
 ``targets.py``), its tables, and figures drawn from the JSON. Nothing here
@@ -132,7 +133,17 @@ def main(argv=None) -> int:
         record["suites"][name] = json.loads((out / f"{name}.json").read_text())
     host = platform.node() or "host"
     stamp = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d")
-    (out / f"{stamp}-{host}.json").write_text(json.dumps(record, indent=2) + "\n")
+    dated = out / f"{stamp}-{host}.json"
+    if dated.is_file():
+        # A run of some suites the same day keeps what an earlier run of
+        # the others recorded there (each suite's report has its own date,
+        # revision and command).
+        earlier = json.loads(dated.read_text()).get("suites", {})
+        kept = {k: v for k, v in earlier.items() if k not in record["suites"]}
+        if kept:
+            record["suites"] = {**kept, **record["suites"]}
+            record["kept_from_earlier_runs"] = sorted(kept)
+    dated.write_text(json.dumps(record, indent=2) + "\n")
     (out / "RESULTS.md").write_text(results_markdown(out, record))
     print(f"wrote {out / (stamp + '-' + host + '.json')} and {out / 'RESULTS.md'} "
           f"in {time.perf_counter() - started:.0f} s")
