@@ -64,18 +64,13 @@ py::tuple render(Tree& self, py::handle mvp_obj, int width, int height, bool cul
   auto [depth, ids] = allocate_planes(width, height);
   zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
   zbuffer::RenderStats stats;
-  std::unique_ptr<zbuffer::CullMap> culls;
-  if (record_culls) {
-    culls = std::make_unique<zbuffer::CullMap>(width, height);
-    input.culls = culls.get();
-  }
+  const auto culls = attach_cull_map(record_culls, width, height, input);
   {
     py::gil_scoped_release release;
     std::lock_guard<std::mutex> lock(self.mutex);
     zbuffer::render_tree_frame(self.tree, input, target, stats, self.frame, temporal);
   }
-  if (culls) return py::make_tuple(depth, ids, stats_dict(stats), cull_levels(*culls));
-  return py::make_tuple(depth, ids, stats_dict(stats));
+  return render_result(depth, ids, stats, culls.get());
 }
 
 py::dict nodes(Tree& self) {

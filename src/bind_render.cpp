@@ -102,17 +102,12 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   auto [depth, ids] = allocate_planes(width, height);
   zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
   zbuffer::RenderStats stats;
-  std::unique_ptr<zbuffer::CullMap> culls;
-  if (record_culls) {
-    culls = std::make_unique<zbuffer::CullMap>(width, height);
-    input.culls = culls.get();
-  }
+  const auto culls = attach_cull_map(record_culls, width, height, input);
   {
     py::gil_scoped_release release;
     zbuffer::render(*algorithm, input, target, stats);
   }
-  if (culls) return py::make_tuple(depth, ids, stats_dict(stats), cull_levels(*culls));
-  return py::make_tuple(depth, ids, stats_dict(stats));
+  return render_result(depth, ids, stats, culls.get());
 }
 
 }  // namespace

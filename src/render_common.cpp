@@ -95,14 +95,25 @@ py::dict stats_dict(const zbuffer::RenderStats& s) {
 // Their start addresses differ by 2 KiB modulo 4 KiB: at widths that are a
 // multiple of 1024 pixels every row of both planes would otherwise fall in
 // the same L1 cache set, and a triangle's rows would evict each other.
-py::list cull_levels(const zbuffer::CullMap& map) {
-  py::list out;
-  for (int k = 0; k < map.levels(); ++k) {
-    py::array_t<int64_t> level({py::ssize_t(map.height(k)), py::ssize_t(map.width(k))});
-    std::copy_n(map.level(k), size_t(map.width(k)) * size_t(map.height(k)), level.mutable_data());
-    out.append(level);
+std::unique_ptr<zbuffer::CullMap> attach_cull_map(bool record_culls, int width, int height,
+                                                  zbuffer::RenderInput& input) {
+  if (!record_culls) return nullptr;
+  auto map = std::make_unique<zbuffer::CullMap>(width, height);
+  input.culls = map.get();
+  return map;
+}
+
+py::tuple render_result(py::array_t<float> depth, py::array_t<int32_t> ids,
+                        const zbuffer::RenderStats& stats, const zbuffer::CullMap* culls) {
+  if (!culls) return py::make_tuple(depth, ids, stats_dict(stats));
+  py::list levels;
+  for (int k = 0; k < culls->levels(); ++k) {
+    py::array_t<int64_t> level({py::ssize_t(culls->height(k)), py::ssize_t(culls->width(k))});
+    std::copy_n(culls->level(k), size_t(culls->width(k)) * size_t(culls->height(k)),
+                level.mutable_data());
+    levels.append(level);
   }
-  return out;
+  return py::make_tuple(depth, ids, stats_dict(stats), levels);
 }
 
 std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height) {

@@ -5,6 +5,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <memory>
 #include <utility>
 
 #include "array_checks.h"
@@ -25,8 +26,15 @@ void read_mvp(py::handle mvp_obj, double* out);
 // Every counter and time of a render, by name.
 py::dict stats_dict(const zbuffer::RenderStats& s);
 
-// A CullMap's levels as a list of (h, w) int64 arrays.
-py::list cull_levels(const zbuffer::CullMap& map);
+// With record_culls, a CullMap for a width x height render, attached to
+// `input` (null otherwise).
+std::unique_ptr<zbuffer::CullMap> attach_cull_map(bool record_culls, int width, int height,
+                                                  zbuffer::RenderInput& input);
+
+// What a render binding returns: (depth, triangle_id, stats), and with a cull
+// map a fourth item, its levels as (h, w) int64 arrays.
+py::tuple render_result(py::array_t<float> depth, py::array_t<int32_t> ids,
+                        const zbuffer::RenderStats& stats, const zbuffer::CullMap* culls);
 
 // The depth and id planes, as two C-contiguous (H, W) arrays in one block.
 std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height);

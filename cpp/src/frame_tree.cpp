@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "morton.h"
+#include "setup16.h"
 #include "simd.h"
 
 namespace zbuffer {
@@ -147,36 +148,12 @@ inline void face_cells(const VertexGrid& grid, const int32_t* idx, uint32_t* lo,
 }
 
 #ifdef ZBUFFER_AVX512
-// The vertex indices of faces f .. f + 15, one vector per corner: the 48
-// int32 of the 16 faces loaded as three vectors and deinterleaved by two
-// permutes per corner.
-inline void corners16(const int32_t* faces, __m512i* idx) {
-  struct Perms {
-    alignas(64) int32_t a[3][16], b[3][16];
-    Perms() {
-      for (int j = 0; j < 3; ++j)
-        for (int k = 0; k < 16; ++k) {
-          const int e = 3 * k + j;  // element of the 48
-          a[j][k] = e < 32 ? e : 0;         // from the first two vectors
-          b[j][k] = e < 32 ? k : e - 16;    // ...kept, or from the third
-        }
-    }
-  };
-  static const Perms perms;
-  const __m512i v0 = _mm512_loadu_si512(faces), v1 = _mm512_loadu_si512(faces + 16),
-                v2 = _mm512_loadu_si512(faces + 32);
-  for (int j = 0; j < 3; ++j) {
-    const __m512i t = _mm512_permutex2var_epi32(v0, _mm512_load_si512(perms.a[j]), v1);
-    idx[j] = _mm512_permutex2var_epi32(t, _mm512_load_si512(perms.b[j]), v2);
-  }
-}
-
 // The grid cells of 16 faces' corners (c[j]: corner j), and each face's box
 // lo .. hi per axis, as face_cells computes it.
 inline void face_cells16(const VertexGrid& grid, const int32_t* faces, __m512i* c, __m512i* lo,
                          __m512i* hi) {
   __m512i idx[3];
-  corners16(faces, idx);
+  simd::deinterleave16(faces, 16, idx);
   for (int j = 0; j < 3; ++j) c[j] = _mm512_i32gather_epi32(idx[j], grid.cell.data(), 4);
   const __m512i mask = _mm512_set1_epi32(int(VertexGrid::kMask));
   for (int a = 0; a < 3; ++a) {

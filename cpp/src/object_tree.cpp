@@ -283,8 +283,6 @@ int node_level(const ZPyramid& pyramid, const ProjectedNode& r) {
 // The farthest depth the pyramid holds over a node's rectangle: the maximum
 // of the cells covering it at node_level.
 float farthest_under(const ZPyramid& pyramid, const ProjectedNode& r) {
-  if (pyramid.levels() <= pyramid.first_level())
-    return pyramid.max_over(r.x0, r.y0, r.x1, r.y1);
   const int k = node_level(pyramid, r);
   const float* cells = pyramid.level(k);
   const int w = pyramid.width(k);

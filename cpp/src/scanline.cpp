@@ -698,16 +698,8 @@ void ScanlineTables::enter_edges(int y, int32_t begin, int32_t end) {
     const int count = std::min(end - i, 16);
     const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(count)));
     // The entries (poly, last_row, k), deinterleaved
-    auto lanes = [](int n) { return __mmask16(n >= 16 ? 0xFFFF : n <= 0 ? 0 : (1u << n) - 1); };
-    const int32_t* fp = table + 3 * size_t(i);
-    const __m512i a = _mm512_maskz_loadu_epi32(lanes(3 * count), fp),
-                  b = _mm512_maskz_loadu_epi32(lanes(3 * count - 16), fp + 16),
-                  c = _mm512_maskz_loadu_epi32(lanes(3 * count - 32), fp + 32);
     __m512i field[3];
-    for (int k = 0; k < 3; ++k)
-      field[k] = _mm512_permutex2var_epi32(
-          _mm512_permutex2var_epi32(a, _mm512_load_si512(simd::kDeinterleave.ab[k]), b),
-          _mm512_load_si512(simd::kDeinterleave.tc[k]), c);
+    simd::deinterleave16(table + 3 * size_t(i), count, field);
     const __m512i poly = field[0], last = field[1], k = field[2];
     const __m512i rec = _mm512_mullo_epi32(poly, _mm512_set1_epi32(22));
     const __m512i large = _mm512_mask_i32gather_epi32(

@@ -35,6 +35,21 @@ struct Deinterleave {
 };
 inline constexpr Deinterleave kDeinterleave{};
 
+// The first `count` (<= 16) int32 triples at p (a face's vertex indices, or
+// any record of three int32), one vector per position; lanes past `count`
+// are 0 and nothing past the triples is read.
+ZBUFFER_INLINE void deinterleave16(const int32_t* p, int count, __m512i out[3]) {
+  auto first_lanes = [](int n) { return __mmask16(n >= 16 ? 0xFFFF : n <= 0 ? 0 : (1u << n) - 1); };
+  const int ints = 3 * count;
+  const __m512i a = _mm512_maskz_loadu_epi32(first_lanes(ints), p),
+                b = _mm512_maskz_loadu_epi32(first_lanes(ints - 16), p + 16),
+                c = _mm512_maskz_loadu_epi32(first_lanes(ints - 32), p + 32);
+  for (int k = 0; k < 3; ++k)
+    out[k] = _mm512_permutex2var_epi32(
+        _mm512_permutex2var_epi32(a, _mm512_load_si512(kDeinterleave.ab[k]), b),
+        _mm512_load_si512(kDeinterleave.tc[k]), c);
+}
+
 // The 16 int64 products a * b of the sign-extended int32 lanes, as two halves.
 ZBUFFER_INLINE void mul_wide(__m512i a, __m512i b, __m512i& lo, __m512i& hi) {
   lo = _mm512_mul_epi32(_mm512_cvtepi32_epi64(_mm512_castsi512_si256(a)),
@@ -66,21 +81,15 @@ ZBUFFER_INLINE void assemble16(const MeshView& mesh, const ScreenVertices& sv, i
   // (a valid vertex) and are masked off below.
   f.live = __mmask16((1u << count) - 1);
   const __mmask16 live = f.live;
-  const int ints = 3 * count;
-  auto first_lanes = [](int n) { return __mmask16(n >= 16 ? 0xFFFF : n <= 0 ? 0 : (1u << n) - 1); };
-  const int32_t* fp = mesh.faces + 3 * first;
-  const __m512i a = _mm512_maskz_loadu_epi32(first_lanes(ints), fp),
-                b = _mm512_maskz_loadu_epi32(first_lanes(ints - 16), fp + 16),
-                c = _mm512_maskz_loadu_epi32(first_lanes(ints - 32), fp + 32);
+  __m512i corner[3];
+  deinterleave16(mesh.faces + 3 * first, count, corner);
   __m512i* x = f.x;
   __m512i* y = f.y;
   __m512d* z_lo = f.z_lo;
   __m512d* z_hi = f.z_hi;
   __m512i oc[3];
   for (int k = 0; k < 3; ++k) {
-    const __m512i idx = _mm512_permutex2var_epi32(
-        _mm512_permutex2var_epi32(a, _mm512_load_si512(kDeinterleave.ab[k]), b),
-        _mm512_load_si512(kDeinterleave.tc[k]), c);
+    const __m512i idx = corner[k];
     x[k] = _mm512_i32gather_epi32(idx, sv.x_fx.data(), 4);
     y[k] = _mm512_i32gather_epi32(idx, sv.y_fx.data(), 4);
     oc[k] = _mm512_i32gather_epi32(idx, sv.outcode.data(), 4);

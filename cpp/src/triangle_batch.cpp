@@ -160,15 +160,18 @@ void TriangleBatch::store_small(Put put, PutF put_f, const Box& box, const Setup
   put(id_, ids);
 }
 
-template <class Lanes>
-void TriangleBatch::add_unbatched(const Lanes& lanes, unsigned large, unsigned clip,
+template <class Lanes, class Faces>
+void TriangleBatch::add_unbatched(const Faces& f, unsigned large, unsigned clip,
                                   const MeshView& mesh, const double* mvp, const Viewport& vp,
                                   const ScreenVertices& sv, int64_t first, bool cull_backfaces) {
   // Large faces: the scalar setup from the assembled triangle.
-  for (unsigned m = large; m; m &= m - 1) {
-    const int lane = __builtin_ctz(m);
-    large_.push_back(setup_triangle(lanes.triangle(lane, mesh.id(first + lane)),
-                                    target_.width, target_.height));
+  if (large) {
+    const Lanes lanes(f);
+    for (unsigned m = large; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      large_.push_back(setup_triangle(lanes.triangle(lane, mesh.id(first + lane)),
+                                      target_.width, target_.height));
+    }
   }
   // Faces that need clipping: the scalar assembly.
   for (unsigned m = clip; m; m &= m - 1)
@@ -284,12 +287,11 @@ void TriangleBatch::cull_hidden() {
           culled += __builtin_popcount(hidden);
           small_tested_ -= _mm512_mask_reduce_add_epi32(hidden, _mm512_mullo_epi32(w, h));
           if (pyramid_->recording_culls())
-            for (int k = 0; k < 16; ++k)
-              if (hidden >> k & 1) {
-                const int t = group_[g][n + k];
-                pyramid_->count_culled(kTileShift, x0_[t], y0_[t], x0_[t] + box_w_[t] - 1,
-                                       y0_[t] + box_h_[t] - 1, 1);
-              }
+            for (unsigned m = hidden; m; m &= m - 1) {
+              const int t = group_[g][n + __builtin_ctz(m)];
+              pyramid_->count_culled(kTileShift, x0_[t], y0_[t], x0_[t] + box_w_[t] - 1,
+                                     y0_[t] + box_h_[t] - 1, 1);
+            }
         }
         // Mark the (at most 2 x 2) 16 x 16 blocks under the survivors' boxes.
         if (shown) {
@@ -554,7 +556,7 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     n_small_ += count;
   }
 
-  add_unbatched(simd::Lanes16(f), scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
+  add_unbatched<simd::Lanes16>(f, scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
 }
 
 #else  // no AVX-512: faces are set up one at a time (the scalar entry points)
@@ -717,7 +719,7 @@ void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const V
     n_small_ += count_small;
   }
 
-  add_unbatched(simd::Lanes8(f), scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
+  add_unbatched<simd::Lanes8>(f, scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
 }
 
 #else  // scalar build: no triangle is batched (TriangleBatch::add)

@@ -10,15 +10,7 @@ namespace zbuffer {
 
 ZPyramid::ZPyramid(const float* depth, int width, int height, int first_level, bool cleared)
     : depth_(depth), first_(std::max(1, first_level)) {
-  int w = width, h = height;
-  widths_.push_back(w);
-  heights_.push_back(h);
-  while (w > 1 || h > 1) {
-    w = (w + 1) / 2;
-    h = (h + 1) / 2;
-    widths_.push_back(w);
-    heights_.push_back(h);
-  }
+  pyramid_level_sizes(width, height, widths_, heights_);
   // A pyramid shorter than first_level keeps at least its top level.
   first_ = std::min(first_, std::max(1, levels() - 1));
   cells_.resize(size_t(levels()));

@@ -107,11 +107,11 @@ class TriangleBatch {
   // Vector-set-up faces appended to the structure of arrays (both of the above).
   template <class Put, class PutF, class Box, class Setup, class Vec>
   void store_small(Put put, PutF put_f, const Box& box, const Setup& s, Vec area_b0, Vec ids);
-  // What a vector assembly leaves to scalar code (both of the above): the
-  // `large` lanes set up one by one from `lanes`, the `clip` faces through
-  // the scalar assembly.
-  template <class Lanes>
-  void add_unbatched(const Lanes& lanes, unsigned large, unsigned clip, const MeshView& mesh,
+  // What a vector assembly `f` leaves to scalar code (both of the above):
+  // the `large` lanes set up one by one (through a `Lanes` copy of f, made
+  // only when there are any), the `clip` faces through the scalar assembly.
+  template <class Lanes, class Faces>
+  void add_unbatched(const Faces& f, unsigned large, unsigned clip, const MeshView& mesh,
                      const double* mvp, const Viewport& vp, const ScreenVertices& sv,
                      int64_t first, bool cull_backfaces);
 

@@ -11,6 +11,18 @@ namespace zbuffer {
 
 class CullMap;
 
+// The sizes of the levels of a pyramid over a width x height image: level 0
+// the image, each next one ceil(w / 2) x ceil(h / 2), down to 1 x 1.
+inline void pyramid_level_sizes(int width, int height, std::vector<int>& widths,
+                                std::vector<int>& heights) {
+  widths.assign(1, width);
+  heights.assign(1, height);
+  while (widths.back() > 1 || heights.back() > 1) {
+    widths.push_back((widths.back() + 1) / 2);
+    heights.push_back((heights.back() + 1) / 2);
+  }
+}
+
 // Design decision: level 0 is the depth buffer itself (not copied); level k
 // (k >= 1) is an owned float array of ceil(w / 2^k) x ceil(h / 2^k) cells,
 // each the maximum of its two-by-two children that lie inside the image, i.e.
@@ -115,15 +127,9 @@ class ZPyramid {
 class CullMap {
  public:
   CullMap(int width, int height) {
-    int w = width, h = height;
-    for (;;) {
-      widths_.push_back(w);
-      heights_.push_back(h);
-      counts_.emplace_back(size_t(w) * size_t(h), 0);
-      if (w == 1 && h == 1) break;
-      w = (w + 1) / 2;
-      h = (h + 1) / 2;
-    }
+    pyramid_level_sizes(width, height, widths_, heights_);
+    for (size_t k = 0; k < widths_.size(); ++k)
+      counts_.emplace_back(size_t(widths_[k]) * size_t(heights_[k]), 0);
   }
   int levels() const { return int(counts_.size()); }
   int width(int level) const { return widths_[level]; }
