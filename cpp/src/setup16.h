@@ -184,6 +184,15 @@ ZBUFFER_INLINE void box16(const Faces16& f, int width, int height, Box16& b) {
   b.narrow = _mm512_cmplt_epu32_mask(extent_x, _mm512_set1_epi32(kNarrowFx));
 }
 
+// The nearest depth of each of 16 assembled faces, rounded to binary32 (the
+// z_lo of setup_triangle).
+ZBUFFER_INLINE __m512 nearest16(const Faces16& f) {
+  auto nearest = [](const __m512d* z) {
+    return _mm512_cvtpd_ps(_mm512_min_pd(z[0], _mm512_min_pd(z[1], z[2])));
+  };
+  return join(nearest(f.z_lo), nearest(f.z_hi));
+}
+
 // Edge functions and depth plane of 16 small faces (raster.h:
 // setup_triangle): w[k] the exact unbiased edge value at the centre of the
 // box's first pixel, bias[k] 0 or 1 by the top-left rule, steps per pixel
@@ -220,21 +229,20 @@ ZBUFFER_INLINE void setup16(const Faces16& f, const Box16& b, Setup16& s) {
   // Depth coefficients: binary64, rounded once to binary32 (raster.h).
   const __m512d one = _mm512_set1_pd(1.0);
   auto coefficients = [&](__m512i area64, const __m512d* z, __m256& z0f, __m256& a1f,
-                          __m256& a2f, __m256& lo, __m256& hi) {
+                          __m256& a2f, __m256& hi) {
     const __m512d inv_area = _mm512_div_pd(one, _mm512_cvtepi64_pd(area64));
     a1f = _mm512_cvtpd_ps(_mm512_mul_pd(_mm512_sub_pd(z[1], z[0]), inv_area));
     a2f = _mm512_cvtpd_ps(_mm512_mul_pd(_mm512_sub_pd(z[2], z[0]), inv_area));
     z0f = _mm512_cvtpd_ps(z[0]);
-    lo = _mm512_cvtpd_ps(_mm512_min_pd(z[0], _mm512_min_pd(z[1], z[2])));
     hi = _mm512_cvtpd_ps(_mm512_max_pd(z[0], _mm512_max_pd(z[1], z[2])));
   };
-  __m256 z0l, a1l, a2l, lol, hil, z0h, a1h, a2h, loh, hih;
-  coefficients(f.area_lo, f.z_lo, z0l, a1l, a2l, lol, hil);
-  coefficients(f.area_hi, f.z_hi, z0h, a1h, a2h, loh, hih);
+  __m256 z0l, a1l, a2l, hil, z0h, a1h, a2h, hih;
+  coefficients(f.area_lo, f.z_lo, z0l, a1l, a2l, hil);
+  coefficients(f.area_hi, f.z_hi, z0h, a1h, a2h, hih);
   s.z0 = join(z0l, z0h);
   s.a1 = join(a1l, a1h);
   s.a2 = join(a2l, a2h);
-  s.lo = join(lol, loh);
+  s.lo = nearest16(f);
   s.hi = join(hil, hih);
 }
 

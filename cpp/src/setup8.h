@@ -206,6 +206,15 @@ struct Setup8 {
   __m256 z0, a1, a2, lo, hi;
 };
 
+// The nearest depth of each of 8 assembled faces, rounded to binary32 (the
+// z_lo of setup_triangle).
+ZBUFFER_INLINE __m256 nearest8(const Faces8& f) {
+  auto nearest = [](const __m256d* z) {
+    return _mm256_cvtpd_ps(_mm256_min_pd(z[0], _mm256_min_pd(z[1], z[2])));
+  };
+  return _mm256_set_m128(nearest(f.z_hi), nearest(f.z_lo));
+}
+
 ZBUFFER_INLINE void setup8(const Faces8& f, const Box8& b, Setup8& s) {
   const __m256i half = _mm256_set1_epi32(kHalfPixel);
   const __m256i zero = _mm256_setzero_si256();
@@ -232,21 +241,20 @@ ZBUFFER_INLINE void setup8(const Faces8& f, const Box8& b, Setup8& s) {
   // Depth coefficients: binary64, rounded once to binary32 (raster.h).
   const __m256d one = _mm256_set1_pd(1.0);
   auto coefficients = [&](__m128i area, const __m256d* z, __m128& z0f, __m128& a1f, __m128& a2f,
-                          __m128& lo, __m128& hi) {
+                          __m128& hi) {
     const __m256d inv_area = _mm256_div_pd(one, _mm256_cvtepi32_pd(area));
     a1f = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_sub_pd(z[1], z[0]), inv_area));
     a2f = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_sub_pd(z[2], z[0]), inv_area));
     z0f = _mm256_cvtpd_ps(z[0]);
-    lo = _mm256_cvtpd_ps(_mm256_min_pd(z[0], _mm256_min_pd(z[1], z[2])));
     hi = _mm256_cvtpd_ps(_mm256_max_pd(z[0], _mm256_max_pd(z[1], z[2])));
   };
-  __m128 z0l, a1l, a2l, lol, hil, z0h, a1h, a2h, loh, hih;
-  coefficients(_mm256_castsi256_si128(s.area32), f.z_lo, z0l, a1l, a2l, lol, hil);
-  coefficients(_mm256_extracti128_si256(s.area32, 1), f.z_hi, z0h, a1h, a2h, loh, hih);
+  __m128 z0l, a1l, a2l, hil, z0h, a1h, a2h, hih;
+  coefficients(_mm256_castsi256_si128(s.area32), f.z_lo, z0l, a1l, a2l, hil);
+  coefficients(_mm256_extracti128_si256(s.area32, 1), f.z_hi, z0h, a1h, a2h, hih);
   s.z0 = _mm256_set_m128(z0h, z0l);
   s.a1 = _mm256_set_m128(a1h, a1l);
   s.a2 = _mm256_set_m128(a2h, a2l);
-  s.lo = _mm256_set_m128(loh, lol);
+  s.lo = nearest8(f);
   s.hi = _mm256_set_m128(hih, hil);
 }
 

@@ -45,14 +45,20 @@ TriangleBatch::TriangleBatch(DepthTarget& target, RenderStats& stats, ZPyramid* 
     tiles_wide_ = (target.width + (1 << kDirtyShift) - 1) >> kDirtyShift;
     const int tiles_high = (target.height + (1 << kDirtyShift) - 1) >> kDirtyShift;
     tile_dirty_.assign(size_t(tiles_wide_) * size_t(tiles_high), 0);
-    tile_cells_ = pyramid_->first_level() == kTileShift && pyramid_->levels() > kTileShift;
+    tile_cells_ = pyramid_->first_level() <= kTileShift && pyramid_->levels() > kTileShift;
+    fine_ = tile_cells_ ? pyramid_->first_level() : kTileShift;
+    if (tile_cells_)
+      for (int l = fine_; l <= kTileShift; ++l) {
+        level_width_[l] = pyramid_->width(l);
+        level_offset_[l] = int32_t(pyramid_->offset(l));
+      }
   }
 }
 
 // Scalar Entry Points
 
 void TriangleBatch::add(const ScreenTriangle& t) {
-  if (n_small_ + kSlack > capacity_ || large_.size() >= size_t(capacity_)) flush();
+  if (full(1)) flush();
   const TriangleSetup s = setup_triangle(t, target_.width, target_.height);
   const int bw = s.x_max - s.x_min + 1, bh = s.y_max - s.y_min + 1;
   if (bw <= 0 || bh <= 0) return;  // no pixel centre in its box
@@ -65,6 +71,7 @@ void TriangleBatch::add(const ScreenTriangle& t) {
   }
 #if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
   if (hi_x - lo_x < kSmallFx && hi_y - lo_y < kSmallFx) {
+    if (pyramid_ && cull_small(s.x_min, s.y_min, s.x_max, s.y_max, s.z_lo)) return;
     add_small(group_of(hi_x - lo_x < kNarrowFx, bh), s);
     return;
   }
@@ -181,9 +188,8 @@ void TriangleBatch::add_unbatched(const Faces& f, unsigned large, unsigned clip,
 // Drawing
 
 void TriangleBatch::flush() {
-  const int64_t pending_before = pending();
-  const int64_t culled_before = stats_.culled_hidden;
-  if (pyramid_) cull_hidden();
+  if (pyramid_) cull_large();
+  const int64_t tested = pending() + batch_culled_;  // every triangle of this batch
   int64_t covered = 0, written = 0;
 #if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
   draw_narrow<1>(0, covered, written);
@@ -219,8 +225,8 @@ void TriangleBatch::flush() {
     // blocks drawn into meanwhile stay marked and are recomputed once. A
     // pyramid that lags only culls less: depth never increases.
     // Only a test against an up-to-date pyramid says whether testing pays.
-    const int64_t culled = stats_.culled_hidden - culled_before;
-    const bool useless = pyramid_fresh_ && culled * 64 < pending_before;
+    const bool useless = pyramid_fresh_ && batch_culled_ * 64 < tested;
+    batch_culled_ = 0;
     if (lazy_upkeep_ && (useless || (skipped_updates_ > 0 &&
                                      skipped_updates_ < kMaxSkippedUpdates))) {
       ++skipped_updates_;
@@ -246,112 +252,149 @@ inline void TriangleBatch::mark_tiles(int x0, int y0, int x1, int y1) {
       tile_dirty_[size_t(ty) * tiles_wide_ + tx] = 1;
 }
 
-void TriangleBatch::cull_hidden() {
-  int64_t culled = 0;
-  for (int g = 0; g < kGroups; ++g) {
-    int kept = 0, n = 0;
-    const int count = group_size_[g];
-#ifdef ZBUFFER_AVX512
-    if (tile_cells_) {
-      // Sixteen triangles at a time: the at most 3 x 3 level-3 cells under
-      // each box, their maximum against the triangle's z_lo, and the tiles
-      // of the survivors marked for the pyramid update.
-      const float* cells = pyramid_->level(kTileShift);
-      const __m512i cells_wide = _mm512_set1_epi32(pyramid_->width(kTileShift));
-      const __m512i tiles_wide = _mm512_set1_epi32(tiles_wide_);
-      const __m512i one = _mm512_set1_epi32(1);
-      for (; n + 16 <= count; n += 16) {
-        const __m512i i = _mm512_cvtepu16_epi32(
-            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(&group_[g][n])));
-        const __m512i x0 = _mm512_i32gather_epi32(i, x0_, 4);
-        const __m512i y0 = _mm512_i32gather_epi32(i, y0_, 4);
-        const __m512i w = _mm512_i32gather_epi32(i, box_w_, 4);
-        const __m512i h = _mm512_i32gather_epi32(i, box_h_, 4);
-        const __m512 z_lo = _mm512_i32gather_ps(i, z_lo_, 4);
-        const __m512i tx0 = _mm512_srai_epi32(x0, kTileShift);
-        const __m512i ty0 = _mm512_srai_epi32(y0, kTileShift);
-        const __m512i tx1 = _mm512_srai_epi32(_mm512_sub_epi32(_mm512_add_epi32(x0, w), one), kTileShift);
-        const __m512i ty1 = _mm512_srai_epi32(_mm512_sub_epi32(_mm512_add_epi32(y0, h), one), kTileShift);
-        __m512 bound = _mm512_set1_ps(-std::numeric_limits<float>::infinity());
-        for (int dy = 0; dy < 3; ++dy)
-          for (int dx = 0; dx < 3; ++dx) {
-            const __m512i tx = _mm512_add_epi32(tx0, _mm512_set1_epi32(dx));
-            const __m512i ty = _mm512_add_epi32(ty0, _mm512_set1_epi32(dy));
-            const __mmask16 in = _mm512_cmple_epi32_mask(tx, tx1) & _mm512_cmple_epi32_mask(ty, ty1);
-            const __m512i cell = _mm512_add_epi32(_mm512_mullo_epi32(ty, cells_wide), tx);
-            bound = _mm512_max_ps(bound, _mm512_mask_i32gather_ps(bound, in, cell, cells, 4));
-          }
-        const __mmask16 hidden = _mm512_cmp_ps_mask(z_lo, bound, _CMP_GT_OQ);
-        const __mmask16 shown = __mmask16(~hidden);
-        if (hidden) {
-          culled += __builtin_popcount(hidden);
-          small_tested_ -= _mm512_mask_reduce_add_epi32(hidden, _mm512_mullo_epi32(w, h));
-          if (pyramid_->recording_culls())
-            for (unsigned m = hidden; m; m &= m - 1) {
-              const int t = group_[g][n + __builtin_ctz(m)];
-              pyramid_->count_culled(kTileShift, x0_[t], y0_[t], x0_[t] + box_w_[t] - 1,
-                                     y0_[t] + box_h_[t] - 1, 1);
-            }
-        }
-        // Mark the (at most 2 x 2) 16 x 16 blocks under the survivors' boxes.
-        if (shown) {
-          const __m512i bx0 = _mm512_srai_epi32(x0, kDirtyShift);
-          const __m512i by0 = _mm512_srai_epi32(y0, kDirtyShift);
-          const __m512i bx1 = _mm512_srai_epi32(_mm512_sub_epi32(_mm512_add_epi32(x0, w), one), kDirtyShift);
-          const __m512i by1 = _mm512_srai_epi32(_mm512_sub_epi32(_mm512_add_epi32(y0, h), one), kDirtyShift);
-          dirty_lo_ = std::min(dirty_lo_, _mm512_mask_reduce_min_epi32(shown, by0));
-          dirty_hi_ = std::max(dirty_hi_, _mm512_mask_reduce_max_epi32(shown, by1));
-          for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) {
-              const __m512i bx = _mm512_add_epi32(bx0, _mm512_set1_epi32(dx));
-              const __m512i by = _mm512_add_epi32(by0, _mm512_set1_epi32(dy));
-              const __mmask16 m =
-                  shown & _mm512_cmple_epi32_mask(bx, bx1) & _mm512_cmple_epi32_mask(by, by1);
-              _mm512_mask_i32scatter_epi32(tile_dirty_.data(), m,
-                                           _mm512_add_epi32(_mm512_mullo_epi32(by, tiles_wide), bx),
-                                           one, 4);
-            }
-        }
-        // Keep the survivors' indices, in order.
-        alignas(64) int32_t keep[16];
-        _mm512_store_si512(keep, _mm512_maskz_compress_epi32(shown, i));
-        for (int k = 0; k < __builtin_popcount(shown); ++k) group_[g][kept++] = uint16_t(keep[k]);
-      }
-    }
-#endif
-    for (; n < count; ++n) {
-      const int i = group_[g][n];
-      // Boxes under 16 pixels span at most 3 cells of 8 a side.
-      const int x1 = x0_[i] + box_w_[i] - 1, y1 = y0_[i] + box_h_[i] - 1;
-      const float bound = tile_cells_ ? pyramid_->max_over_at(kTileShift, x0_[i], y0_[i], x1, y1)
-                                      : pyramid_->max_over(x0_[i], y0_[i], x1, y1);
-      if (z_lo_[i] > bound) {
-        ++culled;
-        small_tested_ -= int64_t(box_w_[i]) * box_h_[i];
-        if (pyramid_->recording_culls())
-          pyramid_->count_culled(tile_cells_ ? kTileShift : pyramid_->query_level(x0_[i], y0_[i], x1, y1),
-                                 x0_[i], y0_[i], x1, y1, 1);
-        continue;
-      }
-      mark_tiles(x0_[i], y0_[i], x1, y1);
-      group_[g][kept++] = uint16_t(i);
-    }
-    group_size_[g] = kept;
+inline void TriangleBatch::count_hidden(int level, int x0, int y0, int x1, int y1) {
+  ++batch_culled_;
+  ++stats_.culled_hidden;
+  --stats_.rasterized;  // counted when assembled: it is not drawn after all
+  pyramid_->count_culled(level, x0, y0, x1, y1, 1);
+}
+
+bool TriangleBatch::cull_small(int x0, int y0, int x1, int y1, float z_lo) {
+  // Boxes under 16 pixels span at most 3 cells a side at level 3.
+  const int level = tile_cells_ ? test_level(x0, y0, x1, y1) : pyramid_->query_level(x0, y0, x1, y1);
+  const float bound = tile_cells_ ? pyramid_->max_over_at(level, x0, y0, x1, y1)
+                                  : pyramid_->max_over(x0, y0, x1, y1);
+  if (z_lo > bound) {
+    count_hidden(level, x0, y0, x1, y1);
+    return true;
   }
+  mark_tiles(x0, y0, x1, y1);
+  return false;
+}
+
+void TriangleBatch::cull_large() {
   size_t kept = 0;
   for (const TriangleSetup& s : large_) {
     if (s.z_lo > pyramid_->max_over(s.x_min, s.y_min, s.x_max, s.y_max)) {
-      ++culled;
-      pyramid_->count_culled(pyramid_->query_level(s.x_min, s.y_min, s.x_max, s.y_max), s.x_min,
-                             s.y_min, s.x_max, s.y_max, 1);
+      count_hidden(pyramid_->query_level(s.x_min, s.y_min, s.x_max, s.y_max), s.x_min, s.y_min,
+                   s.x_max, s.y_max);
       continue;
     }
     large_[kept++] = s;
   }
   large_.resize(kept);
-  stats_.culled_hidden += culled;
-  stats_.rasterized -= culled;  // counted when added: they are not drawn after all
 }
+
+#ifdef ZBUFFER_AVX512
+// The small boxes of 16 faces (lanes `candidates`) the pyramid proves hidden,
+// counted; the blocks under the others are marked for the pyramid update.
+// Each box is tested at its test_level: the maximum of the at most 3 x 3
+// cells under it against the face's nearest depth.
+template <class Box, class Vec, class Mask>
+ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask candidates) {
+  if (!tile_cells_) {  // a pyramid without level 3 (a tiny image): one by one
+    alignas(64) int32_t x0[16], y0[16], x1[16], y1[16];
+    alignas(64) float z[16];
+    _mm512_store_si512(x0, box.i0);
+    _mm512_store_si512(y0, box.j0);
+    _mm512_store_si512(x1, box.i1);
+    _mm512_store_si512(y1, box.j1);
+    _mm512_store_ps(z, z_lo);
+    __mmask16 hidden = 0;
+    for (unsigned m = candidates; m; m &= m - 1) {
+      const int k = __builtin_ctz(m);
+      if (cull_small(x0[k], y0[k], x1[k], y1[k], z[k])) hidden |= __mmask16(1u << k);
+    }
+    return hidden;
+  }
+  const __m512i one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2);
+  // Each box's level, as test_level finds it.
+  __m512i level = _mm512_set1_epi32(fine_);
+  for (int l = fine_; l < kTileShift; ++l) {
+    const __m512i shift = _mm512_set1_epi32(l);
+    auto span = [&](__m512i lo, __m512i hi) {
+      return _mm512_sub_epi32(_mm512_srav_epi32(hi, shift), _mm512_srav_epi32(lo, shift));
+    };
+    const __mmask16 too_wide = _mm512_cmpgt_epi32_mask(span(box.i0, box.i1), two) |
+                               _mm512_cmpgt_epi32_mask(span(box.j0, box.j1), two);
+    level = _mm512_mask_add_epi32(level, too_wide, level, one);
+  }
+  const __m512i cells_wide = _mm512_permutexvar_epi32(level, _mm512_load_si512(level_width_));
+  const __m512i ci0 = _mm512_srav_epi32(box.i0, level), cj0 = _mm512_srav_epi32(box.j0, level);
+  const __m512i ci1 = _mm512_srav_epi32(box.i1, level), cj1 = _mm512_srav_epi32(box.j1, level);
+  const __m512i first = _mm512_add_epi32(_mm512_permutexvar_epi32(level, _mm512_load_si512(level_offset_)),
+                                         _mm512_add_epi32(_mm512_mullo_epi32(cj0, cells_wide), ci0));
+  const float* cells = pyramid_->cells();
+  __m512 bound = _mm512_set1_ps(-std::numeric_limits<float>::infinity());
+  __m512i row = first;
+  for (int dy = 0; dy < 3; ++dy) {
+    const __mmask16 in_rows =
+        candidates & _mm512_cmple_epi32_mask(_mm512_add_epi32(cj0, _mm512_set1_epi32(dy)), cj1);
+    for (int dx = 0; dx < 3; ++dx) {
+      const __m512i dxv = _mm512_set1_epi32(dx);
+      const __mmask16 in = in_rows & _mm512_cmple_epi32_mask(_mm512_add_epi32(ci0, dxv), ci1);
+      if (in)  // boxes rarely span three cells: most of these masks are empty
+        bound = _mm512_max_ps(bound, _mm512_mask_i32gather_ps(bound, in, _mm512_add_epi32(row, dxv),
+                                                              cells, 4));
+    }
+    row = _mm512_add_epi32(row, cells_wide);
+  }
+  const __mmask16 hidden = candidates & _mm512_cmp_ps_mask(z_lo, bound, _CMP_GT_OQ);
+  const __mmask16 shown = candidates & __mmask16(~hidden);
+  if (hidden) {
+    const int n = __builtin_popcount(hidden);
+    batch_culled_ += n;
+    stats_.culled_hidden += n;
+    stats_.rasterized -= n;  // counted when assembled: they are not drawn after all
+    if (pyramid_->recording_culls()) {
+      alignas(64) int32_t x0[16], y0[16], x1[16], y1[16], lv[16];
+      _mm512_store_si512(x0, box.i0);
+      _mm512_store_si512(y0, box.j0);
+      _mm512_store_si512(x1, box.i1);
+      _mm512_store_si512(y1, box.j1);
+      _mm512_store_si512(lv, level);
+      for (unsigned m = hidden; m; m &= m - 1) {
+        const int k = __builtin_ctz(m);
+        pyramid_->count_culled(lv[k], x0[k], y0[k], x1[k], y1[k], 1);
+      }
+    }
+  }
+  // Mark the 16 x 16 blocks under the survivors' boxes: faces arrive in
+  // spatial order, so the blocks of all sixteen mostly form a small
+  // rectangle, marked whole (marking a block that was not drawn into only
+  // costs its update); otherwise the (at most 2 x 2) blocks of each box.
+  if (shown) {
+    const __m512i bx0 = _mm512_srai_epi32(box.i0, kDirtyShift);
+    const __m512i by0 = _mm512_srai_epi32(box.j0, kDirtyShift);
+    const __m512i bx1 = _mm512_srai_epi32(box.i1, kDirtyShift);
+    const __m512i by1 = _mm512_srai_epi32(box.j1, kDirtyShift);
+    const int lo_x = _mm512_mask_reduce_min_epi32(shown, bx0);
+    const int hi_x = _mm512_mask_reduce_max_epi32(shown, bx1);
+    const int lo_y = _mm512_mask_reduce_min_epi32(shown, by0);
+    const int hi_y = _mm512_mask_reduce_max_epi32(shown, by1);
+    dirty_lo_ = std::min(dirty_lo_, lo_y);
+    dirty_hi_ = std::max(dirty_hi_, hi_y);
+    if ((hi_x - lo_x + 1) * (hi_y - lo_y + 1) <= 4) {
+      for (int by = lo_y; by <= hi_y; ++by)
+        for (int bx = lo_x; bx <= hi_x; ++bx) tile_dirty_[size_t(by) * tiles_wide_ + bx] = 1;
+    } else {
+      const __m512i blocks_wide = _mm512_set1_epi32(tiles_wide_);
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const __m512i bx = _mm512_add_epi32(bx0, _mm512_set1_epi32(dx));
+          const __m512i by = _mm512_add_epi32(by0, _mm512_set1_epi32(dy));
+          const __mmask16 m =
+              shown & _mm512_cmple_epi32_mask(bx, bx1) & _mm512_cmple_epi32_mask(by, by1);
+          if (m)
+            _mm512_mask_i32scatter_epi32(tile_dirty_.data(), m,
+                                         _mm512_add_epi32(_mm512_mullo_epi32(by, blocks_wide), bx),
+                                         one, 4);
+        }
+    }
+  }
+  return hidden;
+}
+#endif
 
 void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
   const int tx0 = s.x_min >> kTileShift, tx1 = s.x_max >> kTileShift;
@@ -380,12 +423,10 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
 
 void TriangleBatch::update_pyramid() {
   const auto t0 = Clock::now();
-  // The level-3 cells under every 16 x 16 block drawn into since the last
-  // update, listed once; the pyramid recomputes them from the pixels and
-  // climbs from there.
+  // Every 16 x 16 block drawn into since the last update, listed once; the
+  // pyramid recomputes its cells from the pixels and climbs from there.
+  static_assert(kDirtyShift == ZPyramid::kBlockShift, "dirt is tracked by the pyramid's blocks");
   dirty_list_.clear();
-  const int cells_wide = tile_cells_ ? pyramid_->width(kTileShift) : 0;
-  const int cells_high = tile_cells_ ? pyramid_->height(kTileShift) : 0;
   const int block = 1 << kDirtyShift;
   for (int by = std::max(dirty_lo_, 0); by <= dirty_hi_; ++by) {
     int32_t* row = tile_dirty_.data() + size_t(by) * tiles_wide_;
@@ -406,14 +447,12 @@ void TriangleBatch::update_pyramid() {
                              std::min(y0 + block, target_.height) - 1);
         continue;
       }
-      for (int j = 2 * by; j < std::min(2 * by + 2, cells_high); ++j)
-        for (int i = 2 * bx; i < std::min(2 * bx + 2, cells_wide); ++i)
-          dirty_list_.push_back(j * cells_wide + i);
+      dirty_list_.push_back(by * tiles_wide_ + bx);
     }
   }
   dirty_lo_ = 1 << 30;
   dirty_hi_ = -1;
-  if (tile_cells_) stats_.pyramid_cells_updated += pyramid_->update_cells(dirty_list_);
+  if (tile_cells_) stats_.pyramid_cells_updated += pyramid_->update_blocks(dirty_list_);
   stats_.pyramid_ms += ms_since(t0);
 }
 
@@ -516,15 +555,17 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
                                  int count) {
   static_assert(kSmallFx == simd::kSmallFx && kNarrowFx == simd::kNarrowFx,
                 "the scalar and vector paths sort faces into the same groups");
-  if (n_small_ + kSlack > capacity_ || large_.size() + 16 > size_t(capacity_)) flush();
+  if (full(16)) flush();
 
   // Assembly and pixel boxes (setup16.h)
   simd::Faces16 f;
   simd::assemble16(mesh, sv, first, count, cull_backfaces, stats_, f);
   simd::Box16 box;
   simd::box16(f, target_.width, target_.height, box);
-  const __mmask16 vector_setup = f.draw & box.nonempty & box.small;
+  __mmask16 vector_setup = f.draw & box.nonempty & box.small;
   const __mmask16 scalar_setup = f.draw & box.nonempty & ~box.small;
+  // With a pyramid, hidden small faces go no further.
+  if (pyramid_ && vector_setup) vector_setup &= __mmask16(~cull_small16(box, simd::nearest16(f), vector_setup));
 
   if (vector_setup) {
     simd::Setup16 s;
@@ -684,15 +725,29 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
 void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                                 const ScreenVertices& sv, int64_t first, bool cull_backfaces,
                                 int count) {
-  if (n_small_ + kSlack > capacity_ || large_.size() + 8 > size_t(capacity_)) flush();
+  if (full(8)) flush();
 
   // Assembly and pixel boxes (setup8.h)
   simd::Faces8 f;
   simd::assemble8(mesh, sv, first, count, cull_backfaces, stats_, f);
   simd::Box8 box;
   simd::box8(f, target_.width, target_.height, box, kSmallFx, kNarrowFx);
-  const unsigned vector_setup = f.draw & box.nonempty & box.small;
+  unsigned vector_setup = f.draw & box.nonempty & box.small;
   const unsigned scalar_setup = f.draw & box.nonempty & ~box.small;
+  // With a pyramid, hidden small faces go no further (tested one by one).
+  if (pyramid_ && vector_setup) {
+    alignas(32) int32_t x0[8], y0[8], x1[8], y1[8];
+    alignas(32) float z_lo[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(x0), box.i0);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(y0), box.j0);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(x1), box.i1);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(y1), box.j1);
+    _mm256_store_ps(z_lo, simd::nearest8(f));
+    for (unsigned m = vector_setup; m; m &= m - 1) {
+      const int k = __builtin_ctz(m);
+      if (cull_small(x0[k], y0[k], x1[k], y1[k], z_lo[k])) vector_setup &= ~(1u << k);
+    }
+  }
 
   if (vector_setup) {
     simd::Setup8 s;

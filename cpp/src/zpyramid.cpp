@@ -13,10 +13,13 @@ ZPyramid::ZPyramid(const float* depth, int width, int height, int first_level, b
   pyramid_level_sizes(width, height, widths_, heights_);
   // A pyramid shorter than first_level keeps at least its top level.
   first_ = std::min(first_, std::max(1, levels() - 1));
-  cells_.resize(size_t(levels()));
-  for (int k = first_; k < levels(); ++k)
-    cells_[k].assign(size_t(widths_[k]) * size_t(heights_[k]),
-                     std::numeric_limits<float>::infinity());
+  offset_.assign(size_t(levels()), 0);
+  size_t total = 0;
+  for (int k = first_; k < levels(); ++k) {
+    offset_[size_t(k)] = total;
+    total += size_t(widths_[k]) * size_t(heights_[k]);
+  }
+  cells_.assign(total, std::numeric_limits<float>::infinity());
   if (!cleared) rebuild();
 }
 
@@ -41,7 +44,7 @@ inline bool ZPyramid::refresh(int k, int i, int j) {
 #endif
   for (int y = y0; y < y1; ++y)
     for (int x = x0; x < x1; ++x) m = std::max(m, cells[size_t(y) * bw + x]);
-  float& cell = cells_[k][size_t(j) * widths_[k] + i];
+  float& cell = cells_[offset_[size_t(k)] + size_t(j) * widths_[k] + i];
   const bool changed = cell != m;
   cell = m;
   return changed;
@@ -85,18 +88,116 @@ int64_t ZPyramid::update(int x0, int y0, int x1, int y1) {
   return count;
 }
 
-int64_t ZPyramid::update_cells(std::vector<int32_t>& cells) {
+int ZPyramid::refresh_block(int bx, int by, int top, bool& changed) {
+  const int x0 = bx << kBlockShift, y0 = by << kBlockShift;
+  const int side = 1 << kBlockShift;
+  changed = false;
+#ifdef ZBUFFER_AVX512
+  if (top == 3 && x0 + side <= widths_[0] && y0 + side <= heights_[0]) {
+    // The whole block in registers: sixteen rows of sixteen pixels, folded
+    // into levels 1 (8 x 8 cells), 2 (4 x 4) and 3 (2 x 2); the kept ones
+    // stored.
+    const size_t pitch = size_t(widths_[0]);
+    const float* d = depth_ + size_t(y0) * pitch + size_t(x0);
+    const __m512i evens = _mm512_set_epi32(30, 28, 26, 24, 22, 20, 18, 16, 14, 12, 10, 8, 6, 4, 2, 0);
+    // Level 1: rows 2m and 2m + 1 in lanes 0-7 and 8-15 of l1[m].
+    __m512 l1[4];
+    for (int m = 0; m < 4; ++m) {
+      __m512 rows[2];
+      for (int r = 0; r < 2; ++r) {
+        const int j = 2 * m + r;
+        const __m512 v = _mm512_max_ps(_mm512_loadu_ps(d + size_t(2 * j) * pitch),
+                                       _mm512_loadu_ps(d + size_t(2 * j + 1) * pitch));
+        rows[r] = _mm512_max_ps(v, _mm512_permute_ps(v, 0xB1));  // pairs of lanes
+      }
+      l1[m] = _mm512_permutex2var_ps(rows[0], evens, rows[1]);
+    }
+    int count = 4;
+    if (first_ <= 1) {
+      float* c = cells_.data() + offset_[1] + size_t(y0 >> 1) * widths_[1] + size_t(x0 >> 1);
+      const size_t w = size_t(widths_[1]);
+      for (int m = 0; m < 4; ++m) {
+        _mm256_storeu_ps(c + size_t(2 * m) * w, _mm512_castps512_ps256(l1[m]));
+        _mm256_storeu_ps(c + size_t(2 * m + 1) * w, _mm512_extractf32x8_ps(l1[m], 1));
+      }
+      count += 64;
+    }
+    // Level 2: row m in lanes 4m .. 4m + 3 of l2.
+    __m512 q[4];
+    for (int m = 0; m < 4; ++m) {
+      const __m512 t = _mm512_max_ps(l1[m], _mm512_shuffle_f32x4(l1[m], l1[m], 0x4E));
+      q[m] = _mm512_max_ps(t, _mm512_permute_ps(t, 0xB1));  // row m in lanes 0, 2, 4, 6
+    }
+    const __m512i pick = _mm512_set_epi32(0, 0, 0, 0, 0, 0, 0, 0, 22, 20, 18, 16, 6, 4, 2, 0);
+    const __m512 l2 = _mm512_shuffle_f32x4(_mm512_permutex2var_ps(q[0], pick, q[1]),
+                                           _mm512_permutex2var_ps(q[2], pick, q[3]), 0x44);
+    if (first_ <= 2) {
+      float* c = cells_.data() + offset_[2] + size_t(y0 >> 2) * widths_[2] + size_t(x0 >> 2);
+      const size_t w = size_t(widths_[2]);
+      _mm_storeu_ps(c, _mm512_castps512_ps128(l2));
+      _mm_storeu_ps(c + w, _mm512_extractf32x4_ps(l2, 1));
+      _mm_storeu_ps(c + 2 * w, _mm512_extractf32x4_ps(l2, 2));
+      _mm_storeu_ps(c + 3 * w, _mm512_extractf32x4_ps(l2, 3));
+      count += 16;
+    }
+    // Level 3: cells (0, 0), (1, 0), (0, 1), (1, 1) in lanes 0, 2, 8, 10.
+    const __m512 t = _mm512_max_ps(l2, _mm512_shuffle_f32x4(l2, l2, 0xB1));
+    alignas(64) float l3[16];
+    _mm512_store_ps(l3, _mm512_max_ps(t, _mm512_permute_ps(t, 0xB1)));
+    float* c = cells_.data() + offset_[3] + size_t(y0 >> 3) * widths_[3] + size_t(x0 >> 3);
+    const size_t w = size_t(widths_[3]);
+    const float fresh[4] = {l3[0], l3[2], l3[8], l3[10]};
+    float* cell[4] = {c, c + 1, c + w, c + w + 1};
+    for (int k = 0; k < 4; ++k) {
+      changed |= *cell[k] != fresh[k];
+      *cell[k] = fresh[k];
+    }
+    return count;
+  }
+#endif
+  // Level by level, the cells under the block that lie inside the image.
+  int count = 0;
+  for (int k = first_; k <= top; ++k) {
+    const int i0 = x0 >> k, j0 = y0 >> k;
+    const int i1 = std::min(widths_[k], (x0 + side) >> k), j1 = std::min(heights_[k], (y0 + side) >> k);
+    for (int j = j0; j < j1; ++j)
+      for (int i = i0; i < i1; ++i) {
+        const bool c = refresh(k, i, j);
+        if (k == top) changed |= c;
+        ++count;
+      }
+  }
+  return count;
+}
+
+int64_t ZPyramid::update_blocks(std::vector<int32_t>& blocks) {
+  const int top = std::min(3, levels() - 1);  // the last level a block holds whole cells of
+  if (top < first_) return 0;
+  const int blocks_wide = (widths_[0] + (1 << kBlockShift) - 1) >> kBlockShift;
   int64_t count = 0;
-  if (levels() == 1) return 0;
-  if (stamp_.size() < cells_[std::min(first_ + 1, levels() - 1)].size())
-    stamp_.assign(cells_[std::min(first_ + 1, levels() - 1)].size(), 0);
-  for (int k = first_; k < levels() && !cells.empty(); ++k) {
+  size_t changed_blocks = 0;
+  for (const int32_t b : blocks) {
+    bool changed;
+    count += refresh_block(b % blocks_wide, b / blocks_wide, top, changed);
+    if (changed) blocks[changed_blocks++] = b;  // its cell of level 4 comes next
+  }
+  blocks.resize(changed_blocks);
+  if (top == 3 && levels() > 4) count += climb(kBlockShift, blocks);
+  blocks.clear();
+  return count;
+}
+
+int64_t ZPyramid::climb(int k, std::vector<int32_t>& cells) {
+  int64_t count = 0;
+  for (; k < levels() && !cells.empty(); ++k) {
     // Recompute this level's cells; the parents of those that changed,
     // each listed once, are the next level's work.
-    ++round_;
-    next_.clear();
     const int w = widths_[k];
     const int parent_w = k + 1 < levels() ? widths_[k + 1] : 1;
+    if (k + 1 < levels() && stamp_.size() < size_t(parent_w) * size_t(heights_[k + 1]))
+      stamp_.resize(size_t(parent_w) * size_t(heights_[k + 1]), 0);
+    ++round_;
+    next_.clear();
     for (const int32_t c : cells) {
       const int i = c % w, j = c / w;
       ++count;

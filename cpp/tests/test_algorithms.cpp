@@ -8,6 +8,8 @@
 
 #include "check.h"
 #include "zbuffer/algorithms.h"
+#include "zbuffer/triangle_batch.h"
+#include "zbuffer/zpyramid.h"
 
 using namespace zbuffer;
 
@@ -52,6 +54,23 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
     DepthTarget ref{ref_depth.data(), ref_ids.data(), w, h};
     RenderStats ref_stats;
     render(*find_algorithm("zbuffer"), input, ref, ref_stats);
+    // The batch's occlusion test at every finest pyramid level it supports
+    // (hiz keeps 8 x 8 cells, the trees 4 x 4; 2 x 2 works too), eager and
+    // lazy upkeep, small and full batches: the same bits, and culling.
+    for (int first : {1, 2, 3})
+      for (int capacity : {64, TriangleBatch::kCapacity}) {
+        std::vector<float> depth(size_t(w) * h);
+        std::vector<int32_t> ids(size_t(w) * h);
+        DepthTarget target{depth.data(), ids.data(), w, h};
+        clear_target(target);
+        ZPyramid pyramid(depth.data(), w, h, first, /*cleared=*/true);
+        RenderStats stats;
+        render_faces_batched(input, target, stats, &pyramid, capacity, /*lazy_upkeep=*/first == 2);
+        CHECK(std::memcmp(depth.data(), ref_depth.data(), depth.size() * sizeof(float)) == 0);
+        CHECK(ids == ref_ids);
+        CHECK(stats.culled_hidden > 0);
+        CHECK(stats.rasterized + stats.culled_hidden == ref_stats.rasterized);
+      }
     for (const Algorithm& algo : algorithms()) {
       std::vector<float> depth(size_t(w) * h);
       std::vector<int32_t> ids(size_t(w) * h);

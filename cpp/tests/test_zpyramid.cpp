@@ -68,9 +68,46 @@ void test_updates_keep_every_cell_the_max_of_its_children() {
   }
 }
 
+// update_blocks, as the triangle batch calls it: depth written anywhere in
+// some 16 x 16 blocks, then those blocks listed once. Sizes with and without
+// partial blocks at the right and bottom, and images smaller than a block.
+void test_block_updates_keep_every_cell_the_max_of_its_children() {
+  for (int first : {1, 2, 3})
+    for (int size : {5, 9, 16, 37, 64, 100}) {
+      const int w = size, h = size * 3 / 4 + 2;
+      std::vector<float> depth(size_t(w) * h, std::numeric_limits<float>::infinity());
+      ZPyramid p(depth.data(), w, h, first, /*cleared=*/true);
+      CHECK(p.first_level() <= first);
+      const int blocks_wide = (w + 15) / 16, blocks_high = (h + 15) / 16;
+      Lcg next{uint64_t(size * 10 + first)};
+      int64_t updated = 0;
+      for (int round = 0; round < 60; ++round) {
+        std::vector<char> dirty(size_t(blocks_wide) * blocks_high, 0);
+        for (int t = 0; t < 8; ++t) {
+          const int x0 = int(next(0, w - 1)), y0 = int(next(0, h - 1));
+          const int x1 = std::min(w - 1, x0 + int(next(0, 6))), y1 = std::min(h - 1, y0 + int(next(0, 6)));
+          for (int y = y0; y <= y1; ++y)
+            for (int x = x0; x <= x1; ++x) {
+              float& d = depth[size_t(y) * w + x];
+              d = std::min(d, float(next(0, 1000)) / 1000.0f);
+              dirty[size_t(y / 16) * blocks_wide + x / 16] = 1;
+            }
+        }
+        std::vector<int32_t> blocks;
+        for (int b = 0; b < blocks_wide * blocks_high; ++b)
+          if (dirty[size_t(b)]) blocks.push_back(b);
+        updated += p.update_blocks(blocks);
+        CHECK(blocks.empty());
+      }
+      CHECK(consistent(p));
+      CHECK(updated > 0);
+    }
+}
+
 }  // namespace
 
 int main() {
   test_updates_keep_every_cell_the_max_of_its_children();
+  test_block_updates_keep_every_cell_the_max_of_its_children();
   return check_report("test_zpyramid");
 }

@@ -35,11 +35,15 @@ class TriangleBatch {
   static constexpr int kCapacity = 512;
 
   // With a pyramid (over target.depth), the batch is a hierarchical Z-buffer:
-  // before drawing, it culls triangles the pyramid proves hidden (strictly:
-  // their nearest depth beyond the farthest depth under their box), skips
-  // hidden 8x8 tiles of large triangles, and afterwards brings the pyramid up
-  // to date over the tiles it drew into. The pyramid then lags by at most one
-  // batch, which only makes it cull less.
+  // it culls triangles the pyramid proves hidden (strictly: their nearest
+  // depth beyond the farthest depth under their box) -- small ones as they
+  // are added, before their setup, large ones when drawing --, skips hidden
+  // 8x8 tiles of large triangles, and after drawing brings the pyramid up to
+  // date over the 16 x 16 blocks it drew into. The pyramid then lags by at
+  // most one batch, which only makes it cull less. Small boxes are tested
+  // against the at most 3 x 3 cells of the finest kept level (1 to 3) where
+  // they span three cells: a pyramid kept from level 2 culls more small
+  // triangles than one kept from level 3, for more upkeep.
   //
   // `capacity` (16 .. kCapacity) is how many triangles a batch gathers before
   // drawing them; a hierarchical Z-buffer wants small batches so that its
@@ -92,8 +96,25 @@ class TriangleBatch {
   void draw_narrow(int group, int64_t& covered, int64_t& written);
   template <int kRows>
   void draw_wide(int group, int64_t& covered, int64_t& written);
-  // Occlusion culling and pyramid upkeep (with a pyramid only).
-  void cull_hidden();
+  // Whether the batch must be drawn before `incoming` more faces are added:
+  // its arrays are full, or it has tested `capacity` triangles.
+  bool full(int incoming) const {
+    return n_small_ + batch_culled_ + kSlack > capacity_ ||
+           large_.size() + size_t(incoming) > size_t(capacity_);
+  }
+  // Occlusion culling and pyramid upkeep (with a pyramid only). A small
+  // triangle is tested as it is added, so a hidden one is never set up for
+  // drawing; large ones are tested when the batch is drawn. Both test
+  // against the pyramid as the previous batch left it.
+  // cull_small: true if the box [x0, x1] x [y0, y1] with nearest depth z_lo
+  // is hidden (counted); otherwise marks the blocks under it.
+  bool cull_small(int x0, int y0, int x1, int y1, float z_lo);
+  // The same for the small lanes `candidates` of 16 vector-assembled faces
+  // (AVX-512 builds, setup16.h's Box16): returns the hidden lanes.
+  template <class Box, class Vec, class Mask>
+  Mask cull_small16(const Box& box, Vec z_lo, Mask candidates);
+  void cull_large();
+  void count_hidden(int level, int x0, int y0, int x1, int y1);
   void draw_large_by_tiles(const TriangleSetup& s);
   void mark_tiles(int x0, int y0, int x1, int y1);
   void update_pyramid();
@@ -127,8 +148,19 @@ class TriangleBatch {
   int tiles_wide_ = 0;                   // blocks of 16 x 16 pixels a row
   int dirty_lo_ = 1 << 30, dirty_hi_ = -1;  // rows of blocks marked since the last update
   bool tile_cells_ = false;             // the pyramid keeps 8x8 cells (level 3)
+  int fine_ = kTileShift;               // with them: its finest kept level (1 .. 3)
+  alignas(64) int32_t level_width_[16] = {};   // by level fine_ .. 3: cells a row
+  alignas(64) int32_t level_offset_[16] = {};  // and where it starts in pyramid_->cells()
+  int batch_culled_ = 0;                // triangles of this batch found hidden
+  // The level small boxes are tested at: the finest kept one (fine_ .. 3)
+  // where the box spans at most 3 cells a side.
+  int test_level(int x0, int y0, int x1, int y1) const {
+    int l = fine_;
+    while (l < kTileShift && ((x1 >> l) - (x0 >> l) > 2 || (y1 >> l) - (y0 >> l) > 2)) ++l;
+    return l;
+  }
   std::vector<int32_t> tile_dirty_;     // per 16 x 16 block: drawn into since the last update
-  std::vector<int32_t> dirty_list_;     // level-3 cells under them, at update time
+  std::vector<int32_t> dirty_list_;     // those blocks, listed at update time
 
   // Small boxes, structure of arrays. Edge values are exact, unbiased, and
   // taken at the centre of the box's first pixel; w0 = area - w1 - w2.

@@ -24,13 +24,15 @@ inline void pyramid_level_sizes(int width, int height, std::vector<int>& widths,
 }
 
 // Design decision: level 0 is the depth buffer itself (not copied); level k
-// (k >= 1) is an owned float array of ceil(w / 2^k) x ceil(h / 2^k) cells,
+// (k >= 1) is an owned float array of ceil(w / 2^k) x ceil(h / 2^k) cells
+// (all of them in one allocation, so that one gather can read several),
 // each the maximum of its two-by-two children that lie inside the image, i.e.
 // of the pixels of its 2^k x 2^k block. Never-written pixels are +inf, so
 // regions with holes never cull. Levels 1 .. first_level - 1 may be left
 // out: the first kept level is then computed straight from the pixels (an
 // algorithm that only asks about 8 x 8 tiles keeps levels 3 and up and does
-// a quarter of the upkeep). Good: a query costs at most four loads at the
+// less upkeep). Batched upkeep works by 16 x 16 pixel blocks, whose levels
+// 1 to 3 fit in registers. Good: a query costs at most four loads at the
 // level where the rectangle spans two cells a side, and updates climb only
 // while values change. Bad: up to a third again of the depth buffer's
 // memory, and bounds are conservative (a query reads whole cells, which may
@@ -48,7 +50,11 @@ class ZPyramid {
   int width(int level) const { return widths_[level]; }
   int height(int level) const { return heights_[level]; }
   // Cells of a kept level (0, or first_level() and up).
-  const float* level(int k) const { return k == 0 ? depth_ : cells_[k].data(); }
+  const float* level(int k) const { return k == 0 ? depth_ : cells_.data() + offset_[size_t(k)]; }
+  // All kept levels above 0 lie in one array: level k (>= first_level)
+  // starts at cells() + offset(k) (for lookups at several levels at once).
+  const float* cells() const { return cells_.data(); }
+  int64_t offset(int k) const { return int64_t(offset_[size_t(k)]); }
 
   // Bytes of depth storage: the W x H buffer and the levels kept above it.
   int64_t storage_bytes() const {
@@ -66,12 +72,15 @@ class ZPyramid {
   // ancestors). Returns the number of cells recomputed.
   int64_t update(int x0, int y0, int x1, int y1);
 
-  // After depth writes inside the given cells of the first kept level
-  // (indices j * width(first_level()) + i): recompute them, then their
-  // ancestors level by level -- each ancestor once, however many of its
-  // descendants changed -- as long as anything changes. Returns the number
-  // of cells recomputed. `cells` is used as scratch.
-  int64_t update_cells(std::vector<int32_t>& cells);
+  // After depth writes inside the given 16 x 16 pixel blocks (indices
+  // by * ceil(width / 16) + bx, each listed once) of a pyramid keeping a
+  // level from 1 to 3: recompute the kept levels up to 3 over each block,
+  // then, above the blocks where level 3 changed, their ancestors level by
+  // level -- each once, however many of its descendants changed -- as long
+  // as anything changes. Returns the number of cells recomputed. `blocks` is
+  // used as scratch.
+  static constexpr int kBlockShift = 4;
+  int64_t update_blocks(std::vector<int32_t>& blocks);
 
   // An upper bound of the depth over pixels [x0, x1] x [y0, y1] (inside the
   // image): the maximum of the at most 2 x 2 cells covering the rectangle at
@@ -107,6 +116,13 @@ class ZPyramid {
   // Recompute cell (i, j) of kept level k >= first_level from the kept
   // level below; returns true if its value changed.
   bool refresh(int k, int i, int j);
+  // Recompute the kept levels up to `top` (<= 3) over block (bx, by);
+  // returns the number of cells recomputed and sets `changed` if a cell of
+  // level `top` changed.
+  int refresh_block(int bx, int by, int top, bool& changed);
+  // Recompute the given cells of level k and, while anything changes, their
+  // ancestors (update_blocks). `cells` is used as scratch.
+  int64_t climb(int k, std::vector<int32_t>& cells);
 
   const float* depth_;
   int first_;
@@ -114,7 +130,8 @@ class ZPyramid {
   uint32_t round_ = 0;
   std::vector<int32_t> next_;
   std::vector<int> widths_, heights_;
-  std::vector<std::vector<float>> cells_;  // by level; empty for 0 and skipped levels
+  std::vector<float> cells_;     // the kept levels above 0, one after the other
+  std::vector<size_t> offset_;   // by level: where it starts in cells_ (0 for unkept levels)
   CullMap* culls_ = nullptr;
 };
 
