@@ -146,3 +146,28 @@ def test_most_culling_cells_orders_by_count():
     assert most_culling_cells(counts, 3).tolist() == [[1, 0], [0, 1], [1, 2]]
     assert most_culling_cells(counts, 10).tolist() == [[1, 0], [0, 1], [1, 2], [0, 2]]
     assert most_culling_cells(np.zeros((2, 2), np.int64), 4).shape == (0, 2)
+
+
+@pytest.mark.parametrize("algo", HIERARCHICAL)
+def test_tiny_images_cull_and_change_no_bit(algo):
+    # Images a few pixels across, where the pyramid has few levels (or none
+    # above 8 x 8 cells), behind a wall that fills the view, with triangles
+    # large enough to cover pixel centres.
+    wall_v, wall_f = scenes.grid((0.0, 0.0, 0.0), (3.0, 2.0), (6, 4))
+    wall_v = wall_v[:, [0, 2, 1]]
+    wall_v[:, 2] = 1.0
+    rng = np.random.default_rng(1)
+    centres = rng.uniform([-0.9, -0.5, -3.0], [0.9, 0.5, 0.3], (3000, 1, 3))
+    soup = (centres + rng.normal(0, 0.6, (3000, 3, 3))).reshape(-1, 3)
+    mesh = zbuffer.Mesh(np.vstack([wall_v, soup]),
+                        np.vstack([wall_f, len(wall_v) + np.arange(len(soup)).reshape(-1, 3)]))
+    cam = zbuffer.Camera.look_at((0.0, 0.0, 3.0), (0, 0, 0), fov_y=40, near=1.0, far=20.0)
+    culled = 0
+    for width, height in [(1, 1), (2, 3), (4, 4), (9, 6)]:
+        res = zbuffer.render(mesh, algo=algo, camera=cam, width=width, height=height,
+                             shading="none")
+        ref = zbuffer.reference.render(mesh, camera=cam, width=width, height=height,
+                                       shading="none")
+        assert_same_visibility(res, ref)
+        culled += res.stats["culled_hidden"]
+    assert culled > 0

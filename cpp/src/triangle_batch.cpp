@@ -272,6 +272,16 @@ bool TriangleBatch::cull_small(int x0, int y0, int x1, int y1, float z_lo) {
   return false;
 }
 
+unsigned TriangleBatch::cull_lanes(const int32_t* x0, const int32_t* y0, const int32_t* x1,
+                                   const int32_t* y1, const float* z_lo, unsigned candidates) {
+  unsigned hidden = 0;
+  for (unsigned m = candidates; m; m &= m - 1) {
+    const int k = __builtin_ctz(m);
+    if (cull_small(x0[k], y0[k], x1[k], y1[k], z_lo[k])) hidden |= 1u << k;
+  }
+  return hidden;
+}
+
 void TriangleBatch::cull_large() {
   size_t kept = 0;
   for (const TriangleSetup& s : large_) {
@@ -300,12 +310,7 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
     _mm512_store_si512(x1, box.i1);
     _mm512_store_si512(y1, box.j1);
     _mm512_store_ps(z, z_lo);
-    __mmask16 hidden = 0;
-    for (unsigned m = candidates; m; m &= m - 1) {
-      const int k = __builtin_ctz(m);
-      if (cull_small(x0[k], y0[k], x1[k], y1[k], z[k])) hidden |= __mmask16(1u << k);
-    }
-    return hidden;
+    return Mask(cull_lanes(x0, y0, x1, y1, z, candidates));
   }
   const __m512i one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2);
   // Each box's level, as test_level finds it.
@@ -743,10 +748,7 @@ void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const V
     _mm256_store_si256(reinterpret_cast<__m256i*>(x1), box.i1);
     _mm256_store_si256(reinterpret_cast<__m256i*>(y1), box.j1);
     _mm256_store_ps(z_lo, simd::nearest8(f));
-    for (unsigned m = vector_setup; m; m &= m - 1) {
-      const int k = __builtin_ctz(m);
-      if (cull_small(x0[k], y0[k], x1[k], y1[k], z_lo[k])) vector_setup &= ~(1u << k);
-    }
+    vector_setup &= ~cull_lanes(x0, y0, x1, y1, z_lo, vector_setup);
   }
 
   if (vector_setup) {

@@ -109,6 +109,10 @@ class TriangleBatch {
   // cull_small: true if the box [x0, x1] x [y0, y1] with nearest depth z_lo
   // is hidden (counted); otherwise marks the blocks under it.
   bool cull_small(int x0, int y0, int x1, int y1, float z_lo);
+  // cull_small for the lanes `candidates` of boxes and depths stored by
+  // lane; returns the hidden lanes.
+  unsigned cull_lanes(const int32_t* x0, const int32_t* y0, const int32_t* x1, const int32_t* y1,
+                      const float* z_lo, unsigned candidates);
   // The same for the small lanes `candidates` of 16 vector-assembled faces
   // (AVX-512 builds, setup16.h's Box16): returns the hidden lanes.
   template <class Box, class Vec, class Mask>
