@@ -419,7 +419,7 @@ void build_octree_for_frame(const MeshView& mesh, const OctreeParams& params, Ob
   begin(mesh, tree);
   if (mesh.n_faces == 0) return;
   thread_local VertexGrid grid;
-  grid.build(mesh);
+  grid.build(mesh, vector);
   FrameOctree(mesh, params, tree, grid).build(vector);
 }
 
@@ -428,7 +428,7 @@ void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTr
   begin(mesh, tree);
   if (mesh.n_faces == 0) return;
   thread_local VertexGrid grid;
-  grid.build(mesh);
+  grid.build(mesh, vector);
   FrameBvh(mesh, params, tree, grid).build(vector);
 }
 

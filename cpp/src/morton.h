@@ -9,6 +9,7 @@
 #include <limits>
 #include <vector>
 
+#include "simd.h"
 #include "zbuffer/types.h"
 
 namespace zbuffer {
@@ -84,15 +85,37 @@ struct VertexGrid {
   double world_lo(uint32_t lo, int a) const { return origin[a] + (double(lo) - 1.0) * cell_size; }
   double world_hi(uint32_t hi, int a) const { return origin[a] + (double(hi) + 2.0) * cell_size; }
 
-  void build(const MeshView& mesh) {
+  // `vector`: the AVX-512 loops, 8 vertices per step (same bits; false
+  // only for tests holding them to the scalar ones).
+  void build(const MeshView& mesh, bool vector = true) {
     const int64_t n = mesh.n_vertices;
+    const double* p = mesh.positions;
     double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
                     std::numeric_limits<double>::infinity()};
     double hi[3] = {-lo[0], -lo[1], -lo[2]};
-    for (int64_t v = 0; v < n; ++v)
+    int64_t v = 0;
+#ifdef ZBUFFER_AVX512
+    if (vector && n >= 8) {
+      __m512d l[3], h[3];
+      for (int a = 0; a < 3; ++a) l[a] = h[a] = _mm512_set1_pd(p[a]);
+      for (; v + 8 <= n; v += 8) {
+        __m512d xyz[3];
+        load8(p + 3 * v, xyz);
+        for (int a = 0; a < 3; ++a) {
+          l[a] = _mm512_min_pd(l[a], xyz[a]);
+          h[a] = _mm512_max_pd(h[a], xyz[a]);
+        }
+      }
       for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min(lo[a], mesh.positions[3 * v + a]);
-        hi[a] = std::max(hi[a], mesh.positions[3 * v + a]);
+        lo[a] = _mm512_reduce_min_pd(l[a]);
+        hi[a] = _mm512_reduce_max_pd(h[a]);
+      }
+    }
+#endif
+    for (; v < n; ++v)
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], p[3 * v + a]);
+        hi[a] = std::max(hi[a], p[3 * v + a]);
       }
     const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
     const double scale = side > 0.0 && std::isfinite(side) ? double(kMask + 1) / side : 0.0;
@@ -101,14 +124,58 @@ struct VertexGrid {
     cell.resize(size_t(n));
     // (p - lo) * scale lies in [0, 1024] (p is within the bounds just
     // taken), so truncation is floor and only 1024 needs clamping.
-    const double* p = mesh.positions;
-    for (int64_t v = 0; v < n; ++v) {
+    v = 0;
+#ifdef ZBUFFER_AVX512
+    if (vector) {
+      const __m256i mask = _mm256_set1_epi32(int(kMask));
+      for (; v + 8 <= n; v += 8) {
+        __m512d xyz[3];
+        load8(p + 3 * v, xyz);
+        __m256i c[3];
+        for (int a = 0; a < 3; ++a)
+          c[a] = _mm256_min_epu32(
+              _mm512_cvttpd_epu32(_mm512_mul_pd(_mm512_sub_pd(xyz[a], _mm512_set1_pd(lo[a])),
+                                                _mm512_set1_pd(scale))),
+              mask);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(&cell[size_t(v)]),
+                            _mm256_or_si256(c[0], _mm256_or_si256(_mm256_slli_epi32(c[1], kBits),
+                                                                  _mm256_slli_epi32(c[2], 2 * kBits))));
+      }
+    }
+#endif
+    (void)vector;
+    for (; v < n; ++v) {
       const uint32_t x = std::min(kMask, uint32_t((p[3 * v] - lo[0]) * scale));
       const uint32_t y = std::min(kMask, uint32_t((p[3 * v + 1] - lo[1]) * scale));
       const uint32_t z = std::min(kMask, uint32_t((p[3 * v + 2] - lo[2]) * scale));
       cell[size_t(v)] = x | y << kBits | z << (2 * kBits);
     }
   }
+#ifdef ZBUFFER_AVX512
+  // The x, y and z of 8 consecutive xyz vertices at p: double k of the 24
+  // is axis k % 3 of vertex k / 3; those among the first 16 come from a and
+  // b, the others from c.
+  struct Split {
+    alignas(64) int64_t ab[3][8];  // lanes from a (0..7) and b (8..15)
+    alignas(64) int64_t tc[3][8];  // from that (0..7) and c (8..15)
+    constexpr Split() : ab{}, tc{} {
+      for (int axis = 0; axis < 3; ++axis)
+        for (int i = 0; i < 8; ++i) {
+          const int k = 3 * i + axis;
+          ab[axis][i] = k < 16 ? k : 0;
+          tc[axis][i] = k < 16 ? i : 8 + (k - 16);
+        }
+    }
+  };
+  static void load8(const double* p, __m512d xyz[3]) {
+    static constexpr Split kSplit{};
+    const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8), c = _mm512_loadu_pd(p + 16);
+    for (int axis = 0; axis < 3; ++axis)
+      xyz[axis] = _mm512_permutex2var_pd(
+          _mm512_permutex2var_pd(a, _mm512_load_si512(kSplit.ab[axis]), b),
+          _mm512_load_si512(kSplit.tc[axis]), c);
+  }
+#endif
   static uint32_t axis(uint32_t packed, int a) { return (packed >> (kBits * a)) & kMask; }
 
   // The 30-bit Morton code of face `idx`'s centroid cell: per axis the mean
