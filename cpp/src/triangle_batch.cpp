@@ -42,10 +42,15 @@ TriangleBatch::TriangleBatch(DepthTarget& target, RenderStats& stats, ZPyramid* 
       capacity_(std::max(16, std::min(capacity, int(kCapacity)))) {
   large_.reserve(kCapacity);
   if (pyramid_) {
-    tiles_wide_ = (target.width + (1 << kDirtyShift) - 1) >> kDirtyShift;
-    const int tiles_high = (target.height + (1 << kDirtyShift) - 1) >> kDirtyShift;
-    tile_dirty_.assign(size_t(tiles_wide_) * size_t(tiles_high), 0);
-    tile_cells_ = pyramid_->first_level() <= kTileShift && pyramid_->levels() > kTileShift;
+    blocks_wide_ = (target.width + (1 << kDirtyShift) - 1) >> kDirtyShift;
+    const int blocks_high = (target.height + (1 << kDirtyShift) - 1) >> kDirtyShift;
+    block_dirty_.assign(size_t(blocks_wide_) * size_t(blocks_high), 0);
+    // The vector test indexes the kept levels with int32: they hold under a
+    // third of the image's pixels, at most 2^27 (conventions.h), but a
+    // larger target falls back to the rectangle queries.
+    const int top = pyramid_->levels() - 1;
+    tile_cells_ = pyramid_->first_level() <= kTileShift && top >= kTileShift &&
+                  pyramid_->offset(top) < int64_t(std::numeric_limits<int32_t>::max());
     fine_ = tile_cells_ ? pyramid_->first_level() : kTileShift;
     if (tile_cells_)
       for (int l = fine_; l <= kTileShift; ++l) {
@@ -244,12 +249,12 @@ void TriangleBatch::flush() {
 
 // Occlusion Culling
 
-inline void TriangleBatch::mark_tiles(int x0, int y0, int x1, int y1) {
+inline void TriangleBatch::mark_blocks(int x0, int y0, int x1, int y1) {
   dirty_lo_ = std::min(dirty_lo_, y0 >> kDirtyShift);
   dirty_hi_ = std::max(dirty_hi_, y1 >> kDirtyShift);
   for (int ty = y0 >> kDirtyShift; ty <= (y1 >> kDirtyShift); ++ty)
     for (int tx = x0 >> kDirtyShift; tx <= (x1 >> kDirtyShift); ++tx)
-      tile_dirty_[size_t(ty) * tiles_wide_ + tx] = 1;
+      block_dirty_[size_t(ty) * blocks_wide_ + tx] = 1;
 }
 
 inline void TriangleBatch::count_hidden(int level, int x0, int y0, int x1, int y1) {
@@ -260,7 +265,8 @@ inline void TriangleBatch::count_hidden(int level, int x0, int y0, int x1, int y
 }
 
 bool TriangleBatch::cull_small(int x0, int y0, int x1, int y1, float z_lo) {
-  // Boxes under 16 pixels span at most 3 cells a side at level 3.
+  // Boxes under 16 pixels span at most 3 cells a side at level 3, so
+  // test_level is at most 3.
   const int level = tile_cells_ ? test_level(x0, y0, x1, y1) : pyramid_->query_level(x0, y0, x1, y1);
   const float bound = tile_cells_ ? pyramid_->max_over_at(level, x0, y0, x1, y1)
                                   : pyramid_->max_over(x0, y0, x1, y1);
@@ -268,7 +274,7 @@ bool TriangleBatch::cull_small(int x0, int y0, int x1, int y1, float z_lo) {
     count_hidden(level, x0, y0, x1, y1);
     return true;
   }
-  mark_tiles(x0, y0, x1, y1);
+  mark_blocks(x0, y0, x1, y1);
   return false;
 }
 
@@ -296,6 +302,21 @@ void TriangleBatch::cull_large() {
 }
 
 #ifdef ZBUFFER_AVX512
+namespace {
+// The pixel boxes and nearest depths of 16 faces, stored by lane.
+struct BoxLanes16 {
+  alignas(64) int32_t x0[16], y0[16], x1[16], y1[16];
+  alignas(64) float z_lo[16];
+  BoxLanes16(const simd::Box16& box, __m512 z) {
+    _mm512_store_si512(x0, box.i0);
+    _mm512_store_si512(y0, box.j0);
+    _mm512_store_si512(x1, box.i1);
+    _mm512_store_si512(y1, box.j1);
+    _mm512_store_ps(z_lo, z);
+  }
+};
+}  // namespace
+
 // The small boxes of 16 faces (lanes `candidates`) the pyramid proves hidden,
 // counted; the blocks under the others are marked for the pyramid update.
 // Each box is tested at its test_level: the maximum of the at most 3 x 3
@@ -303,14 +324,8 @@ void TriangleBatch::cull_large() {
 template <class Box, class Vec, class Mask>
 ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask candidates) {
   if (!tile_cells_) {  // a pyramid without level 3 (a tiny image): one by one
-    alignas(64) int32_t x0[16], y0[16], x1[16], y1[16];
-    alignas(64) float z[16];
-    _mm512_store_si512(x0, box.i0);
-    _mm512_store_si512(y0, box.j0);
-    _mm512_store_si512(x1, box.i1);
-    _mm512_store_si512(y1, box.j1);
-    _mm512_store_ps(z, z_lo);
-    return Mask(cull_lanes(x0, y0, x1, y1, z, candidates));
+    const BoxLanes16 lanes(box, z_lo);
+    return Mask(cull_lanes(lanes.x0, lanes.y0, lanes.x1, lanes.y1, lanes.z_lo, candidates));
   }
   const __m512i one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2);
   // Each box's level, as test_level finds it.
@@ -347,21 +362,19 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
   const __mmask16 hidden = candidates & _mm512_cmp_ps_mask(z_lo, bound, _CMP_GT_OQ);
   const __mmask16 shown = candidates & __mmask16(~hidden);
   if (hidden) {
-    const int n = __builtin_popcount(hidden);
-    batch_culled_ += n;
-    stats_.culled_hidden += n;
-    stats_.rasterized -= n;  // counted when assembled: they are not drawn after all
-    if (pyramid_->recording_culls()) {
-      alignas(64) int32_t x0[16], y0[16], x1[16], y1[16], lv[16];
-      _mm512_store_si512(x0, box.i0);
-      _mm512_store_si512(y0, box.j0);
-      _mm512_store_si512(x1, box.i1);
-      _mm512_store_si512(y1, box.j1);
+    if (pyramid_->recording_culls()) {  // one by one, with their boxes
+      BoxLanes16 lanes(box, z_lo);
+      alignas(64) int32_t lv[16];
       _mm512_store_si512(lv, level);
       for (unsigned m = hidden; m; m &= m - 1) {
         const int k = __builtin_ctz(m);
-        pyramid_->count_culled(lv[k], x0[k], y0[k], x1[k], y1[k], 1);
+        count_hidden(lv[k], lanes.x0[k], lanes.y0[k], lanes.x1[k], lanes.y1[k]);
       }
+    } else {
+      const int n = __builtin_popcount(hidden);
+      batch_culled_ += n;
+      stats_.culled_hidden += n;
+      stats_.rasterized -= n;  // counted when assembled: they are not drawn after all
     }
   }
   // Mark the 16 x 16 blocks under the survivors' boxes: faces arrive in
@@ -381,9 +394,9 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
     dirty_hi_ = std::max(dirty_hi_, hi_y);
     if ((hi_x - lo_x + 1) * (hi_y - lo_y + 1) <= 4) {
       for (int by = lo_y; by <= hi_y; ++by)
-        for (int bx = lo_x; bx <= hi_x; ++bx) tile_dirty_[size_t(by) * tiles_wide_ + bx] = 1;
+        for (int bx = lo_x; bx <= hi_x; ++bx) block_dirty_[size_t(by) * blocks_wide_ + bx] = 1;
     } else {
-      const __m512i blocks_wide = _mm512_set1_epi32(tiles_wide_);
+      const __m512i blocks_wide = _mm512_set1_epi32(blocks_wide_);
       for (int dy = 0; dy < 2; ++dy)
         for (int dx = 0; dx < 2; ++dx) {
           const __m512i bx = _mm512_add_epi32(bx0, _mm512_set1_epi32(dx));
@@ -391,7 +404,7 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
           const __mmask16 m =
               shown & _mm512_cmple_epi32_mask(bx, bx1) & _mm512_cmple_epi32_mask(by, by1);
           if (m)
-            _mm512_mask_i32scatter_epi32(tile_dirty_.data(), m,
+            _mm512_mask_i32scatter_epi32(block_dirty_.data(), m,
                                          _mm512_add_epi32(_mm512_mullo_epi32(by, blocks_wide), bx),
                                          one, 4);
         }
@@ -406,7 +419,7 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
   const int ty0 = s.y_min >> kTileShift, ty1 = s.y_max >> kTileShift;
   if (!tile_cells_ || (tx0 == tx1 && ty0 == ty1)) {
     rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target_, stats_);
-    mark_tiles(s.x_min, s.y_min, s.x_max, s.y_max);
+    mark_blocks(s.x_min, s.y_min, s.x_max, s.y_max);
     return;
   }
   const float* tile_max = pyramid_->level(kTileShift);
@@ -422,7 +435,7 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
       const int y0 = std::max(s.y_min, ty << kTileShift);
       const int y1 = std::min(s.y_max, ((ty + 1) << kTileShift) - 1);
       rasterize_rect(s, x0, y0, x1, y1, target_, stats_);
-      mark_tiles(x0, y0, x1, y1);
+      mark_blocks(x0, y0, x1, y1);
     }
 }
 
@@ -434,14 +447,14 @@ void TriangleBatch::update_pyramid() {
   dirty_list_.clear();
   const int block = 1 << kDirtyShift;
   for (int by = std::max(dirty_lo_, 0); by <= dirty_hi_; ++by) {
-    int32_t* row = tile_dirty_.data() + size_t(by) * tiles_wide_;
-    for (int bx = 0; bx < tiles_wide_; ++bx) {
+    int32_t* row = block_dirty_.data() + size_t(by) * blocks_wide_;
+    for (int bx = 0; bx < blocks_wide_; ++bx) {
 #ifdef ZBUFFER_AVX512
       // Most blocks are clean: skip them 16 at a time.
-      while (bx + 16 <= tiles_wide_ &&
+      while (bx + 16 <= blocks_wide_ &&
              !_mm512_test_epi32_mask(_mm512_loadu_si512(row + bx), _mm512_set1_epi32(-1)))
         bx += 16;
-      if (bx >= tiles_wide_) break;
+      if (bx >= blocks_wide_) break;
 #endif
       if (!row[bx]) continue;
       row[bx] = 0;
@@ -452,7 +465,7 @@ void TriangleBatch::update_pyramid() {
                              std::min(y0 + block, target_.height) - 1);
         continue;
       }
-      dirty_list_.push_back(by * tiles_wide_ + bx);
+      dirty_list_.push_back(by * blocks_wide_ + bx);
     }
   }
   dirty_lo_ = 1 << 30;

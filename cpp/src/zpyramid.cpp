@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <stdexcept>
 
 #include "simd.h"
 
@@ -171,8 +172,9 @@ int ZPyramid::refresh_block(int bx, int by, int top, bool& changed) {
 }
 
 int64_t ZPyramid::update_blocks(std::vector<int32_t>& blocks) {
+  if (first_ > 3) throw std::logic_error("ZPyramid::update_blocks needs a kept level from 1 to 3");
   const int top = std::min(3, levels() - 1);  // the last level a block holds whole cells of
-  if (top < first_) return 0;
+  if (top < first_) return 0;                 // a 1 x 1 image: no level above 0
   const int blocks_wide = (widths_[0] + (1 << kBlockShift) - 1) >> kBlockShift;
   int64_t count = 0;
   size_t changed_blocks = 0;

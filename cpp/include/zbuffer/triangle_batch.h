@@ -42,7 +42,7 @@ class TriangleBatch {
   // date over the 16 x 16 blocks it drew into. The pyramid then lags by at
   // most one batch, which only makes it cull less. Small boxes are tested
   // against the at most 3 x 3 cells of the finest kept level (1 to 3) where
-  // they span three cells: a pyramid kept from level 2 culls more small
+  // they span at most three cells a side: a pyramid kept from level 2 culls more small
   // triangles than one kept from level 3, for more upkeep.
   //
   // `capacity` (16 .. kCapacity) is how many triangles a batch gathers before
@@ -97,7 +97,8 @@ class TriangleBatch {
   template <int kRows>
   void draw_wide(int group, int64_t& covered, int64_t& written);
   // Whether the batch must be drawn before `incoming` more faces are added:
-  // its arrays are full, or it has tested `capacity` triangles.
+  // its small triangles stored and culled reach `capacity`, or its large
+  // ones (tested when drawn) would pass it.
   bool full(int incoming) const {
     return n_small_ + batch_culled_ + kSlack > capacity_ ||
            large_.size() + size_t(incoming) > size_t(capacity_);
@@ -120,7 +121,7 @@ class TriangleBatch {
   void cull_large();
   void count_hidden(int level, int x0, int y0, int x1, int y1);
   void draw_large_by_tiles(const TriangleSetup& s);
-  void mark_tiles(int x0, int y0, int x1, int y1);
+  void mark_blocks(int x0, int y0, int x1, int y1);
   void update_pyramid();
   // Vector assembly and setup of faces first .. first + count - 1, count
   // <= 16 (AVX-512 builds).
@@ -149,7 +150,7 @@ class TriangleBatch {
   bool pyramid_fresh_ = false;  // updated at the end of the last flush
   static constexpr int kTileShift = 3;   // 8 x 8 pixel tiles (pyramid level 3)
   static constexpr int kDirtyShift = 4;  // dirt is tracked by 16 x 16 blocks
-  int tiles_wide_ = 0;                   // blocks of 16 x 16 pixels a row
+  int blocks_wide_ = 0;                   // blocks of 16 x 16 pixels a row
   int dirty_lo_ = 1 << 30, dirty_hi_ = -1;  // rows of blocks marked since the last update
   bool tile_cells_ = false;             // the pyramid keeps 8x8 cells (level 3)
   int fine_ = kTileShift;               // with them: its finest kept level (1 .. 3)
@@ -163,7 +164,7 @@ class TriangleBatch {
     while (l < kTileShift && ((x1 >> l) - (x0 >> l) > 2 || (y1 >> l) - (y0 >> l) > 2)) ++l;
     return l;
   }
-  std::vector<int32_t> tile_dirty_;     // per 16 x 16 block: drawn into since the last update
+  std::vector<int32_t> block_dirty_;     // per 16 x 16 block: drawn into since the last update
   std::vector<int32_t> dirty_list_;     // those blocks, listed at update time
 
   // Small boxes, structure of arrays. Edge values are exact, unbiased, and

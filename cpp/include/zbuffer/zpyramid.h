@@ -126,7 +126,7 @@ class ZPyramid {
 
   const float* depth_;
   int first_;
-  std::vector<uint32_t> stamp_;  // per cell of the level being climbed: last round seen
+  std::vector<uint32_t> stamp_;  // per cell of the parent level: the last round that listed it
   uint32_t round_ = 0;
   std::vector<int32_t> next_;
   std::vector<int> widths_, heights_;
