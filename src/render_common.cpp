@@ -91,10 +91,6 @@ py::dict stats_dict(const zbuffer::RenderStats& s) {
   return d;
 }
 
-// The depth and id planes, as two C-contiguous (H, W) arrays in one block.
-// Their start addresses differ by 2 KiB modulo 4 KiB: at widths that are a
-// multiple of 1024 pixels every row of both planes would otherwise fall in
-// the same L1 cache set, and a triangle's rows would evict each other.
 std::unique_ptr<zbuffer::CullMap> attach_cull_map(bool record_culls, int width, int height,
                                                   zbuffer::RenderInput& input) {
   if (!record_culls) return nullptr;
@@ -116,6 +112,10 @@ py::tuple render_result(py::array_t<float> depth, py::array_t<int32_t> ids,
   return py::make_tuple(depth, ids, stats_dict(stats), levels);
 }
 
+// The depth and id planes, as two C-contiguous (H, W) arrays in one block.
+// Their start addresses differ by 2 KiB modulo 4 KiB: at widths that are a
+// multiple of 1024 pixels every row of both planes would otherwise fall in
+// the same L1 cache set, and a triangle's rows would evict each other.
 std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height) {
   const size_t n = size_t(width) * size_t(height);
   py::array_t<uint8_t> block(py::ssize_t(2 * 4 * n + 4096 + 64));

@@ -15,17 +15,17 @@ N_HIDDEN, N_FRONT = 1500, 30
 BATCH = 512  # triangles drawn together; the pyramid lags by at most one batch
 
 
-def occluded_scene(seed=0):
-    """A big wall listed first, then many small triangles well behind it, then
-    a few in front of it."""
+def occluded_scene(seed=0, n_hidden=N_HIDDEN, n_front=N_FRONT, spread=0.15):
+    """A big wall listed first, then many triangles well behind it, then a
+    few in front of it (corners `spread` from their centres)."""
     wall_v, wall_f = scenes.grid((0.0, 0.0, 0.0), (3.0, 2.0), (6, 4))
     wall_v = wall_v[:, [0, 2, 1]]  # the grid lies in xz; stand it up facing +z
     wall_v[:, 2] = 1.0
     rng = np.random.default_rng(seed)
-    behind = rng.uniform([-0.9, -0.5, -3.0], [0.9, 0.5, 0.3], (N_HIDDEN, 1, 3))
-    front = rng.uniform([-1.0, -0.6, 1.5], [1.0, 0.6, 2.0], (N_FRONT, 1, 3))
+    behind = rng.uniform([-0.9, -0.5, -3.0], [0.9, 0.5, 0.3], (n_hidden, 1, 3))
+    front = rng.uniform([-1.0, -0.6, 1.5], [1.0, 0.6, 2.0], (n_front, 1, 3))
     centres = np.concatenate([behind, front])
-    soup = (centres + rng.normal(0, 0.15, (len(centres), 3, 3))).reshape(-1, 3)
+    soup = (centres + rng.normal(0, spread, (len(centres), 3, 3))).reshape(-1, 3)
     v = np.vstack([wall_v, soup])
     f = np.vstack([wall_f, len(wall_v) + np.arange(len(soup)).reshape(-1, 3)])
     return zbuffer.Mesh(v, f)
@@ -153,14 +153,7 @@ def test_tiny_images_cull_and_change_no_bit(algo):
     # Images a few pixels across, where the pyramid has few levels (or none
     # above 8 x 8 cells), behind a wall that fills the view, with triangles
     # large enough to cover pixel centres.
-    wall_v, wall_f = scenes.grid((0.0, 0.0, 0.0), (3.0, 2.0), (6, 4))
-    wall_v = wall_v[:, [0, 2, 1]]
-    wall_v[:, 2] = 1.0
-    rng = np.random.default_rng(1)
-    centres = rng.uniform([-0.9, -0.5, -3.0], [0.9, 0.5, 0.3], (3000, 1, 3))
-    soup = (centres + rng.normal(0, 0.6, (3000, 3, 3))).reshape(-1, 3)
-    mesh = zbuffer.Mesh(np.vstack([wall_v, soup]),
-                        np.vstack([wall_f, len(wall_v) + np.arange(len(soup)).reshape(-1, 3)]))
+    mesh = occluded_scene(seed=1, n_hidden=3000, n_front=0, spread=0.6)
     cam = zbuffer.Camera.look_at((0.0, 0.0, 3.0), (0, 0, 0), fov_y=40, near=1.0, far=20.0)
     culled = 0
     for width, height in [(1, 1), (2, 3), (4, 4), (9, 6)]:

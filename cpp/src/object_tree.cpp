@@ -438,8 +438,9 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
       if (item.z_near > farthest_under(pyramid, item)) {
         frame.node_fate[size_t(item.node)] = kNodeHidden;  // and its whole subtree
         ++stats.nodes_hidden;
-        pyramid.count_culled(node_level(pyramid, item), item.x0, item.y0, item.x1, item.y1,
-                             tree.nodes[size_t(item.node)].n_triangles);
+        if (pyramid.recording_culls())
+          pyramid.count_culled(node_level(pyramid, item), item.x0, item.y0, item.x1, item.y1,
+                               tree.nodes[size_t(item.node)].n_triangles);
         continue;
       }
     }

@@ -1,6 +1,7 @@
 // The Z-pyramid: cells are the maximum of their children after any sequence
 // of writes and updates, and queries bound the depth of their rectangle.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -33,6 +34,22 @@ bool consistent(const ZPyramid& p) {
   return true;
 }
 
+// Lower the depth at random over a random box of at most extent + 1
+// pixels a side (depth only decreases, as under the depth write); returns
+// the box as {x0, y0, x1, y1}.
+std::array<int, 4> lower_random_box(std::vector<float>& depth, int w, int h, Lcg& next,
+                                    int extent) {
+  const int x0 = int(next(0, w - 1)), y0 = int(next(0, h - 1));
+  const int x1 = std::min(w - 1, x0 + int(next(0, extent)));
+  const int y1 = std::min(h - 1, y0 + int(next(0, extent)));
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      float& d = depth[size_t(y) * w + x];
+      d = std::min(d, float(next(0, 1000)) / 1000.0f);
+    }
+  return {x0, y0, x1, y1};
+}
+
 void test_updates_keep_every_cell_the_max_of_its_children() {
   for (int first : {1, 3})
   for (int size : {1, 2, 3, 17, 64, 93}) {
@@ -43,14 +60,7 @@ void test_updates_keep_every_cell_the_max_of_its_children() {
     CHECK(p.width(p.levels() - 1) == 1 && p.height(p.levels() - 1) == 1);
     Lcg next{uint64_t(size)};
     for (int t = 0; t < 300; ++t) {
-      // Depth only decreases, as under the depth write.
-      const int x0 = int(next(0, w - 1)), y0 = int(next(0, h - 1));
-      const int x1 = std::min(w - 1, x0 + int(next(0, 9))), y1 = std::min(h - 1, y0 + int(next(0, 9)));
-      for (int y = y0; y <= y1; ++y)
-        for (int x = x0; x <= x1; ++x) {
-          float& d = depth[size_t(y) * w + x];
-          d = std::min(d, float(next(0, 1000)) / 1000.0f);
-        }
+      const auto [x0, y0, x1, y1] = lower_random_box(depth, w, h, next, 9);
       p.update(x0, y0, x1, y1);
     }
     CHECK(consistent(p));
@@ -84,14 +94,9 @@ void test_block_updates_keep_every_cell_the_max_of_its_children() {
       for (int round = 0; round < 60; ++round) {
         std::vector<char> dirty(size_t(blocks_wide) * blocks_high, 0);
         for (int t = 0; t < 8; ++t) {
-          const int x0 = int(next(0, w - 1)), y0 = int(next(0, h - 1));
-          const int x1 = std::min(w - 1, x0 + int(next(0, 6))), y1 = std::min(h - 1, y0 + int(next(0, 6)));
-          for (int y = y0; y <= y1; ++y)
-            for (int x = x0; x <= x1; ++x) {
-              float& d = depth[size_t(y) * w + x];
-              d = std::min(d, float(next(0, 1000)) / 1000.0f);
-              dirty[size_t(y / 16) * blocks_wide + x / 16] = 1;
-            }
+          const auto [x0, y0, x1, y1] = lower_random_box(depth, w, h, next, 6);
+          for (int by = y0 / 16; by <= y1 / 16; ++by)
+            for (int bx = x0 / 16; bx <= x1 / 16; ++bx) dirty[size_t(by) * blocks_wide + bx] = 1;
         }
         std::vector<int32_t> blocks;
         for (int b = 0; b < blocks_wide * blocks_high; ++b)

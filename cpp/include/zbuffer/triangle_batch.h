@@ -42,8 +42,8 @@ class TriangleBatch {
   // date over the 16 x 16 blocks it drew into. The pyramid then lags by at
   // most one batch, which only makes it cull less. Small boxes are tested
   // against the at most 3 x 3 cells of the finest kept level (1 to 3) where
-  // they span at most three cells a side: a pyramid kept from level 2 culls more small
-  // triangles than one kept from level 3, for more upkeep.
+  // they span at most three cells a side: a pyramid kept from level 2 culls
+  // more small triangles than one kept from level 3, for more upkeep.
   //
   // `capacity` (16 .. kCapacity) is how many triangles a batch gathers before
   // drawing them; a hierarchical Z-buffer wants small batches so that its
@@ -110,6 +110,13 @@ class TriangleBatch {
   // cull_small: true if the box [x0, x1] x [y0, y1] with nearest depth z_lo
   // is hidden (counted); otherwise marks the blocks under it.
   bool cull_small(int x0, int y0, int x1, int y1, float z_lo);
+  // The level small boxes are tested at: the finest kept one (fine_ .. 3)
+  // where the box spans at most 3 cells a side.
+  int test_level(int x0, int y0, int x1, int y1) const {
+    int l = fine_;
+    while (l < kTileShift && ((x1 >> l) - (x0 >> l) > 2 || (y1 >> l) - (y0 >> l) > 2)) ++l;
+    return l;
+  }
   // cull_small for the lanes `candidates` of boxes and depths stored by
   // lane; returns the hidden lanes.
   unsigned cull_lanes(const int32_t* x0, const int32_t* y0, const int32_t* x1, const int32_t* y1,
@@ -157,13 +164,6 @@ class TriangleBatch {
   alignas(64) int32_t level_width_[16] = {};   // by level fine_ .. 3: cells a row
   alignas(64) int32_t level_offset_[16] = {};  // and where it starts in pyramid_->cells()
   int batch_culled_ = 0;                // triangles of this batch found hidden
-  // The level small boxes are tested at: the finest kept one (fine_ .. 3)
-  // where the box spans at most 3 cells a side.
-  int test_level(int x0, int y0, int x1, int y1) const {
-    int l = fine_;
-    while (l < kTileShift && ((x1 >> l) - (x0 >> l) > 2 || (y1 >> l) - (y0 >> l) > 2)) ++l;
-    return l;
-  }
   std::vector<int32_t> block_dirty_;     // per 16 x 16 block: drawn into since the last update
   std::vector<int32_t> dirty_list_;     // those blocks, listed at update time
 
