@@ -119,12 +119,16 @@ ZBUFFER_INLINE __mmask16 wins16(__mmask16 inside, __m512 z, __m512i id, __m512 o
 }
 
 // The depth write for up to 16 pixels of a row. Masked loads and stores
-// touch only the lanes in `inside`.
+// touch only the lanes in `inside`; the stored ids are read only where the
+// depths tie (rarely): wins16 reads no other lane of them.
 ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* d_ptr,
                                  int32_t* id_ptr) {
   const __m512 d = _mm512_mask_loadu_ps(_mm512_setzero_ps(), inside, d_ptr);
-  const __m512i ids = _mm512_mask_loadu_epi32(_mm512_setzero_si512(), inside, id_ptr);
-  const __mmask16 win = wins16(inside, z, id, d, ids);
+  __mmask16 win = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_LT_OQ);
+  const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ);
+  if (tie)  // rare: the stored ids are read only where depths tie
+    win |= _mm512_mask_cmplt_epi32_mask(
+        tie, id, _mm512_mask_loadu_epi32(_mm512_setzero_si512(), tie, id_ptr));
   _mm512_mask_storeu_ps(d_ptr, win, z);
   _mm512_mask_storeu_epi32(id_ptr, win, id);
   return win;
@@ -169,17 +173,22 @@ ZBUFFER_INLINE __mmask16 span16(__mmask16 in_span, __m512i w0b, __m512i w1b, __m
 }
 
 // The depth write for two rows of up to 8 pixels: lanes 0-7 at (d0, i0),
-// lanes 8-15 at (d1, i1).
+// lanes 8-15 at (d1, i1). Ids are read only where the depths tie, as in
+// write16.
 ZBUFFER_INLINE __mmask16 write16_rows(__mmask16 inside, __m512 z, __m512i id, float* d0,
                                       float* d1, int32_t* i0, int32_t* i1) {
   const __mmask8 lo = __mmask8(inside), hi = __mmask8(inside >> 8);
   const __m512 d = _mm512_insertf32x8(
       _mm512_castps256_ps512(_mm256_mask_loadu_ps(_mm256_setzero_ps(), lo, d0)),
       _mm256_mask_loadu_ps(_mm256_setzero_ps(), hi, d1), 1);
-  const __m512i ids = _mm512_inserti64x4(
-      _mm512_castsi256_si512(_mm256_mask_loadu_epi32(_mm256_setzero_si256(), lo, i0)),
-      _mm256_mask_loadu_epi32(_mm256_setzero_si256(), hi, i1), 1);
-  const __mmask16 win = wins16(inside, z, id, d, ids);
+  __mmask16 win = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_LT_OQ);
+  const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ);
+  if (tie) {
+    const __m512i ids = _mm512_inserti64x4(
+        _mm512_castsi256_si512(_mm256_mask_loadu_epi32(_mm256_setzero_si256(), __mmask8(tie), i0)),
+        _mm256_mask_loadu_epi32(_mm256_setzero_si256(), __mmask8(tie >> 8), i1), 1);
+    win |= _mm512_mask_cmplt_epi32_mask(tie, id, ids);
+  }
   const __m256i id8 = _mm512_castsi512_si256(id);
   _mm256_mask_storeu_ps(d0, __mmask8(win), _mm512_castps512_ps256(z));
   _mm256_mask_storeu_ps(d1, __mmask8(win >> 8), _mm512_extractf32x8_ps(z, 1));

@@ -481,7 +481,8 @@ void TriangleBatch::update_pyramid() {
 // a spare row of the batch, so no address outside the image is formed and no
 // masked-off access touches a line that real pixels use.
 template <int kPasses>
-void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
+void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& written_out) {
+  int64_t covered = 0, written = 0;  // in registers, not behind the references
   const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   const __m512i col = _mm512_and_si512(lane, _mm512_set1_epi32(7));
   const __m512i second_row = _mm512_srli_epi32(lane, 3);
@@ -527,12 +528,15 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
       w2 = _mm512_add_epi32(w2, step2);
     }
   }
+  covered_out += covered;
+  written_out += written;
 }
 
 // kRows passes of 16 x 1 pixels: lane k is pixel k of a row. Rows past the
 // box are masked off and point at a spare row.
 template <int kRows>
-void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
+void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_out) {
+  int64_t covered = 0, written = 0;  // in registers, not behind the references
   const __m512i col = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   const size_t pitch = size_t(target_.width);
   for (int n = 0; n < group_size_[group]; ++n) {
@@ -566,6 +570,8 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
       w2 = _mm512_add_epi32(w2, step2);
     }
   }
+  covered_out += covered;
+  written_out += written;
 }
 
 void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
