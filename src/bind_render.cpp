@@ -57,10 +57,35 @@ zbuffer::PolygonView polygon_view(const py::array_t<int64_t>& offsets,
   return polys;
 }
 
+// Checks face cells (GIL held): runs from 0 to the number of faces, none
+// empty, with finite centres.
+zbuffer::FaceCells face_cells(const py::array_t<int32_t>& start, const py::array_t<double>& centre,
+                              const zbuffer::MeshView& mesh) {
+  zbuffer::FaceCells cells;
+  cells.start = start.data();
+  cells.centre = centre.data();
+  cells.n = start.shape(0) - 1;
+  if (cells.n < 0) throw py::value_error("cell_start must not be empty");
+  if (centre.shape(0) != cells.n)
+    throw py::value_error("cell_centre must have one row per cell (" + std::to_string(cells.n) +
+                          "), got " + std::to_string(centre.shape(0)));
+  if (cells.start[0] != 0 || cells.start[cells.n] != mesh.n_faces)
+    throw py::value_error("cell_start must run from 0 to the number of faces");
+  for (int64_t k = 0; k < cells.n; ++k)
+    if (cells.start[k + 1] <= cells.start[k])
+      throw py::value_error("cell_start must increase, got " + std::to_string(cells.start[k]) +
+                            " then " + std::to_string(cells.start[k + 1]) + " at " +
+                            std::to_string(k));
+  for (int64_t k = 0; k < 3 * cells.n; ++k)
+    if (!std::isfinite(cells.centre[k])) throw py::value_error("cell_centre must be finite");
+  return cells;
+}
+
 py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_obj,
                  int width, int height, const std::string& algo, bool cull_backfaces,
                  py::handle face_ids_obj, py::handle polygon_offsets_obj,
-                 py::handle polygon_indices_obj, bool record_culls) {
+                 py::handle polygon_indices_obj, bool record_culls, py::handle cell_start_obj,
+                 py::handle cell_centre_obj) {
   const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
   if (!algorithm)
     throw py::value_error("unknown algorithm \"" + algo + "\"; valid names are " +
@@ -82,6 +107,15 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
     if (bad >= 0)
       throw py::value_error("face_ids must be >= 0, got " +
                             std::to_string(input.mesh.face_ids[bad]) + " at " + std::to_string(bad));
+  }
+  py::array_t<int32_t> cell_start;
+  py::array_t<double> cell_centre;
+  if (!cell_start_obj.is_none() || !cell_centre_obj.is_none()) {
+    if (cell_start_obj.is_none() || cell_centre_obj.is_none())
+      throw py::value_error("give both cell_start and cell_centre, or neither");
+    cell_start = require_array<int32_t>(cell_start_obj, "cell_start", {-1});
+    cell_centre = require_array<double>(cell_centre_obj, "cell_centre", {-1, 3});
+    input.cells = face_cells(cell_start, cell_centre, input.mesh);
   }
   py::array_t<int64_t> polygon_offsets;
   py::array_t<int32_t> polygon_indices;
@@ -126,13 +160,16 @@ void bind_render(py::module_& m) {
         py::arg("width"), py::arg("height"), py::arg("algo") = "zbuffer",
         py::arg("cull_backfaces") = false, py::arg("face_ids") = py::none(),
         py::arg("polygon_offsets") = py::none(), py::arg("polygon_indices") = py::none(),
-        py::arg("record_culls") = false,
+        py::arg("record_culls") = false, py::arg("cell_start") = py::none(),
+        py::arg("cell_centre") = py::none(),
         "Render depth and triangle ids; returns (depth, triangle_id, stats), and with\n"
         "record_culls (algorithms with a Z-pyramid) a fourth item: per pyramid level an\n"
         "int64 array of the triangles culled by tests that read each cell. With face_ids,\n"
         "face f is reported as face_ids[f] (faces passed in another order). With polygons\n"
         "(int64 offsets, int32 indices; faces = their triangulation in polygon order), an\n"
-        "algorithm that draws polygons draws them natively, each with its first triangle's id.");
+        "algorithm that draws polygons draws them natively, each with its first triangle's id.\n"
+        "With cells (spatial_order's cell_start and cell_centre for these faces), the\n"
+        "image-space algorithms visit the faces cell by cell, nearest cell first.");
   m.def(
       "polygon_algorithms",
       [] {
@@ -174,14 +211,23 @@ void bind_render(py::module_& m) {
         const zbuffer::MeshView mesh = mesh_view(positions, faces);
         py::array_t<int32_t> order(py::ssize_t(mesh.n_faces));
         int32_t* out = order.mutable_data();
+        std::vector<int32_t> start;
+        std::vector<double> centre;
         {
           py::gil_scoped_release release;
-          zbuffer::spatial_order(mesh, out);
+          zbuffer::spatial_order(mesh, out, start, centre);
         }
-        return order;
+        py::array_t<int32_t> cell_start(py::ssize_t(start.size()));
+        std::copy(start.begin(), start.end(), cell_start.mutable_data());
+        py::array_t<double> cell_centre({py::ssize_t(centre.size() / 3), py::ssize_t(3)});
+        std::copy(centre.begin(), centre.end(), cell_centre.mutable_data());
+        return py::make_tuple(order, cell_start, cell_centre);
       },
       py::arg("positions"), py::arg("faces"),
-      "Permutation of the faces along a Z-order curve of their centroids (int32).");
+      "(order, cell_start, cell_centre): a permutation of the faces along a Z-order curve\n"
+      "of their centroids (int32), and the runs of faces[order] that share a cell of the\n"
+      "curve's coarse 8 x 8 x 8 grid: cell k holds cell_start[k] .. cell_start[k+1] - 1,\n"
+      "centred at cell_centre[k] (only nonempty cells).");
 }
 
 }  // namespace zbuffer_py

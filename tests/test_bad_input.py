@@ -54,6 +54,19 @@ def test_compiled_core_checks_on_its_own():
         _core.render(V, F.astype(np.int32), mvp * np.nan, 16, 16)
     with pytest.raises(ValueError, match="too large"):
         _core.render(V, F.astype(np.int32), mvp, 40000, 16)
+    faces = F.astype(np.int32)
+    start, centre = np.array([0, 6, 12], np.int32), np.zeros((2, 3))
+    with pytest.raises(ValueError, match="give both cell_start and cell_centre"):
+        _core.render(V, faces, mvp, 16, 16, "hiz", cell_start=start)
+    with pytest.raises(ValueError, match="cell_start must run from 0 to the number of faces"):
+        _core.render(V, faces, mvp, 16, 16, "hiz", cell_start=start[:2], cell_centre=centre[:1])
+    with pytest.raises(ValueError, match="cell_start must increase, got 6 then 6 at 1"):
+        _core.render(V, faces, mvp, 16, 16, "hiz", cell_start=np.array([0, 6, 6, 12], np.int32),
+                     cell_centre=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"one row per cell \(2\), got 3"):
+        _core.render(V, faces, mvp, 16, 16, "hiz", cell_start=start, cell_centre=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="cell_centre must be finite"):
+        _core.render(V, faces, mvp, 16, 16, "hiz", cell_start=start, cell_centre=centre + np.nan)
     ids = np.full((4, 4), len(F), np.int32)  # one past the last face
     with pytest.raises(ValueError, match="ids outside"):
         _core.shade(ids, V, F.astype(np.int32), np.eye(4), np.zeros(4), np.zeros(3),

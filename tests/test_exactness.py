@@ -55,6 +55,20 @@ def test_depth_range_and_empty_pixels(procedural_scenes):
     assert res.triangle_id.max() < len(procedural_scenes["default"].faces)
 
 
+def test_visiting_cells_partition_the_faces_and_hold_their_centroids():
+    mesh = zbuffer.scenes.random_soup(6000, seed=5, scale=0.1)
+    visit = mesh.prepare().faces_for_render()
+    start, centre = visit.cell_start, visit.cell_centre
+    assert start[0] == 0 and start[-1] == len(mesh.faces) and np.all(np.diff(start) > 0)
+    assert 8 < len(centre) <= 512 and centre.shape == (len(start) - 1, 3)
+    # Each face's centroid lies in its cell: a cube 1/8 of the mesh's side
+    # around the centre (up to a grid step of rounding).
+    side = (mesh.vertices.max(0) - mesh.vertices.min(0)).max()
+    centroid = mesh.vertices[visit.faces].mean(axis=1)
+    cell = np.repeat(np.arange(len(centre)), np.diff(start))
+    assert np.all(np.abs(centroid - centre[cell]) <= side / 16 + 2 * side / 1024)
+
+
 @pytest.mark.parametrize("algo", ALGORITHMS)
 def test_cache_friendly_visiting_order_changes_no_bit(algo):
     # Large meshes are visited in a spatial order from their second render
@@ -65,7 +79,7 @@ def test_cache_friendly_visiting_order_changes_no_bit(algo):
     first = zbuffer.render(mesh, algo=algo, camera=cam, width=100, height=80, shading="none")
     assert mesh._visit is None
     mesh.prepare()
-    faces, ids = mesh.faces_for_render()
+    faces, ids = mesh.faces_for_render()[:2]
     assert ids is not None and not np.array_equal(ids, np.arange(len(ids)))
     assert np.array_equal(np.sort(ids), np.arange(len(ids)))  # a permutation
     np.testing.assert_array_equal(faces, mesh.faces[ids])

@@ -57,6 +57,19 @@ def test_occluded_triangles_are_culled_and_no_bit_changes(algo, projection):
     assert res.stats["pyramid_cells_updated"] > 0
 
 
+def test_a_prepared_mesh_is_drawn_front_first_so_its_back_is_culled():
+    # A closed sphere's far half is hidden by its near half. Visited cell by
+    # cell, nearest first (Mesh.prepare), hiz culls most of the far half
+    # before setting it up; the plain Z-buffer's output is the same.
+    mesh = zbuffer.Mesh(*scenes.uv_sphere(n_lat=48, n_lon=96))
+    cam = zbuffer.Camera.look_at((0.3, 0.4, 3.0), (0, 0, 0), fov_y=40)
+    mesh.prepare()
+    res = zbuffer.render(mesh, algo="hiz", camera=cam, width=160, height=120, shading="none")
+    ref = zbuffer.render(mesh, algo="zbuffer", camera=cam, width=160, height=120, shading="none")
+    assert_same_visibility(res, ref)
+    assert res.stats["culled_hidden"] > 0.3 * len(mesh.faces)
+
+
 @pytest.mark.parametrize("algo", HIERARCHICAL)
 def test_ties_with_an_occluder_are_never_culled(algo):
     # The same square twice, at the same depth: the copy (larger ids) ties

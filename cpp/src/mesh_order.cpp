@@ -1,14 +1,19 @@
-// Z-order of face centroids, by a radix sort of 30-bit Morton keys.
+// Z-order of face centroids, by a radix sort of 30-bit Morton keys, and the
+// coarse cells of that order.
 #include "zbuffer/mesh_order.h"
 
 #include <algorithm>
+#include <numeric>
 #include <vector>
 
 #include "morton.h"
 
 namespace zbuffer {
 
-void spatial_order(const MeshView& mesh, int32_t* order) {
+void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& cell_start,
+                   std::vector<double>& cell_centre) {
+  cell_start.assign(1, 0);
+  cell_centre.clear();
   const int64_t n = mesh.n_faces;
   if (n == 0) return;
   // The centroids' cells on the vertex grid the per-frame trees use (see
@@ -23,6 +28,33 @@ void spatial_order(const MeshView& mesh, int32_t* order) {
   }
   radix_sort(key, faces, 30);  // stable: ties keep the input order
   std::copy(faces.begin(), faces.end(), order);
+
+  // Runs of equal top 3 * kCellLevels key bits; a cell's centre from its
+  // coordinates on the grid (each coarse cell is 2^(10 - kCellLevels) grid
+  // cells a side).
+  constexpr int kShift = 3 * (VertexGrid::kBits - kCellLevels);
+  const double side = grid.cell_size * double(1 << (VertexGrid::kBits - kCellLevels));
+  for (int64_t f = 0; f < n; ++f) {
+    const uint32_t cell = key[size_t(f)] >> kShift;
+    if (f + 1 < n && key[size_t(f) + 1] >> kShift == cell) continue;
+    cell_start.push_back(int32_t(f + 1));
+    for (int a = 0; a < 3; ++a) {
+      uint32_t c = 0;  // every third bit of the code, from bit a
+      for (int b = 0; b < kCellLevels; ++b) c |= ((cell >> (3 * b + a)) & 1u) << b;
+      cell_centre.push_back(grid.origin[a] + (double(c) + 0.5) * side);
+    }
+  }
+}
+
+void near_to_far(const FaceCells& cells, const double* mvp, std::vector<int32_t>& visit) {
+  std::vector<double> z(static_cast<size_t>(cells.n));
+  for (int64_t k = 0; k < cells.n; ++k) {
+    const double* c = cells.centre + 3 * k;
+    z[size_t(k)] = mvp[8] * c[0] + mvp[9] * c[1] + mvp[10] * c[2] + mvp[11];
+  }
+  visit.resize(size_t(cells.n));
+  std::iota(visit.begin(), visit.end(), 0);
+  std::stable_sort(visit.begin(), visit.end(), [&](int32_t a, int32_t b) { return z[size_t(a)] < z[size_t(b)]; });
 }
 
 }  // namespace zbuffer

@@ -8,6 +8,7 @@
 
 #include "check.h"
 #include "zbuffer/algorithms.h"
+#include "zbuffer/mesh_order.h"
 #include "zbuffer/triangle_batch.h"
 #include "zbuffer/zpyramid.h"
 
@@ -71,6 +72,37 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
         CHECK(stats.culled_hidden > 0);
         CHECK(stats.rasterized + stats.culled_hidden == ref_stats.rasterized);
       }
+    // Faces in spatial order, visited cell by cell nearest first (the
+    // image-space algorithms with a pyramid): the same bits, the same ids.
+    {
+      std::vector<int32_t> order(faces.size() / 3), cell_start, sorted;
+      std::vector<double> centre;
+      spatial_order(input.mesh, order.data(), cell_start, centre);
+      for (const int32_t f : order)
+        for (int k = 0; k < 3; ++k) sorted.push_back(faces[size_t(3 * f + k)]);
+      RenderInput cells = input;
+      cells.mesh.faces = sorted.data();
+      cells.mesh.face_ids = order.data();
+      cells.cells = {cell_start.data(), centre.data(), int64_t(centre.size() / 3)};
+      CHECK(cells.cells.n > 8 && cell_start.back() == int32_t(order.size()));
+      std::vector<int32_t> visit;
+      near_to_far(cells.cells, mvp, visit);
+      CHECK(int64_t(visit.size()) == cells.cells.n);
+      auto clip_z = [&](int32_t k) {
+        const double* c = centre.data() + 3 * k;
+        return mvp[8] * c[0] + mvp[9] * c[1] + mvp[10] * c[2] + mvp[11];
+      };
+      for (size_t k = 1; k < visit.size(); ++k) CHECK(clip_z(visit[k - 1]) <= clip_z(visit[k]));
+      for (const char* name : {"zbuffer", "hiz"}) {
+        std::vector<float> depth(size_t(w) * h);
+        std::vector<int32_t> ids(size_t(w) * h);
+        DepthTarget target{depth.data(), ids.data(), w, h};
+        RenderStats stats;
+        render(*find_algorithm(name), cells, target, stats);
+        CHECK(std::memcmp(depth.data(), ref_depth.data(), depth.size() * sizeof(float)) == 0);
+        CHECK(ids == ref_ids);
+      }
+    }
     for (const Algorithm& algo : algorithms()) {
       std::vector<float> depth(size_t(w) * h);
       std::vector<int32_t> ids(size_t(w) * h);

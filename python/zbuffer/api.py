@@ -9,7 +9,7 @@ import numpy as np
 
 from . import _core
 from .camera import Camera
-from .mesh import Mesh
+from .mesh import Mesh, Visit
 from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import (DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, ShadingParams,
@@ -111,14 +111,15 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     check_algorithm(algo)
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
-    faces, face_ids = mesh.faces_for_render()
+    visit = mesh.faces_for_render()
     offsets = indices = None
     if algo in _POLYGON_ALGORITHMS and mesh.polygon_sizes is not None:
         # Polygons as written; faces in polygon order for those drawn as triangles.
-        faces, face_ids = mesh.faces, None
+        visit = Visit(mesh.faces)
         offsets, indices = mesh.polygon_offsets, mesh.polygon_indices
-    out = _core.render(mesh.vertices, faces, mvp, width, height, algo, bool(cull_backfaces),
-                       face_ids, offsets, indices, check_record_culls(record_culls))
+    out = _core.render(mesh.vertices, visit.faces, mvp, width, height, algo,
+                       bool(cull_backfaces), polygon_offsets=offsets, polygon_indices=indices,
+                       record_culls=check_record_culls(record_culls), **visit.render_args())
     return finish(mesh, camera, mvp, params, algo, *out, start=start)
 
 

@@ -174,9 +174,10 @@ class Scene:
             background)
         record_culls = check_record_culls(record_culls)
         if algo not in TREE_ALGORITHMS:
-            faces, face_ids = mesh.faces_for_render()
-            out = _core.render(mesh.vertices, faces, mvp, width, height, algo,
-                               bool(cull_backfaces), face_ids, record_culls=record_culls)
+            visit = mesh.faces_for_render()
+            out = _core.render(mesh.vertices, visit.faces, mvp, width, height, algo,
+                               bool(cull_backfaces), record_culls=record_culls,
+                               **visit.render_args())
         else:
             build_ms = self.build(algo)
             out = self._trees[algo].render(mvp, width, height, bool(cull_backfaces),

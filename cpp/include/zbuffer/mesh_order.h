@@ -8,16 +8,31 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "zbuffer/types.h"
 
 namespace zbuffer {
+
+// The coarse grid of FaceCells: the Z-order's top kCellLevels levels, at
+// most 8 x 8 x 8 cells over the cube around the vertices. Finer cells order
+// a frame better and cost a partly filled vector of faces each.
+constexpr int kCellLevels = 3;
 
 // Writes to order[0 .. n_faces) a permutation of the faces sorted along a
 // Z-order (Morton) curve through their centroids, 10 bits per axis of the
 // cube around the vertices (the grid of the per-frame trees, so that their
 // buckets come in order too); ties keep the input order. Meant to be
 // computed once per mesh and reused.
-void spatial_order(const MeshView& mesh, int32_t* order);
+//
+// `cell_start` and `cell_centre` receive the FaceCells of the faces in that
+// order: the nonempty cells of the coarse grid, in Z-order.
+void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& cell_start,
+                   std::vector<double>& cell_centre);
+
+// The order to visit `cells` in for a frame with this mvp: nearest first, by
+// the clip-space z of their centres (an affine function of the view depth
+// under perspective and orthographic projections alike). Ties keep Z-order.
+void near_to_far(const FaceCells& cells, const double* mvp, std::vector<int32_t>& visit);
 
 }  // namespace zbuffer

@@ -197,7 +197,8 @@ class TriangleBatch {
 
 // The pipeline the image-space algorithms share: the vertex stage over all
 // vertices, then every face through a TriangleBatch (with `pyramid`, a
-// hierarchical Z-buffer). Adds vertex_ms and raster_ms to stats.
+// hierarchical Z-buffer, which visits input.cells nearest first if there are
+// any). Adds vertex_ms and raster_ms to stats.
 void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderStats& stats,
                           ZPyramid* pyramid = nullptr, int capacity = TriangleBatch::kCapacity,
                           bool lazy_upkeep = false);

@@ -50,9 +50,20 @@ struct PolygonView {
   int64_t n_polygons = 0;            // 0: no polygons, draw the faces
 };
 
+// Runs of consecutive faces that share a cell of a coarse grid over the mesh
+// (mesh_order.h), so that an algorithm can visit the faces cell by cell,
+// nearest cell first: a Z-pyramid then sees the front of a mesh before its
+// back and culls what lies behind.
+struct FaceCells {
+  const int32_t* start = nullptr;   // (n + 1,): cell k holds faces start[k] .. start[k + 1] - 1
+  const double* centre = nullptr;   // (n, 3) cell centres, world space
+  int64_t n = 0;                    // 0: no cells, faces are visited in order
+};
+
 // Everything an algorithm needs to render one frame.
 struct RenderInput {
   MeshView mesh;
+  FaceCells cells;              // optional: visit the faces cell by cell, near to far
   PolygonView polygons;         // optional: the faces grouped into polygons
   double mvp[16] = {};        // row-major model-view-projection matrix
   bool cull_backfaces = false;  // drop triangles wound clockwise in NDC
