@@ -20,7 +20,8 @@ not, and the relative difference of the distance (along the ray for Open3D,
 along the view axis for VTK) where both do. Times: median of --runs frames;
 Open3D's build is the scene construction plus its first cast (it builds its
 BVH lazily), on its default thread count (2 here) and, for the frames, on
-one thread too. Nothing here asserts a speed.
+one thread too. Builds, ours and Open3D's: median of --builds (3), each
+into a new scene. Nothing here asserts a speed.
 """
 
 from __future__ import annotations
@@ -79,18 +80,21 @@ def agreement(ours: np.ndarray, theirs: np.ndarray) -> dict:
             "depth_rel_p99": float(np.percentile(rel, 99)) if both.any() else None}
 
 
-def bench_open3d(mesh, result, runs):
+def bench_open3d(mesh, result, runs, builds):
     import open3d as o3d
 
     rays_np, origins = pixel_rays(result)
-    t0 = time.perf_counter()
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),
-                        o3d.core.Tensor(mesh.faces.astype(np.uint32)))
-    rays = o3d.core.Tensor(rays_np)
-    hit = scene.cast_rays(rays)  # the BVH is built here
-    build_ms = (time.perf_counter() - t0) * 1e3
-    out = {"build_ms": build_ms}
+    build_times = []
+    for _ in range(builds):  # a new scene each time; the last one casts the frames
+        scene = None
+        t0 = time.perf_counter()
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),
+                            o3d.core.Tensor(mesh.faces.astype(np.uint32)))
+        rays = o3d.core.Tensor(rays_np)
+        hit = scene.cast_rays(rays)  # the BVH is built here
+        build_times.append((time.perf_counter() - t0) * 1e3)
+    out = {"build_ms": statistics.median(build_times), "build_ms_each": build_times}
     for label, threads in (("auto", 0), ("1", 1)):
         times = []
         for _ in range(runs):
@@ -180,17 +184,22 @@ def bench_pyrender(mesh, camera, result, runs):
             "agreement": agreement(result.eye_depth().astype(np.float64), theirs)}
 
 
-def bench_ours(mesh, camera, size, runs):
+def bench_ours(mesh, camera, size, runs, builds):
     out = {}
     render = lambda algo: zbuffer.render(mesh, algo=algo, camera=camera, width=size, height=size,
                                          shading="none")
     render("zbuffer")
     times = [render("zbuffer").stats["render_ms"] for _ in range(runs)]
     out["zbuffer_ms"] = statistics.median(times)
-    scene = zbuffer.Scene(mesh)
-    t0 = time.perf_counter()
-    scene.build("hiz_octree")
-    out["hiz_octree_build_ms"] = (time.perf_counter() - t0) * 1e3
+    build_times = []
+    for _ in range(builds):  # a new Scene each time; the last one renders
+        scene = None  # the previous tree is freed first, as a user's would be
+        scene = zbuffer.Scene(mesh)
+        t0 = time.perf_counter()
+        scene.build("hiz_octree")
+        build_times.append((time.perf_counter() - t0) * 1e3)
+    out["hiz_octree_build_ms"] = statistics.median(build_times)
+    out["hiz_octree_build_ms_each"] = build_times
     scene.render(camera, algo="hiz_octree", width=size, height=size, shading="none")
     times = [scene.render(camera, algo="hiz_octree", width=size, height=size,
                           shading="none").stats["render_ms"] for _ in range(runs)]
@@ -209,7 +218,8 @@ def markdown(report) -> str:
         f"{next((c['pyrender']['version'] for c in report['cases'] if c.get('pyrender')), 'not run')}",
         f"- command: `{report['command']}`",
         f"- {report['size']}x{report['size']} pixels, one ray per pixel centre; median of "
-        f"{report['runs']} frames. Open3D build = scene + first cast (BVH built lazily); "
+        f"{report['runs']} frames, builds median of {report.get('builds', 1)} (each a new scene). "
+        "Open3D build = scene + first cast (BVH built lazily); "
         "its frames on its default threads (auto = 2 here) and on one thread; ours on one.",
         "",
         "| scene | triangles | projection | Open3D build ms | Open3D frame ms (auto / 1 thread) "
@@ -267,9 +277,12 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="smoke mode: tiny grid, 2 runs")
     parser.add_argument("--grid", type=int, nargs="*", default=None, help="values of N (default 10 80)")
     parser.add_argument("--runs", type=int, default=None, help="frames per case (default 5)")
+    parser.add_argument("--builds", type=int, default=None,
+                        help="builds per case, ours and Open3D's (default 3)")
     parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
     args = parser.parse_args(argv)
     runs = args.runs or (2 if args.quick else 5)
+    builds = args.builds or (1 if args.quick else 3)
     size = 128 if args.quick else 1024
     try:
         import open3d
@@ -278,7 +291,8 @@ def main(argv=None) -> int:
     except Exception as err:  # not installed, or a system library missing
         print(f"Open3D unavailable ({err}): nothing to compare with", flush=True)
         version = None
-    report = {**new_report("bench_peers.py", argv), "size": size, "runs": runs, "cases": []}
+    report = {**new_report("bench_peers.py", argv), "size": size, "runs": runs, "builds": builds,
+              "cases": []}
     if version:
         report["open3d"] = version
     base, label = spot(args.quick)
@@ -294,12 +308,12 @@ def main(argv=None) -> int:
                 camera = grid_camera(mesh, projection)
             else:
                 camera = zbuffer.Camera.fit(mesh, aspect=1.0, projection=projection).resolve(mesh)
-            ours, result = bench_ours(mesh, camera, size, runs)
+            ours, result = bench_ours(mesh, camera, size, runs, builds)
             case = {"scene": name, "triangles": len(mesh.faces), "projection": projection, **ours}
             said = [f"zbuffer {ours['zbuffer_ms']:.1f} ms, hiz_octree build "
                     f"{ours['hiz_octree_build_ms']:.0f} ms + {ours['hiz_octree_built_once_ms']:.1f} ms"]
             if version:
-                case["open3d"] = o = bench_open3d(mesh, result, runs)
+                case["open3d"] = o = bench_open3d(mesh, result, runs, builds)
                 said.append(f"Open3D build {o['build_ms']:.0f} ms + {o['frame_ms_threads_auto']:.1f} ms "
                             f"({o['frame_ms_threads_1']:.1f} ms on one thread), "
                             f"{o['agreement']['coverage_mismatch']} pixels differ")
