@@ -88,11 +88,12 @@ ZBUFFER_INLINE void assemble16(const MeshView& mesh, const ScreenVertices& sv, i
   __m512d* z_lo = f.z_lo;
   __m512d* z_hi = f.z_hi;
   __m512i oc[3];
+  const bool all_inside = sv.any_outcode == 0;  // then every outcode is 0: not read
   for (int k = 0; k < 3; ++k) {
     const __m512i idx = corner[k];
     x[k] = _mm512_i32gather_epi32(idx, sv.x_fx.data(), 4);
     y[k] = _mm512_i32gather_epi32(idx, sv.y_fx.data(), 4);
-    oc[k] = _mm512_i32gather_epi32(idx, sv.outcode.data(), 4);
+    oc[k] = all_inside ? _mm512_setzero_si512() : _mm512_i32gather_epi32(idx, sv.outcode.data(), 4);
     z_lo[k] = _mm512_i32gather_pd(_mm512_castsi512_si256(idx), sv.z.data(), 8);
     z_hi[k] = _mm512_i32gather_pd(_mm512_extracti64x4_epi64(idx, 1), sv.z.data(), 8);
   }

@@ -98,11 +98,13 @@ ZBUFFER_INLINE void assemble8(const MeshView& mesh, const ScreenVertices& sv, in
   const __m256i lane3 = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
   const int32_t* fp = mesh.faces + 3 * first;
   __m256i oc[3];
+  const bool all_inside = sv.any_outcode == 0;  // then every outcode is 0: not read
   for (int k = 0; k < 3; ++k) {
     const __m256i idx = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), fp + k, lane3, live, 4);
     f.x[k] = _mm256_i32gather_epi32(sv.x_fx.data(), idx, 4);
     f.y[k] = _mm256_i32gather_epi32(sv.y_fx.data(), idx, 4);
-    oc[k] = _mm256_i32gather_epi32(reinterpret_cast<const int*>(sv.outcode.data()), idx, 4);
+    oc[k] = all_inside ? _mm256_setzero_si256()
+                       : _mm256_i32gather_epi32(reinterpret_cast<const int*>(sv.outcode.data()), idx, 4);
     f.z_lo[k] = _mm256_i32gather_pd(sv.z.data(), _mm256_castsi256_si128(idx), 8);
     f.z_hi[k] = _mm256_i32gather_pd(sv.z.data(), _mm256_extracti128_si256(idx, 1), 8);
   }

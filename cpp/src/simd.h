@@ -23,7 +23,8 @@
 #define ZBUFFER_AVX512 1
 #elif defined(__AVX2__)
 #if defined(__GNUC__) && !defined(__clang__)
-// GCC 12's own avx2intrin.h trips this warning (gathers' _mm256_undefined_*).
+// GCC 12's own avx2intrin.h trips these warnings (gathers' _mm256_undefined_*).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #endif
 #include <immintrin.h>

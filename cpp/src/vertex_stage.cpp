@@ -179,6 +179,10 @@ void transform_vertices(const MeshView& mesh, const double* mvp, const Viewport&
                 &out.z[i]);
 #endif
   for (; i < mesh.n_vertices; ++i) transform_vertex(mesh, mvp, vp, i, out);
+  uint32_t any = 0;
+  const uint32_t* oc = out.outcode.data();
+  for (int64_t v = 0; v < mesh.n_vertices; ++v) any |= oc[v];
+  out.any_outcode = any;
 }
 
 int clip_polygon(ClipVertex* poly, int n, const Viewport& vp) {

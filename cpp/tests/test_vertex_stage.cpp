@@ -146,6 +146,14 @@ void test_transform_vertices_matches_scalar_formulas() {
   CHECK(same);
   CHECK(out.outcode[17] == kOutInvalid);
   CHECK(clipped > 10);
+  // any_outcode is the OR of the outcodes: 0 only when every vertex is inside.
+  uint32_t any = 0;
+  for (int64_t i = 0; i < mesh.n_vertices; ++i) any |= out.outcode[i];
+  CHECK(out.any_outcode == any && (any & kOutInvalid));
+  MeshView inside{pos.data(), 1, nullptr, 0};
+  for (int64_t i = 0; i < mesh.n_vertices && out.outcode[i] != 0; ++i) inside.positions += 3;
+  transform_vertices(inside, m, vp, out);
+  CHECK(out.outcode[0] == 0 && out.any_outcode == 0);
 }
 
 }  // namespace

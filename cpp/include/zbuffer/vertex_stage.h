@@ -36,6 +36,10 @@ struct ScreenVertices {
   std::vector<int32_t> x_fx, y_fx;
   std::vector<uint32_t> outcode;
   std::vector<double> z;
+  // The OR of the outcodes of the vertices last transformed: 0 when every
+  // one lies inside the view volume's guard band, so that no face needs
+  // clipping or frustum culling (assembly then skips reading outcodes).
+  uint32_t any_outcode = ~0u;
 
   // Make room for n vertices. Growing never shrinks, so a buffer reused
   // across frames is allocated once.
