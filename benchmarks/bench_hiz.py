@@ -288,7 +288,7 @@ def main(argv=None) -> int:
                         **built_once(mesh, camera, algo, size, runs)})
         del mesh
 
-    # Single unoccluded meshes: the cost of the hierarchy where it cannot win.
+    # Single meshes: only a mesh's own back is hidden, what the hierarchy costs shows.
     report["unoccluded"] = []
     for name in unoccluded:
         path = MODELS / name

@@ -13,8 +13,9 @@ MEANING = {
     "models": "Every algorithm on each shared model, per frame through `zbuffer.render` "
               "(the tree algorithms build their tree in the call), culling off and on, "
               "measured in interleaved rounds so that the ratios to `zbuffer` compare like "
-              "with like. Single meshes occlude little, so the hierarchical algorithms can "
-              "only lose here: the ratios show what their bookkeeping costs.",
+              "with like. A single mesh hides only its own back: `hiz`, visiting its cells "
+              "nearest first, culls much of that; the tree algorithms, building a tree "
+              "every frame, mostly pay for their bookkeeping here.",
     "render": "The foundation's cases: the plain Z-buffer's frame time on the course size "
               "and its triangle rate on the large scans, shaded frames for reference, the "
               "scanline's and HiZ's time as ratios to the plain Z-buffer in the same run, "
