@@ -38,9 +38,13 @@ struct Buckets {
       std::fill_n(&box[6 * b + 3], 3, uint16_t(0));
     }
     run_ = -1;
+    last_ = -1;
+    in_order_ = true;
   }
   void add(int64_t f, int32_t b, const uint32_t* lo, const uint32_t* hi) {
     of_face[size_t(f)] = b;
+    in_order_ &= b >= last_;
+    last_ = b;
     add_run(b, 1, lo, hi);
   }
 #ifdef ZBUFFER_AVX512
@@ -52,6 +56,10 @@ struct Buckets {
     _mm512_storeu_si512(&of_face[size_t(f)], b);
     alignas(64) int32_t bs[16];
     _mm512_store_si512(bs, b);
+    // In order while no face's bucket is below the one before it.
+    const __m512i before = _mm512_alignr_epi32(b, _mm512_set1_epi32(last_), 15);
+    in_order_ &= _mm512_cmplt_epi32_mask(b, before) == 0;
+    last_ = bs[15];
     for (__mmask16 left = 0xFFFF; left;) {
       const int32_t bucket = bs[__builtin_ctz(left)];
       const __mmask16 same = _mm512_mask_cmpeq_epi32_mask(left, b, _mm512_set1_epi32(bucket));
@@ -65,10 +73,19 @@ struct Buckets {
     }
   }
 #endif
-  // Counts to starts, and the faces (and their ids) into bucket order.
+  // Counts to starts, and the faces (and their ids) into bucket order --
+  // unless they came in that order, with ids: then the tree runs over the
+  // mesh's own arrays.
   void scatter(const MeshView& mesh, ObjectTree& tree) {
     end_run();
     for (size_t b = 1; b < start.size(); ++b) start[b] += start[b - 1];
+    if (in_order_ && mesh.face_ids) {
+      tree.faces.clear();
+      tree.ids.clear();
+      tree.mesh_faces = mesh.faces;
+      tree.mesh_ids = mesh.face_ids;
+      return;
+    }
     thread_local std::vector<int64_t> next;
     next.assign(start.begin(), start.end() - 1);
     tree.faces.resize(3 * size_t(mesh.n_faces));
@@ -126,6 +143,8 @@ struct Buckets {
     run_ = -1;
   }
   int32_t run_ = -1;
+  int32_t last_ = -1;      // the bucket of the latest face
+  bool in_order_ = true;   // the faces so far came in bucket order
   int64_t run_count_ = 0;
   uint32_t run_lo_[3] = {}, run_hi_[3] = {};
 };

@@ -35,6 +35,7 @@ void ObjectTree::clear() {
   n_input_faces = 0;
   mesh_positions = nullptr;
   mesh_vertices = 0;
+  mesh_faces = mesh_ids = nullptr;
 }
 
 // Cluster Construction
@@ -353,8 +354,8 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     mesh.positions = tree.mesh_positions ? tree.mesh_positions
                                          : tree.positions.data() + 3 * cl.vertex_begin;
     mesh.n_vertices = tree.mesh_positions ? tree.mesh_vertices : cl.vertex_end - cl.vertex_begin;
-    mesh.faces = tree.faces.data() + 3 * cl.face_begin;
-    mesh.face_ids = tree.ids.data() + cl.face_begin;
+    mesh.faces = tree.face_rows() + 3 * cl.face_begin;
+    mesh.face_ids = tree.id_rows() + cl.face_begin;
     mesh.n_faces = cl.face_end - cl.face_begin;
     if (tree.shared) {
       // Greene's rule put some faces in several clusters: keep those not

@@ -11,6 +11,7 @@
 #include "zbuffer/algorithms.h"
 #include "zbuffer/bvh.h"
 #include "zbuffer/frame_tree.h"
+#include "zbuffer/mesh_order.h"
 #include "zbuffer/object_tree.h"
 #include "zbuffer/octree.h"
 
@@ -163,11 +164,23 @@ void test_greene_draws_each_face_once() {
 }
 
 // Per-frame trees: indexed clusters over the mesh's own vertices, each face
-// once, bounds containing their triangles, and the plain Z-buffer's bits.
+// once, bounds containing their triangles, and the plain Z-buffer's bits --
+// also for faces passed in spatial order with their ids, where the BVH's
+// clusters are runs of the caller's own arrays.
 void test_frame_trees() {
-  for (int scene = 0; scene < 3; ++scene) {
-    const Soup soup = random_soup(31 + scene, 3000 + 1000 * scene);
-    const MeshView mesh = soup.view();
+  for (int scene = 0; scene < 6; ++scene) {
+    const Soup soup = random_soup(31 + scene / 2, 3000 + 1000 * (scene / 2));
+    MeshView mesh = soup.view();
+    std::vector<int32_t> order(size_t(mesh.n_faces)), sorted, cell_start;
+    std::vector<double> cell_centre;
+    const bool ordered = scene % 2 == 1;
+    if (ordered) {
+      spatial_order(mesh, order.data(), cell_start, cell_centre);
+      for (const int32_t f : order)
+        for (int k = 0; k < 3; ++k) sorted.push_back(soup.faces[size_t(3 * f + k)]);
+      mesh.faces = sorted.data();
+      mesh.face_ids = order.data();
+    }
     RenderInput input;
     input.mesh = mesh;
     // Perspective from z = 3 looking down -z at the soup in [-1, 1]^3.
@@ -194,6 +207,9 @@ void test_frame_trees() {
           build_bvh_for_frame(mesh, p, tree);
         }
         CHECK(tree.mesh_positions == soup.pos.data() && tree.positions.empty());
+        if (ordered && kind == 1)  // the BVH's buckets follow the spatial order
+          CHECK(tree.mesh_faces == mesh.faces && tree.faces.empty() && tree.ids.empty());
+        if (!ordered) CHECK(tree.mesh_faces == nullptr);
         std::vector<int> seen(size_t(mesh.n_faces), 0);
         for (size_t i = 0; i < tree.nodes.size(); ++i) {
           const TreeNode& node = tree.nodes[i];
@@ -204,11 +220,12 @@ void test_frame_trees() {
           if (node.cluster < 0) continue;
           const TriangleCluster& cl = tree.clusters[size_t(node.cluster)];
           for (int64_t r = cl.face_begin; r < cl.face_end; ++r) {
-            const int32_t id = tree.ids[size_t(r)];
+            const int32_t id = tree.id_rows()[r];
             ++seen[size_t(id)];
             for (int k = 0; k < 3; ++k) {
-              CHECK(tree.faces[3 * size_t(r) + k] == soup.faces[3 * size_t(id) + k]);
-              CHECK(inside(&soup.pos[3 * size_t(tree.faces[3 * size_t(r) + k])], node));
+              const int32_t v = tree.face_rows()[3 * r + k];
+              CHECK(v == soup.faces[3 * size_t(id) + k]);
+              CHECK(inside(&soup.pos[3 * size_t(v)], node));
             }
           }
         }
@@ -258,7 +275,7 @@ void test_frame_tree_vector_pass_equals_scalar() {
           CHECK(fast.clusters[c].face_begin == slow.clusters[c].face_begin &&
                 fast.clusters[c].face_end == slow.clusters[c].face_end &&
                 fast.clusters[c].node == slow.clusters[c].node);
-        CHECK(fast.faces == slow.faces && fast.ids == slow.ids);
+        CHECK(fast.faces == slow.faces && fast.ids == slow.ids && fast.mesh_faces == slow.mesh_faces);
       }
 }
 

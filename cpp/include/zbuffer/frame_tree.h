@@ -21,7 +21,10 @@ namespace zbuffer {
 // runs of the mesh's faces over the mesh's own vertices. T grows
 // with the mesh (about leaf_size triangles per occupied cell on a surface),
 // up to 6. Good: two passes over the faces, nothing sorted, no vertex
-// copied. Bad: leaves can only be as fine as depth T
+// copied -- and when the faces already come in bucket order with their ids
+// (the BVH of a mesh in spatial order: Mesh.prepare's order is the same
+// Morton code), no second pass: the clusters are runs of the caller's own
+// arrays (9-13% off the per-frame BVH on the spot grid). Bad: leaves can only be as fine as depth T
 // (a dense cell is one large leaf), and bounds are those of grid cells, up
 // to two cells looser than the triangles'.
 // The face pass (each face's bucket and box) runs 16 faces per instruction

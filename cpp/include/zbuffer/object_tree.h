@@ -49,7 +49,8 @@ struct TriangleCluster {
 // A tree built for one frame (frame_tree.h) is `indexed` instead: its faces
 // keep the mesh's vertex indices, and the traversal transforms all of the
 // mesh's vertices up front (as the plain Z-buffer does), so that building
-// copies nothing but the faces.
+// copies nothing but the faces (and not even those when they came in the
+// tree's order with their ids: a BVH of a mesh in spatial order).
 struct ObjectTree {
   std::vector<TreeNode> nodes;           // nodes[0] is the root (empty mesh: none)
   std::vector<TriangleCluster> clusters;
@@ -65,6 +66,15 @@ struct ObjectTree {
   // caller keeps them alive while rendering); `positions` is then empty.
   const double* mesh_positions = nullptr;
   int64_t mesh_vertices = 0;
+  // Non-null for an indexed tree whose clusters are runs of the mesh's own
+  // face and id arrays, which came in cluster order (a per-frame BVH of a
+  // mesh in spatial order): `faces` and `ids` are then empty.
+  const int32_t* mesh_faces = nullptr;
+  const int32_t* mesh_ids = nullptr;
+
+  // The rows clusters index: faces (3 per row) and ids.
+  const int32_t* face_rows() const { return mesh_faces ? mesh_faces : faces.data(); }
+  const int32_t* id_rows() const { return mesh_faces ? mesh_ids : ids.data(); }
   // id -> cluster (the first one holding it), if ids are the face indices
   // 0 .. n_input_faces - 1; empty otherwise. Temporal coherence needs it.
   std::vector<int32_t> cluster_of_id;
