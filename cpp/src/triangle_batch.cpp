@@ -305,8 +305,11 @@ void TriangleBatch::cull_large() {
   size_t kept = 0;
   for (const TriangleSetup& s : large_) {
     if (s.z_lo > pyramid_->max_over(s.x_min, s.y_min, s.x_max, s.y_max)) {
-      count_hidden(pyramid_->query_level(s.x_min, s.y_min, s.x_max, s.y_max), s.x_min, s.y_min,
-                   s.x_max, s.y_max);
+      // (The level the test read matters only to a cull map.)
+      const int level = pyramid_->recording_culls()
+                            ? pyramid_->query_level(s.x_min, s.y_min, s.x_max, s.y_max)
+                            : 0;
+      count_hidden(level, s.x_min, s.y_min, s.x_max, s.y_max);
       continue;
     }
     large_[kept++] = s;
