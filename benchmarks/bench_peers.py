@@ -283,6 +283,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     runs = args.runs or (2 if args.quick else 5)
     builds = args.builds or (1 if args.quick else 3)
+    if runs < 1 or builds < 1:
+        parser.error("--runs and --builds must be at least 1")
     size = 128 if args.quick else 1024
     try:
         import open3d

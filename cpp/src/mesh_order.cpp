@@ -3,6 +3,8 @@
 #include "zbuffer/mesh_order.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -50,7 +52,10 @@ void near_to_far(const FaceCells& cells, const double* mvp, std::vector<int32_t>
   std::vector<double> z(static_cast<size_t>(cells.n));
   for (int64_t k = 0; k < cells.n; ++k) {
     const double* c = cells.centre + 3 * k;
-    z[size_t(k)] = mvp[8] * c[0] + mvp[9] * c[1] + mvp[10] * c[2] + mvp[11];
+    const double key = mvp[8] * c[0] + mvp[9] * c[1] + mvp[10] * c[2] + mvp[11];
+    // (Finite centres can still sum to NaN, inf - inf: such a cell goes last,
+    // so that the comparison stays a strict weak order.)
+    z[size_t(k)] = std::isnan(key) ? std::numeric_limits<double>::infinity() : key;
   }
   visit.resize(size_t(cells.n));
   std::iota(visit.begin(), visit.end(), 0);

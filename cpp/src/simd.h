@@ -119,9 +119,10 @@ ZBUFFER_INLINE __mmask16 wins16(__mmask16 inside, __m512 z, __m512i id, __m512 o
   return nearer | tie;
 }
 
-// The depth write for up to 16 pixels of a row. Masked loads and stores
-// touch only the lanes in `inside`; the stored ids are read only where the
-// depths tie (rarely): wins16 reads no other lane of them.
+// The depth write for up to 16 pixels of a row (the decision of wins16).
+// Masked loads and stores touch only the lanes in `inside`; the stored ids
+// are read only where the depths tie (rarely), the only lanes where the
+// decision looks at them.
 ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* d_ptr,
                                  int32_t* id_ptr) {
   const __m512 d = _mm512_mask_loadu_ps(_mm512_setzero_ps(), inside, d_ptr);

@@ -245,38 +245,73 @@ void test_frame_trees() {
 }
 
 // The per-frame builders' vector face pass (AVX-512 builds) gives the very
-// tree of the scalar pass: same nodes, bounds, clusters and face order.
+// tree of the scalar pass: same nodes, bounds, clusters and face order --
+// and the same decision whether the faces came in bucket order. Faces are
+// passed as they are, in spatial order with their ids (the per-frame BVH's
+// buckets are then in order: no copy), and in spatial order with the last
+// face moved to the last lane of the first 16, to the second lane of the
+// next 16, or the first face moved to the end (out of order: copied).
 void test_frame_tree_vector_pass_equals_scalar() {
   const Soup soups[] = {random_soup(7, 5001), wavy_sheet(90), wavy_sheet(17)};
   for (const Soup& soup : soups)
-    for (int leaf : {1, 8, 128})
-      for (int kind = 0; kind < 2; ++kind) {
-        ObjectTree fast, slow;
-        if (kind == 0) {
-          OctreeParams p;
-          p.leaf_size = leaf;
-          build_octree_for_frame(soup.view(), p, fast, /*vector=*/true);
-          build_octree_for_frame(soup.view(), p, slow, /*vector=*/false);
-        } else {
-          BvhParams p;
-          p.leaf_size = leaf;
-          build_bvh_for_frame(soup.view(), p, fast, /*vector=*/true);
-          build_bvh_for_frame(soup.view(), p, slow, /*vector=*/false);
-        }
-        CHECK(fast.nodes.size() == slow.nodes.size() && fast.clusters.size() == slow.clusters.size());
-        CHECK(fast.nodes.size() > 1);
-        for (size_t i = 0; i < std::min(fast.nodes.size(), slow.nodes.size()); ++i) {
-          const TreeNode &a = fast.nodes[i], &b = slow.nodes[i];
-          CHECK(a.first_child == b.first_child && a.n_children == b.n_children &&
-                a.cluster == b.cluster && a.depth == b.depth && a.n_triangles == b.n_triangles);
-          CHECK(std::memcmp(a.lo, b.lo, sizeof a.lo) == 0 && std::memcmp(a.hi, b.hi, sizeof a.hi) == 0);
-        }
-        for (size_t c = 0; c < std::min(fast.clusters.size(), slow.clusters.size()); ++c)
-          CHECK(fast.clusters[c].face_begin == slow.clusters[c].face_begin &&
-                fast.clusters[c].face_end == slow.clusters[c].face_end &&
-                fast.clusters[c].node == slow.clusters[c].node);
-        CHECK(fast.faces == slow.faces && fast.ids == slow.ids && fast.mesh_faces == slow.mesh_faces);
+    for (int variant = 0; variant < 5; ++variant) {
+      MeshView mesh = soup.view();
+      const size_t n = size_t(mesh.n_faces);
+      std::vector<int32_t> order(n), sorted, cell_start;
+      std::vector<double> cell_centre;
+      if (variant > 0) {
+        spatial_order(mesh, order.data(), cell_start, cell_centre);
+        if (variant == 2) std::rotate(order.begin() + 15, order.end() - 1, order.end());
+        if (variant == 3) std::rotate(order.begin() + 17, order.end() - 1, order.end());
+        if (variant == 4) std::rotate(order.begin(), order.begin() + 1, order.end());
+        for (const int32_t f : order)
+          for (int k = 0; k < 3; ++k) sorted.push_back(soup.faces[size_t(3 * f + k)]);
+        mesh.faces = sorted.data();
+        mesh.face_ids = order.data();
       }
+      for (int leaf : {1, 8, 128})
+        for (int kind = 0; kind < 2; ++kind) {
+          ObjectTree fast, slow;
+          if (kind == 0) {
+            OctreeParams p;
+            p.leaf_size = leaf;
+            build_octree_for_frame(mesh, p, fast, /*vector=*/true);
+            build_octree_for_frame(mesh, p, slow, /*vector=*/false);
+          } else {
+            BvhParams p;
+            p.leaf_size = leaf;
+            build_bvh_for_frame(mesh, p, fast, /*vector=*/true);
+            build_bvh_for_frame(mesh, p, slow, /*vector=*/false);
+          }
+          CHECK(fast.nodes.size() == slow.nodes.size() && fast.clusters.size() == slow.clusters.size());
+          CHECK(fast.nodes.size() > 1);
+          for (size_t i = 0; i < std::min(fast.nodes.size(), slow.nodes.size()); ++i) {
+            const TreeNode &a = fast.nodes[i], &b = slow.nodes[i];
+            CHECK(a.first_child == b.first_child && a.n_children == b.n_children &&
+                  a.cluster == b.cluster && a.depth == b.depth && a.n_triangles == b.n_triangles);
+            CHECK(std::memcmp(a.lo, b.lo, sizeof a.lo) == 0 && std::memcmp(a.hi, b.hi, sizeof a.hi) == 0);
+          }
+          for (size_t c = 0; c < std::min(fast.clusters.size(), slow.clusters.size()); ++c)
+            CHECK(fast.clusters[c].face_begin == slow.clusters[c].face_begin &&
+                  fast.clusters[c].face_end == slow.clusters[c].face_end &&
+                  fast.clusters[c].node == slow.clusters[c].node);
+          CHECK(fast.faces == slow.faces && fast.ids == slow.ids && fast.mesh_faces == slow.mesh_faces);
+          // In spatial order, the BVH's buckets come in order; out of order,
+          // or without ids, the faces are copied.
+          if (kind == 1 && variant == 1) CHECK(fast.mesh_faces == mesh.faces);
+          if (variant == 0 || variant >= 2) CHECK(fast.mesh_faces == nullptr);
+          // Either way the clusters' rows are the faces they name.
+          std::vector<int> seen(n, 0);
+          for (const TriangleCluster& cl : fast.clusters)
+            for (int64_t r = cl.face_begin; r < cl.face_end; ++r) {
+              const int32_t id = fast.id_rows() ? fast.id_rows()[r] : int32_t(r);
+              ++seen[size_t(id)];
+              for (int k = 0; k < 3; ++k)
+                CHECK(fast.face_rows()[3 * r + k] == soup.faces[3 * size_t(id) + k]);
+            }
+          for (int count : seen) CHECK(count == 1);
+        }
+    }
 }
 
 }  // namespace

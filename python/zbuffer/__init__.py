@@ -12,7 +12,7 @@ side by side, all bit-identical to a pure-numpy reference.
 from . import reference, scenes
 from .api import algorithms, render
 from .camera import Camera
-from .mesh import Mesh, as_mesh, load
+from .mesh import Mesh, Visit, as_mesh, load
 from .result import RenderResult
 from .scene import Scene
 
@@ -23,6 +23,7 @@ __all__ = [
     "Mesh",
     "RenderResult",
     "Scene",
+    "Visit",
     "algorithms",
     "as_mesh",
     "load",

@@ -63,11 +63,14 @@ def render(
     polygon_offsets: Optional[npt.NDArray[np.int64]] = None,
     polygon_indices: Optional[npt.NDArray[np.int32]] = None,
     record_culls: bool = False,
+    cell_start: Optional[npt.NDArray[np.int32]] = None,
+    cell_centre: Optional[npt.NDArray[np.float64]] = None,
 ) -> Tuple[Any, ...]: ...  # (depth, triangle_id, stats[, culls per pyramid level])
 def pyramid_levels(depth: npt.NDArray[np.float32]) -> List[npt.NDArray[np.float32]]: ...
 def spatial_order(
     positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32]
-) -> npt.NDArray[np.int32]: ...
+) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.int32], npt.NDArray[np.float64]]: ...
+# (order, cell_start, cell_centre)
 def shade(
     triangle_id: npt.NDArray[np.int32],
     positions: npt.NDArray[np.float64],

@@ -79,7 +79,8 @@ struct ObjectTree {
   // 0 .. n_input_faces - 1; empty otherwise. Temporal coherence needs it.
   std::vector<int32_t> cluster_of_id;
 
-  // Bytes held by the tree.
+  // Bytes held by the tree (not the caller's arrays an indexed tree runs
+  // over: mesh_positions, mesh_faces, mesh_ids).
   int64_t memory_bytes() const;
 
   // Empty the tree, keeping its memory for the next build.
