@@ -24,6 +24,19 @@ namespace zbuffer_py {
 
 namespace {
 
+// The number of runs an array of run boundaries describes: its n + 1
+// entries must run from 0 to `end` (ValueError naming `what` and `end_name`
+// otherwise). Whether the runs are well formed is the caller's to check.
+template <class T>
+int64_t run_count(const py::array_t<T>& start, int64_t end, const std::string& what,
+                  const std::string& end_name) {
+  const int64_t n = start.shape(0) - 1;
+  if (n < 0) throw py::value_error(what + " must not be empty");
+  if (start.data()[0] != 0 || start.data()[n] != end)
+    throw py::value_error(what + " must run from 0 to " + end_name);
+  return n;
+}
+
 // Checks polygon faces (GIL held): offsets from 0 to the number of indices,
 // at least 3 corners each, indices in range, and as many triangles in the
 // triangulation as the polygons have (size - 2 each).
@@ -33,10 +46,8 @@ zbuffer::PolygonView polygon_view(const py::array_t<int64_t>& offsets,
   zbuffer::PolygonView polys;
   polys.offsets = offsets.data();
   polys.indices = indices.data();
-  polys.n_polygons = offsets.shape(0) - 1;
-  if (polys.n_polygons < 0) throw py::value_error("polygon_offsets must not be empty");
-  if (polys.offsets[0] != 0 || polys.offsets[polys.n_polygons] != indices.shape(0))
-    throw py::value_error("polygon_offsets must run from 0 to len(polygon_indices)");
+  polys.n_polygons =
+      run_count(offsets, indices.shape(0), "polygon_offsets", "len(polygon_indices)");
   int64_t triangles = 0;
   for (int64_t p = 0; p < polys.n_polygons; ++p) {
     const int64_t n = polys.offsets[p + 1] - polys.offsets[p];
@@ -64,13 +75,10 @@ zbuffer::FaceCells face_cells(const py::array_t<int32_t>& start, const py::array
   zbuffer::FaceCells cells;
   cells.start = start.data();
   cells.centre = centre.data();
-  cells.n = start.shape(0) - 1;
-  if (cells.n < 0) throw py::value_error("cell_start must not be empty");
+  cells.n = run_count(start, mesh.n_faces, "cell_start", "the number of faces");
   if (centre.shape(0) != cells.n)
     throw py::value_error("cell_centre must have one row per cell (" + std::to_string(cells.n) +
                           "), got " + std::to_string(centre.shape(0)));
-  if (cells.start[0] != 0 || cells.start[cells.n] != mesh.n_faces)
-    throw py::value_error("cell_start must run from 0 to the number of faces");
   for (int64_t k = 0; k < cells.n; ++k)
     if (cells.start[k + 1] <= cells.start[k])
       throw py::value_error("cell_start must increase, got " + std::to_string(cells.start[k]) +

@@ -79,7 +79,8 @@ def test_cache_friendly_visiting_order_changes_no_bit(algo):
     first = zbuffer.render(mesh, algo=algo, camera=cam, width=100, height=80, shading="none")
     assert mesh._visit is None
     mesh.prepare()
-    faces, ids = mesh.faces_for_render()[:2]
+    visit = mesh.faces_for_render()
+    faces, ids = visit.faces, visit.ids
     assert ids is not None and not np.array_equal(ids, np.arange(len(ids)))
     assert np.array_equal(np.sort(ids), np.arange(len(ids)))  # a permutation
     np.testing.assert_array_equal(faces, mesh.faces[ids])

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "check.h"
+#include "spatial.h"
 #include "zbuffer/algorithms.h"
 #include "zbuffer/mesh_order.h"
 #include "zbuffer/triangle_batch.h"
@@ -75,21 +76,16 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
     // Faces in spatial order, visited cell by cell nearest first (the
     // image-space algorithms with a pyramid): the same bits, the same ids.
     {
-      std::vector<int32_t> order(faces.size() / 3), cell_start, sorted;
-      std::vector<double> centre;
-      spatial_order(input.mesh, order.data(), cell_start, centre);
-      for (const int32_t f : order)
-        for (int k = 0; k < 3; ++k) sorted.push_back(faces[size_t(3 * f + k)]);
+      const SpatialMesh spatial(input.mesh);
       RenderInput cells = input;
-      cells.mesh.faces = sorted.data();
-      cells.mesh.face_ids = order.data();
-      cells.cells = {cell_start.data(), centre.data(), int64_t(centre.size() / 3)};
-      CHECK(cells.cells.n > 8 && cell_start.back() == int32_t(order.size()));
+      cells.mesh = spatial.view();
+      cells.cells = spatial.cells();
+      CHECK(cells.cells.n > 8 && spatial.cell_start.back() == int32_t(spatial.order.size()));
       std::vector<int32_t> visit;
       near_to_far(cells.cells, mvp, visit);
       CHECK(int64_t(visit.size()) == cells.cells.n);
       auto clip_z = [&](int32_t k) {
-        const double* c = centre.data() + 3 * k;
+        const double* c = spatial.cell_centre.data() + 3 * k;
         return mvp[8] * c[0] + mvp[9] * c[1] + mvp[10] * c[2] + mvp[11];
       };
       for (size_t k = 1; k < visit.size(); ++k) CHECK(clip_z(visit[k - 1]) <= clip_z(visit[k]));

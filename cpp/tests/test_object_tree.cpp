@@ -8,10 +8,10 @@
 #include <vector>
 
 #include "check.h"
+#include "spatial.h"
 #include "zbuffer/algorithms.h"
 #include "zbuffer/bvh.h"
 #include "zbuffer/frame_tree.h"
-#include "zbuffer/mesh_order.h"
 #include "zbuffer/object_tree.h"
 #include "zbuffer/octree.h"
 
@@ -170,17 +170,9 @@ void test_greene_draws_each_face_once() {
 void test_frame_trees() {
   for (int scene = 0; scene < 6; ++scene) {
     const Soup soup = random_soup(31 + scene / 2, 3000 + 1000 * (scene / 2));
-    MeshView mesh = soup.view();
-    std::vector<int32_t> order(size_t(mesh.n_faces)), sorted, cell_start;
-    std::vector<double> cell_centre;
+    const SpatialMesh spatial(soup.view());
     const bool ordered = scene % 2 == 1;
-    if (ordered) {
-      spatial_order(mesh, order.data(), cell_start, cell_centre);
-      for (const int32_t f : order)
-        for (int k = 0; k < 3; ++k) sorted.push_back(soup.faces[size_t(3 * f + k)]);
-      mesh.faces = sorted.data();
-      mesh.face_ids = order.data();
-    }
+    const MeshView mesh = ordered ? spatial.view() : soup.view();
     RenderInput input;
     input.mesh = mesh;
     // Perspective from z = 3 looking down -z at the soup in [-1, 1]^3.
@@ -255,20 +247,14 @@ void test_frame_tree_vector_pass_equals_scalar() {
   const Soup soups[] = {random_soup(7, 5001), wavy_sheet(90), wavy_sheet(17)};
   for (const Soup& soup : soups)
     for (int variant = 0; variant < 5; ++variant) {
-      MeshView mesh = soup.view();
+      SpatialMesh spatial(soup.view());
+      std::vector<int32_t>& order = spatial.order;
+      if (variant == 2) std::rotate(order.begin() + 15, order.end() - 1, order.end());
+      if (variant == 3) std::rotate(order.begin() + 17, order.end() - 1, order.end());
+      if (variant == 4) std::rotate(order.begin(), order.begin() + 1, order.end());
+      spatial.relist();
+      const MeshView mesh = variant > 0 ? spatial.view() : soup.view();
       const size_t n = size_t(mesh.n_faces);
-      std::vector<int32_t> order(n), sorted, cell_start;
-      std::vector<double> cell_centre;
-      if (variant > 0) {
-        spatial_order(mesh, order.data(), cell_start, cell_centre);
-        if (variant == 2) std::rotate(order.begin() + 15, order.end() - 1, order.end());
-        if (variant == 3) std::rotate(order.begin() + 17, order.end() - 1, order.end());
-        if (variant == 4) std::rotate(order.begin(), order.begin() + 1, order.end());
-        for (const int32_t f : order)
-          for (int k = 0; k < 3; ++k) sorted.push_back(soup.faces[size_t(3 * f + k)]);
-        mesh.faces = sorted.data();
-        mesh.face_ids = order.data();
-      }
       for (int leaf : {1, 8, 128})
         for (int kind = 0; kind < 2; ++kind) {
           ObjectTree fast, slow;
@@ -304,7 +290,7 @@ void test_frame_tree_vector_pass_equals_scalar() {
           std::vector<int> seen(n, 0);
           for (const TriangleCluster& cl : fast.clusters)
             for (int64_t r = cl.face_begin; r < cl.face_end; ++r) {
-              const int32_t id = fast.id_rows() ? fast.id_rows()[r] : int32_t(r);
+              const int32_t id = fast.id_rows()[r];
               ++seen[size_t(id)];
               for (int k = 0; k < 3; ++k)
                 CHECK(fast.face_rows()[3 * r + k] == soup.faces[3 * size_t(id) + k]);

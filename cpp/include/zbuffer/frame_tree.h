@@ -24,9 +24,9 @@ namespace zbuffer {
 // copied -- and when the faces already come in bucket order with their ids
 // (the BVH of a mesh in spatial order: Mesh.prepare's order is the same
 // Morton code), no second pass: the clusters are runs of the caller's own
-// arrays (9-13% off the per-frame BVH on the spot grid). Bad: leaves can only be as fine as depth T
-// (a dense cell is one large leaf), and bounds are those of grid cells, up
-// to two cells looser than the triangles'.
+// arrays (9-13% off the per-frame BVH on the spot grid). Bad: leaves can
+// only be as fine as depth T (a dense cell is one large leaf), and bounds
+// are those of grid cells, up to two cells looser than the triangles'.
 // The face pass (each face's bucket and box) runs 16 faces per instruction
 // in AVX-512 builds; `vector = false` runs the scalar pass instead (tests
 // hold the two to the same tree).
