@@ -8,6 +8,10 @@
 #include <stdexcept>
 #include <utility>
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 #include "zbuffer/algorithms.h"
 #include "zbuffer/triangle_batch.h"
 #include "zbuffer/vertex_stage.h"
@@ -40,7 +44,26 @@ void ObjectTree::clear() {
 
 // Cluster Construction
 
+void advise_huge_pages(const void* p, size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr uintptr_t kHuge = uintptr_t(1) << 21;
+  const uintptr_t b = (reinterpret_cast<uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
+  const uintptr_t e = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(kHuge - 1);
+  if (e > b) madvise(reinterpret_cast<void*>(b), e - b, MADV_HUGEPAGE);  // a hint: failure is harmless
+#else
+  (void)p, (void)bytes;
+#endif
+}
+
 namespace {
+constexpr int64_t kFetchAhead = 8;
+inline void prefetch(const void* p) {
+#if defined(__GNUC__)
+  __builtin_prefetch(p);
+#else
+  (void)p;
+#endif
+}
 std::vector<int32_t>& scratch(int k) {
   thread_local std::vector<int32_t> v[3];
   return v[k];
@@ -54,11 +77,16 @@ ClusterBuilder::ClusterBuilder(const MeshView& mesh, ObjectTree& tree)
   vertex_local_.resize(size_t(mesh.n_vertices));
   tree_.n_input_faces = mesh.n_faces;
   if (tree_.shared) face_mark_.assign(size_t(mesh.n_faces), -1);
-  tree_.faces.reserve(3 * size_t(mesh.n_faces));
-  tree_.ids.reserve(size_t(mesh.n_faces));
   // Room for every face's three vertices (no cluster can copy more), so
-  // that the copies never move; only the pages written are ever mapped.
-  tree_.positions.reserve(9 * size_t(mesh.n_faces) * (tree_.shared ? 2 : 1));
+  // that the copies never move; only the pages written are ever mapped,
+  // and those of a large tree in huge pages (a fresh tree faults in
+  // hundreds of MB: 20% of a Scene build of 11.7 million triangles in 4 KiB
+  // pages).
+  const size_t references = size_t(mesh.n_faces) * (tree_.shared ? 2 : 1);
+  reserve_huge(tree_.faces, 3 * references);
+  reserve_huge(tree_.ids, references);
+  reserve_huge(tree_.positions, 9 * references);
+  if (tree_.shared) reserve_huge(tree_.source, references);
 }
 
 void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
@@ -67,34 +95,66 @@ void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
   cluster.node = node;
   cluster.face_begin = int64_t(tree_.ids.size());
   cluster.vertex_begin = int64_t(tree_.positions.size() / 3);
+  // Room for n faces and 3 n vertices, written through pointers, then cut
+  // to what was written (buffer.h).
+  const size_t f0 = tree_.ids.size(), p0 = tree_.positions.size();
+  tree_.ids.resize(f0 + size_t(n));
+  tree_.faces.resize(3 * (f0 + size_t(n)));
+  tree_.positions.resize(p0 + 9 * size_t(n));
+  if (tree_.shared) tree_.source.resize(f0 + size_t(n));
+  int32_t* out_ids = tree_.ids.data() + f0;
+  int32_t* out_faces = tree_.faces.data() + 3 * f0;
+  int32_t* out_source = tree_.shared ? tree_.source.data() + f0 : nullptr;
+  double* out_positions = tree_.positions.data() + p0;
+  int32_t* const mark = vertex_mark_.data();
+  int32_t* const local_of = vertex_local_.data();
+  int32_t* const face_mark = face_mark_.data();
   double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
                   std::numeric_limits<double>::infinity()};
   double hi[3] = {-lo[0], -lo[1], -lo[2]};
+  const int32_t* const mesh_faces = mesh_.faces;
+  const double* const mesh_positions = mesh_.positions;
   int32_t local = 0;
+  int64_t kept = 0;
   for (int64_t r = 0; r < n; ++r) {
     const int32_t f = face[r];
-    if (tree_.shared) {  // the same face reached through two cells of one leaf
-      if (face_mark_[f] == c) continue;
-      face_mark_[f] = c;
-      tree_.source.push_back(f);
+    // The faces come in tree order, scattered over the mesh: fetch ahead.
+    if (r + 2 * kFetchAhead < n) prefetch(mesh_faces + 3 * int64_t(face[r + 2 * kFetchAhead]));
+    if (r + kFetchAhead < n) {
+      const int32_t* ahead = mesh_faces + 3 * int64_t(face[r + kFetchAhead]);
+      for (int k = 0; k < 3; ++k) {
+        prefetch(mark + ahead[k]);
+        prefetch(mesh_positions + 3 * int64_t(ahead[k]));
+      }
     }
-    const int32_t* idx = mesh_.faces + 3 * int64_t(f);
+    if (out_source) {  // the same face reached through two cells of one leaf
+      if (face_mark[f] == c) continue;
+      face_mark[f] = c;
+      out_source[kept] = f;
+    }
+    const int32_t* idx = mesh_faces + 3 * int64_t(f);
     for (int k = 0; k < 3; ++k) {
       const int32_t v = idx[k];
-      if (vertex_mark_[v] != c) {  // first use of v in this cluster: copy it
-        vertex_mark_[v] = c;
-        vertex_local_[v] = local++;
-        const double* p = mesh_.positions + 3 * int64_t(v);
+      if (mark[v] != c) {  // first use of v in this cluster: copy it
+        mark[v] = c;
+        local_of[v] = local;
+        const double* p = mesh_positions + 3 * int64_t(v);
         for (int a = 0; a < 3; ++a) {
-          tree_.positions.push_back(p[a]);
+          out_positions[3 * local + a] = p[a];
           lo[a] = std::min(lo[a], p[a]);
           hi[a] = std::max(hi[a], p[a]);
         }
+        ++local;
       }
-      tree_.faces.push_back(vertex_local_[v]);
+      out_faces[3 * kept + k] = local_of[v];
     }
-    tree_.ids.push_back(mesh_.id(f));
+    out_ids[kept] = mesh_.id(f);
+    ++kept;
   }
+  tree_.ids.resize(f0 + size_t(kept));
+  tree_.faces.resize(3 * (f0 + size_t(kept)));
+  tree_.positions.resize(p0 + 3 * size_t(local));
+  if (tree_.shared) tree_.source.resize(f0 + size_t(kept));
   cluster.face_end = int64_t(tree_.ids.size());
   cluster.vertex_end = int64_t(tree_.positions.size() / 3);
   tree_.clusters.push_back(cluster);
@@ -110,6 +170,7 @@ void ClusterBuilder::finish() {
   // id -> cluster, when ids are the face indices (then temporal coherence
   // can map the pixels of a frame back to clusters).
   if (mesh_.face_ids) return;
+  reserve_huge(tree_.cluster_of_id, size_t(mesh_.n_faces));
   tree_.cluster_of_id.assign(size_t(mesh_.n_faces), -1);
   for (size_t c = 0; c < tree_.clusters.size(); ++c) {
     const TriangleCluster& cl = tree_.clusters[c];

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "zbuffer/buffer.h"
 #include "zbuffer/types.h"
 
 namespace zbuffer {
@@ -54,10 +55,11 @@ struct TriangleCluster {
 struct ObjectTree {
   std::vector<TreeNode> nodes;           // nodes[0] is the root (empty mesh: none)
   std::vector<TriangleCluster> clusters;
-  std::vector<double> positions;         // (vertices, 3) cluster-local copies
-  std::vector<int32_t> faces;            // (references, 3) local vertex indices
-  std::vector<int32_t> ids;              // (references,) triangle id reported
-  std::vector<int32_t> source;           // (references,) input face index (shared only)
+  // (Buffers: grown without zeroing, then written once; buffer.h.)
+  Buffer<double> positions;              // (vertices, 3) cluster-local copies
+  Buffer<int32_t> faces;                 // (references, 3) local vertex indices
+  Buffer<int32_t> ids;                   // (references,) triangle id reported
+  Buffer<int32_t> source;                // (references,) input face index (shared only)
   int64_t n_input_faces = 0;
   // True when one face may be referenced by several clusters (Greene's rule
   // for the octree); the traversal then draws each face at most once.
@@ -77,7 +79,7 @@ struct ObjectTree {
   const int32_t* id_rows() const { return mesh_faces ? mesh_ids : ids.data(); }
   // id -> cluster (the first one holding it), if ids are the face indices
   // 0 .. n_input_faces - 1; empty otherwise. Temporal coherence needs it.
-  std::vector<int32_t> cluster_of_id;
+  Buffer<int32_t> cluster_of_id;
 
   // Bytes held by the tree (not the caller's arrays an indexed tree runs
   // over: mesh_positions, mesh_faces, mesh_ids).
