@@ -425,7 +425,7 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
   if (p.large >= 0) {  // rare: a triangle too big for int32 edge values
     if (lo <= hi) {
       RenderStats s;
-      rasterize_span(large_[size_t(p.large)], y, lo, hi, row_depth_, row_ids_, s);
+      rasterize_span(large_[size_t(p.large)], y, lo, hi, depth_row_.data(), id_row_.data(), s);
       counts.tested += s.pixels_tested;
       counts.covered += s.pixels_covered;
       counts.written += s.pixels_written;
@@ -447,8 +447,8 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
   const simd::DepthPlane16 plane(p.z0, p.a1, p.a2, p.z_lo, p.z_hi);
   const __m512i id = _mm512_set1_epi32(p.id);
   const __m512i bias1 = _mm512_set1_epi32(p.bias1), bias2 = _mm512_set1_epi32(p.bias2);
-  float* d = row_depth_ + lo;
-  int32_t* ids = row_ids_ + lo;
+  float* d = depth_row_.data() + lo;
+  int32_t* ids = id_row_.data() + lo;
   __mmask16 win;
   __mmask16 inside = simd::span16(__mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width, 16)))),
                                   w[0], w[1], w[2], bias1, bias2, plane, id, d, ids, win);
@@ -473,8 +473,8 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
   int32_t w[3];
   for (int k = 0; k < 3; ++k)
     w[k] = int32_t(uint32_t(p.w[k]) + dx * uint32_t(p.step_x[k]) + dy * uint32_t(p.step_y[k]));
-  float* const depth = row_depth_;
-  int32_t* const ids = row_ids_;
+  float* const depth = depth_row_.data();
+  int32_t* const ids = id_row_.data();
   int64_t covered = 0, written = 0;
   for (int x = lo; x <= hi; ++x) {
     if ((w[0] | w[1] | w[2]) >= 0) {  // all biased edge values >= 0: inside
@@ -558,7 +558,8 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
 // Draw row y of every polygon in the vector active list (their bounds
 // narrowed by the active edges), reset their bounds, step their edge values
 // to the next row and drop those that end here.
-void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans) {
+void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& touched_lo,
+                                 int& touched_hi) {
 #ifdef ZBUFFER_AVX512
   // Spans up to this long are drawn a pixel per lane; longer ones (rare in
   // a detailed mesh) one span at a time, 16 pixels per pass.
@@ -577,6 +578,7 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans) {
   int32_t* bounds = bounds_.data();
   const size_t n = n_active_;
   size_t kept = 0;
+  __m512i lo_min = _mm512_set1_epi32(width_), hi_max = _mm512_set1_epi32(-1);
   for (size_t i = 0; i < n; i += 16) {
     const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min<size_t>(n - i, 16))));
     __m512i f[kActiveFields];
@@ -605,6 +607,8 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans) {
     const __mmask16 drawn = _mm512_mask_cmpgt_epi32_mask(live, width, _mm512_setzero_si512());
     spans += __builtin_popcount(drawn);
     counts.tested += _mm512_mask_reduce_add_epi32(drawn, width);
+    lo_min = _mm512_mask_min_epi32(lo_min, drawn, lo_min, lo);
+    hi_max = _mm512_mask_max_epi32(hi_max, drawn, hi_max, hi);
 
     // Short spans a pixel per lane: lane k draws pixel lo_k + j in pass j.
     // Lanes starting at one column would write one pixel in one scatter:
@@ -633,7 +637,7 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans) {
         const __m512 z =
             simd::depth16(plane, _mm512_add_epi32(w1, f[kBias1]), _mm512_add_epi32(w2, f[kBias2]));
         const __mmask16 win =
-            simd::write16_at(inside, z, f[kId], x, row_depth_, row_ids_);
+            simd::write16_at(inside, z, f[kId], x, depth_row_.data(), id_row_.data());
         covered += __builtin_popcount(inside);
         written += __builtin_popcount(win);
         w0 = _mm512_add_epi32(w0, f[kSx0]);
@@ -673,8 +677,12 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans) {
     kept += size_t(__builtin_popcount(keep));
   }
   n_active_ = kept;
+  if (n > 0) {
+    touched_lo = std::min(touched_lo, _mm512_reduce_min_epi32(lo_min));
+    touched_hi = std::max(touched_hi, _mm512_reduce_max_epi32(hi_max));
+  }
 #else
-  (void)y, (void)counts, (void)spans;
+  (void)y, (void)counts, (void)spans, (void)touched_lo, (void)touched_hi;
 #endif
 }
 
@@ -855,6 +863,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   n_aedges_ = 0;
   active_polys_.clear();
   active_edges_.clear();
+  depth_row_.assign(size_t(width), std::numeric_limits<float>::infinity());
+  id_row_.assign(size_t(width), -1);
   stats.depth_storage_bytes = int64_t(width) * int64_t(sizeof(float));
   Counts counts;
 
@@ -887,9 +897,7 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     stats.active_polygons_max = std::max(stats.active_polygons_max, n_polys);
     stats.active_edges_max = std::max(stats.active_edges_max, n_edges);
     if (n_polys == 0) continue;
-    // The image's own row, cleared with the image: nothing to copy out.
-    row_depth_ = target.depth + size_t(y) * size_t(width);
-    row_ids_ = target.triangle_id + size_t(y) * size_t(width);
+    int touched_lo = width, touched_hi = -1;
 
     // General polygons: the crossings of their active edges, sorted by
     // polygon then x and paired (even-odd): each pair [x_a, x_b) is a span
@@ -914,11 +922,13 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
         const int hi = int(std::min<int64_t>(x_b - 1, width - 1));
         if (lo > hi) continue;
         RenderStats s;
-        rasterize_span_covered(plane, y, lo, hi, row_depth_, row_ids_, s);
+        rasterize_span_covered(plane, y, lo, hi, depth_row_.data(), id_row_.data(), s);
         counts.tested += s.pixels_tested;
         counts.covered += s.pixels_covered;
         counts.written += s.pixels_written;
         ++stats.spans_drawn;
+        touched_lo = std::min(touched_lo, lo);
+        touched_hi = std::max(touched_hi, hi);
       }
       size_t kept_polys = 0;
       for (int32_t g : active_gpolys_)
@@ -959,7 +969,7 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
 
     // Active polygons: draw their spans into the row, drop those that end
     // here: the vector list, then the large ones (branch-free, likewise)
-    draw_active(y, counts, stats.spans_drawn);
+    draw_active(y, counts, stats.spans_drawn, touched_lo, touched_hi);
     kept = 0;
     for (size_t i = 0; i < active_polys_.size(); ++i) {
       const int32_t p = active_polys_[i];
@@ -968,6 +978,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
       draw_span(poly, y, lo, hi, counts);
       const bool drawn = lo <= hi;
       stats.spans_drawn += drawn;
+      touched_lo = std::min(touched_lo, drawn ? lo : width);
+      touched_hi = std::max(touched_hi, drawn ? hi : -1);
       bounds_[2 * size_t(p)] = poly.x_min;
       bounds_[2 * size_t(p) + 1] = -poly.x_max;
       active_polys_[kept] = p;
@@ -975,6 +987,15 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     }
     active_polys_.resize(kept);
 
+    // The finished row into the image; the row buffer cleared behind it
+    if (touched_lo <= touched_hi) {
+      const size_t n = size_t(touched_hi - touched_lo + 1);
+      const size_t base = size_t(y) * size_t(width) + size_t(touched_lo);
+      std::memcpy(target.depth + base, depth_row_.data() + touched_lo, n * sizeof(float));
+      std::memcpy(target.triangle_id + base, id_row_.data() + touched_lo, n * sizeof(int32_t));
+      std::fill_n(depth_row_.data() + touched_lo, n, std::numeric_limits<float>::infinity());
+      std::fill_n(id_row_.data() + touched_lo, n, int32_t(-1));
+    }
   }
   stats.pixels_tested += counts.tested;
   stats.pixels_covered += counts.covered;
