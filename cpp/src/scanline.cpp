@@ -42,6 +42,34 @@ inline void floor_divmod(int64_t n, int64_t d, int64_t& q, int64_t& r) {
   }
 }
 
+#ifdef ZBUFFER_AVX512
+// Transposes a 16 x 16 matrix of int32 held as 16 rows: afterwards r[j]
+// holds what was column j (element k of r[j] = old element j of r[k]).
+inline void transpose16(__m512i* r) {
+  __m512i a[16], b[16];
+  for (int k = 0; k < 8; ++k) {  // pairs of rows, 32-bit interleave within 128-bit lanes
+    a[2 * k] = _mm512_unpacklo_epi32(r[2 * k], r[2 * k + 1]);
+    a[2 * k + 1] = _mm512_unpackhi_epi32(r[2 * k], r[2 * k + 1]);
+  }
+  for (int m = 0; m < 4; ++m) {  // b[4 m + c], lane L: column 4 L + c of rows 4 m .. 4 m + 3
+    b[4 * m] = _mm512_unpacklo_epi64(a[4 * m], a[4 * m + 2]);
+    b[4 * m + 1] = _mm512_unpackhi_epi64(a[4 * m], a[4 * m + 2]);
+    b[4 * m + 2] = _mm512_unpacklo_epi64(a[4 * m + 1], a[4 * m + 3]);
+    b[4 * m + 3] = _mm512_unpackhi_epi64(a[4 * m + 1], a[4 * m + 3]);
+  }
+  for (int c = 0; c < 4; ++c) {  // 4 x 4 transpose of 128-bit lanes
+    const __m512i s0 = _mm512_shuffle_i32x4(b[c], b[4 + c], _MM_SHUFFLE(1, 0, 1, 0));
+    const __m512i s1 = _mm512_shuffle_i32x4(b[c], b[4 + c], _MM_SHUFFLE(3, 2, 3, 2));
+    const __m512i s2 = _mm512_shuffle_i32x4(b[8 + c], b[12 + c], _MM_SHUFFLE(1, 0, 1, 0));
+    const __m512i s3 = _mm512_shuffle_i32x4(b[8 + c], b[12 + c], _MM_SHUFFLE(3, 2, 3, 2));
+    r[c] = _mm512_shuffle_i32x4(s0, s2, _MM_SHUFFLE(2, 0, 2, 0));
+    r[4 + c] = _mm512_shuffle_i32x4(s0, s2, _MM_SHUFFLE(3, 1, 3, 1));
+    r[8 + c] = _mm512_shuffle_i32x4(s1, s3, _MM_SHUFFLE(2, 0, 2, 0));
+    r[12 + c] = _mm512_shuffle_i32x4(s1, s3, _MM_SHUFFLE(3, 1, 3, 1));
+  }
+}
+#endif
+
 // Stable counting sort by row: fills start[0 .. height] with bucket offsets
 // and position[i] with item i's place in the sorted order.
 void bucket_by_row(const std::vector<int32_t>& row, int height, std::vector<int32_t>& start,
@@ -498,49 +526,58 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 
 // Polygon table entries [begin, end), those entering at the current row:
 // their span bounds start as their boxes; those in the int32 form are copied into the vector
-// active list, 16 records gathered at a time, the others listed in
+// active list, 16 records loaded and transposed at a time, the others listed in
 // active_polys_.
 void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
 #ifdef ZBUFFER_AVX512
   const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
-  // The record's int32 fields in the order of the active list's fields.
+  // A record is 22 int32 fields; 16 records are loaded whole (their first
+  // 16 fields, then the other 6) and transposed into a field per register.
+  static_assert(sizeof(ScanPolygon) == 22 * 4, "ScanPolygon: 22 int32 fields");
+  constexpr int kRecord = int(sizeof(ScanPolygon) / 4);
+  constexpr auto field = [](size_t offset) { return int(offset / 4); };
+  // The record's fields in the order of the active list's fields (kIndex:
+  // the store index itself).
   static constexpr int kFrom[kActiveFields] = {
-      -1,  // kIndex: the store index itself
-      int(offsetof(ScanPolygon, x_min) / 4), int(offsetof(ScanPolygon, x_max) / 4),
-      int(offsetof(ScanPolygon, y_max) / 4), int(offsetof(ScanPolygon, w) / 4),
-      int(offsetof(ScanPolygon, w) / 4) + 1, int(offsetof(ScanPolygon, w) / 4) + 2,
-      int(offsetof(ScanPolygon, step_x) / 4), int(offsetof(ScanPolygon, step_x) / 4) + 1,
-      int(offsetof(ScanPolygon, step_x) / 4) + 2, int(offsetof(ScanPolygon, step_y) / 4),
-      int(offsetof(ScanPolygon, step_y) / 4) + 1, int(offsetof(ScanPolygon, step_y) / 4) + 2,
-      int(offsetof(ScanPolygon, bias1) / 4), int(offsetof(ScanPolygon, bias2) / 4),
-      int(offsetof(ScanPolygon, z0) / 4), int(offsetof(ScanPolygon, a1) / 4),
-      int(offsetof(ScanPolygon, a2) / 4), int(offsetof(ScanPolygon, z_lo) / 4),
-      int(offsetof(ScanPolygon, z_hi) / 4), int(offsetof(ScanPolygon, id) / 4)};
+      -1, field(offsetof(ScanPolygon, x_min)), field(offsetof(ScanPolygon, x_max)),
+      field(offsetof(ScanPolygon, y_max)), field(offsetof(ScanPolygon, w)),
+      field(offsetof(ScanPolygon, w)) + 1, field(offsetof(ScanPolygon, w)) + 2,
+      field(offsetof(ScanPolygon, step_x)), field(offsetof(ScanPolygon, step_x)) + 1,
+      field(offsetof(ScanPolygon, step_x)) + 2, field(offsetof(ScanPolygon, step_y)),
+      field(offsetof(ScanPolygon, step_y)) + 1, field(offsetof(ScanPolygon, step_y)) + 2,
+      field(offsetof(ScanPolygon, bias1)), field(offsetof(ScanPolygon, bias2)),
+      field(offsetof(ScanPolygon, z0)), field(offsetof(ScanPolygon, a1)),
+      field(offsetof(ScanPolygon, a2)), field(offsetof(ScanPolygon, z_lo)),
+      field(offsetof(ScanPolygon, z_hi)), field(offsetof(ScanPolygon, id))};
+  const int kLarge = field(offsetof(ScanPolygon, large));
   const __m512i zero = _mm512_setzero_si512();
   int32_t* bounds = bounds_.data();
   for (int32_t i = begin; i < end; i += 16) {
-    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(end - i, 16))));
-    const __m512i p = _mm512_maskz_loadu_epi32(live, poly_table_.data() + i);
-    const __m512i rec = _mm512_mullo_epi32(p, _mm512_set1_epi32(22));
-    auto gather = [&](__mmask16 m, int off) {
-      return _mm512_mask_i32gather_epi32(zero, m, _mm512_add_epi32(rec, _mm512_set1_epi32(off)),
-                                         recs, 4);
-    };
-    const __m512i x_min = gather(live, kFrom[kXMin]), x_max = gather(live, kFrom[kXMax]);
+    const int count = std::min(end - i, 16);
+    const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(count)));
+    // Lanes past the end load the first lane's record (and are not kept).
+    const __m512i p = _mm512_mask_loadu_epi32(_mm512_set1_epi32(poly_table_[size_t(i)]), live,
+                                              poly_table_.data() + i);
+    alignas(64) int32_t idx[16];
+    _mm512_store_si512(idx, p);
+    __m512i f[32];  // fields 0-15 of the 16 records, then fields 16-21 (and zeros)
+    for (int k = 0; k < 16; ++k) {
+      const int32_t* rec = recs + size_t(idx[k]) * kRecord;
+      f[k] = _mm512_loadu_si512(rec);
+      f[16 + k] = _mm512_maskz_loadu_epi32(__mmask16((1u << (kRecord - 16)) - 1), rec + 16);
+    }
+    transpose16(f);
+    transpose16(f + 16);
+    const __m512i x_min = f[kFrom[kXMin]], x_max = f[kFrom[kXMax]];
     const __m512i slot = _mm512_add_epi32(p, p);
     _mm512_mask_i32scatter_epi32(bounds, live, slot, x_min, 4);
     _mm512_mask_i32scatter_epi32(bounds, live, _mm512_add_epi32(slot, _mm512_set1_epi32(1)),
                                  _mm512_sub_epi32(zero, x_max), 4);
-    const __m512i large = gather(live, int(offsetof(ScanPolygon, large) / 4));
-    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, large, zero);
-    if (vec != live) {
-      alignas(64) int32_t idx[16];
-      _mm512_store_si512(idx, p);
+    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, f[kLarge], zero);
+    if (vec != live)
       for (unsigned m = live & ~vec; m; m &= m - 1) active_polys_.push_back(idx[__builtin_ctz(m)]);
-    }
     for (int k = 0; k < kActiveFields; ++k) {
-      const __m512i v = k == kIndex ? p : k == kXMin ? x_min : k == kXMax ? x_max
-                                                                          : gather(vec, kFrom[k]);
+      const __m512i v = k == kIndex ? p : f[kFrom[k]];
       _mm512_storeu_si512(active_[k].data() + n_active_, _mm512_maskz_compress_epi32(vec, v));
     }
     n_active_ += size_t(__builtin_popcount(vec));
