@@ -236,6 +236,27 @@ void bind_render(py::module_& m) {
       "of their centroids (int32), and the runs of faces[order] that share a cell of the\n"
       "curve's coarse 8 x 8 x 8 grid: cell k holds cell_start[k] .. cell_start[k+1] - 1,\n"
       "centred at cell_centre[k] (only nonempty cells).");
+  m.def(
+      "first_use_order",
+      [](py::handle positions_obj, py::handle faces_obj) {
+        auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
+        auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
+        const zbuffer::MeshView mesh = mesh_view(positions, faces);
+        py::array_t<int32_t> renumbered({py::ssize_t(mesh.n_faces), py::ssize_t(3)});
+        py::array_t<int32_t> old_of_new(py::ssize_t(mesh.n_vertices));
+        int32_t* out = renumbered.mutable_data();
+        int32_t* order = old_of_new.mutable_data();
+        {
+          py::gil_scoped_release release;
+          std::copy_n(mesh.faces, 3 * mesh.n_faces, out);
+          zbuffer::first_use_order(out, mesh.n_faces, mesh.n_vertices, order);
+        }
+        return py::make_tuple(renumbered, old_of_new);
+      },
+      py::arg("positions"), py::arg("faces"),
+      "(faces, vertex_order): the vertices renumbered in the order the faces first use\n"
+      "them (then the unused ones, in their order): faces as int32 indices into\n"
+      "positions[vertex_order], which holds the same triangles.");
 }
 
 }  // namespace zbuffer_py

@@ -48,6 +48,21 @@ void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& c
   }
 }
 
+void first_use_order(int32_t* faces, int64_t n_faces, int64_t n_vertices, int32_t* old_of_new) {
+  std::vector<int32_t> new_of_old(static_cast<size_t>(n_vertices), -1);
+  int32_t next = 0;
+  for (int64_t i = 0; i < 3 * n_faces; ++i) {
+    int32_t& renamed = new_of_old[size_t(faces[i])];
+    if (renamed < 0) {
+      renamed = next;
+      old_of_new[next++] = faces[i];
+    }
+    faces[i] = renamed;
+  }
+  for (int64_t v = 0; v < n_vertices; ++v)
+    if (new_of_old[size_t(v)] < 0) old_of_new[next++] = int32_t(v);
+}
+
 void near_to_far(const FaceCells& cells, const double* mvp, std::vector<int32_t>& visit) {
   std::vector<double> z(static_cast<size_t>(cells.n));
   for (int64_t k = 0; k < cells.n; ++k) {

@@ -71,6 +71,10 @@ def spatial_order(
     positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32]
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.int32], npt.NDArray[np.float64]]: ...
 # (order, cell_start, cell_centre)
+def first_use_order(
+    positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32]
+) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]: ...
+# (faces renumbered, vertex_order)
 def shade(
     triangle_id: npt.NDArray[np.int32],
     positions: npt.NDArray[np.float64],

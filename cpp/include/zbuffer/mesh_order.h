@@ -30,6 +30,19 @@ constexpr int kCellLevels = 3;
 void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& cell_start,
                    std::vector<double>& cell_centre);
 
+// Renumbers the vertices of `faces` (n_faces rows of 3 indices below
+// n_vertices, rewritten in place) in the order the faces first use them;
+// vertices no face uses follow, in their old order. old_of_new[0 ..
+// n_vertices) receives the permutation: new vertex v is old vertex
+// old_of_new[v].
+// Design decision: faces in spatial order and vertices in the order of
+// their first use, so that consecutive faces read neighbouring vertices
+// (the vertex stage's outputs, gathered by assembly, stay in the nearest
+// caches). Good: 3% off single meshes, 9-15% off the 5 x 5 x 20 spot grid
+// (one process, medians of 7), for the same bits. Bad: a prepared mesh
+// holds a second copy of its positions (24 bytes a vertex).
+void first_use_order(int32_t* faces, int64_t n_faces, int64_t n_vertices, int32_t* old_of_new);
+
 // The order to visit `cells` in for a frame with this mvp: nearest first, by
 // the clip-space z of their centres (an affine function of the view depth
 // under perspective and orthographic projections alike). Ties keep Z-order.
