@@ -238,10 +238,16 @@ void bind_render(py::module_& m) {
       "centred at cell_centre[k] (only nonempty cells).");
   m.def(
       "first_use_order",
-      [](py::handle positions_obj, py::handle faces_obj) {
-        auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
+      [](py::handle faces_obj, int64_t n_vertices) {
         auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
-        const zbuffer::MeshView mesh = mesh_view(positions, faces);
+        if (n_vertices < 0 || n_vertices > std::numeric_limits<int32_t>::max())
+          throw py::value_error("n_vertices must be in 0 .. 2**31 - 1, got " +
+                                std::to_string(n_vertices));
+        zbuffer::MeshView mesh;
+        mesh.faces = faces.data();
+        mesh.n_faces = faces.shape(0);
+        mesh.n_vertices = n_vertices;
+        check_face_indices(mesh);
         py::array_t<int32_t> renumbered({py::ssize_t(mesh.n_faces), py::ssize_t(3)});
         py::array_t<int32_t> old_of_new(py::ssize_t(mesh.n_vertices));
         int32_t* out = renumbered.mutable_data();
@@ -253,10 +259,10 @@ void bind_render(py::module_& m) {
         }
         return py::make_tuple(renumbered, old_of_new);
       },
-      py::arg("positions"), py::arg("faces"),
+      py::arg("faces"), py::arg("n_vertices"),
       "(faces, vertex_order): the vertices renumbered in the order the faces first use\n"
       "them (then the unused ones, in their order): faces as int32 indices into\n"
-      "positions[vertex_order], which holds the same triangles.");
+      "positions[vertex_order] for any (n_vertices, 3) positions: the same triangles.");
 }
 
 }  // namespace zbuffer_py

@@ -26,6 +26,14 @@ void check_image_size(int width, int height) {
                           " pixels in all");
 }
 
+void check_face_indices(const zbuffer::MeshView& mesh) {
+  const int64_t bad = zbuffer::find_bad_face_index(mesh);
+  if (bad >= 0)
+    throw py::value_error("face " + std::to_string(bad / 3) + " has vertex index " +
+                          std::to_string(mesh.faces[bad]) + ", outside [0, " +
+                          std::to_string(mesh.n_vertices) + ")");
+}
+
 // Checks the mesh arrays and returns a view of them (GIL held).
 zbuffer::MeshView mesh_view(const py::array_t<double>& positions,
                             const py::array_t<int32_t>& faces) {
@@ -38,11 +46,7 @@ zbuffer::MeshView mesh_view(const py::array_t<double>& positions,
     throw py::value_error("too many vertices: at most 2**31 - 1");
   if (mesh.n_faces > std::numeric_limits<int32_t>::max())
     throw py::value_error("too many faces: at most 2**31 - 1");
-  const int64_t bad = zbuffer::find_bad_face_index(mesh);
-  if (bad >= 0)
-    throw py::value_error("face " + std::to_string(bad / 3) + " has vertex index " +
-                          std::to_string(mesh.faces[bad]) + ", outside [0, " +
-                          std::to_string(mesh.n_vertices) + ")");
+  check_face_indices(mesh);
   const int64_t nonfinite = zbuffer::find_nonfinite_vertex(mesh);
   if (nonfinite >= 0)
     throw py::value_error("vertex " + std::to_string(nonfinite) +

@@ -16,6 +16,9 @@ namespace zbuffer_py {
 // Raises ValueError unless 1 <= width, height and the image is not too large.
 void check_image_size(int width, int height);
 
+// Raises ValueError naming the first face index outside [0, n_vertices).
+void check_face_indices(const zbuffer::MeshView& mesh);
+
 // Checks the mesh arrays and returns a view of them (GIL held).
 zbuffer::MeshView mesh_view(const py::array_t<double>& positions,
                             const py::array_t<int32_t>& faces);

@@ -64,7 +64,7 @@ def test_visiting_cells_partition_the_faces_and_hold_their_centroids():
     # Each face's centroid lies in its cell: a cube 1/8 of the mesh's side
     # around the centre (up to a grid step of rounding).
     side = (mesh.vertices.max(0) - mesh.vertices.min(0)).max()
-    centroid = visit.positions(mesh)[visit.faces].mean(axis=1)
+    centroid = visit.vertices[visit.faces].mean(axis=1)
     cell = np.repeat(np.arange(len(centre)), np.diff(start))
     assert np.all(np.abs(centroid - centre[cell]) <= side / 16 + 2 * side / 1024)
 
@@ -84,7 +84,7 @@ def test_cache_friendly_visiting_order_changes_no_bit(algo):
     assert ids is not None and not np.array_equal(ids, np.arange(len(ids)))
     assert np.array_equal(np.sort(ids), np.arange(len(ids)))  # a permutation
     # The same triangles, their vertices renumbered in the order of first use.
-    assert visit.vertices is not None
+    assert visit.vertices is not mesh.vertices
     np.testing.assert_array_equal(visit.vertices[faces], mesh.vertices[mesh.faces[ids]])
     _, first_use = np.unique(faces.ravel(), return_index=True)
     np.testing.assert_array_equal(np.argsort(first_use, kind="stable"), np.arange(len(first_use)))
@@ -104,9 +104,11 @@ def test_first_use_order_is_a_permutation_that_keeps_the_triangles():
     # refused like everywhere else.
     v = np.arange(18, dtype=np.float64).reshape(6, 3)
     f = np.array([[4, 1, 4], [1, 5, 0]], np.int32)
-    faces, order = zbuffer._core.first_use_order(v, f)
+    faces, order = zbuffer._core.first_use_order(f, len(v))
     np.testing.assert_array_equal(order, [4, 1, 5, 0, 2, 3])
     np.testing.assert_array_equal(faces, [[0, 1, 0], [1, 2, 3]])
     np.testing.assert_array_equal(v[order][faces], v[f])
     with pytest.raises(ValueError, match="outside"):
-        zbuffer._core.first_use_order(v, np.array([[0, 1, 6]], np.int32))
+        zbuffer._core.first_use_order(np.array([[0, 1, 6]], np.int32), len(v))
+    with pytest.raises(ValueError, match="n_vertices"):
+        zbuffer._core.first_use_order(f, -1)

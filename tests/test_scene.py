@@ -210,3 +210,17 @@ def test_bad_arguments():
         _core.build_octree(mesh.vertices, mesh.faces, 8, 10, "loose")
     with pytest.raises(ValueError, match="face 0 has vertex index"):
         _core.build_bvh(mesh.vertices, np.array([[0, 1, 10**6]], np.int32))
+
+
+@pytest.mark.parametrize("algo", sorted(set(zbuffer.algorithms()) - set(TREE_ALGORITHMS)))
+def test_scene_renders_a_prepared_mesh_through_its_own_vertices(algo):
+    # A prepared mesh is visited through its renumbered vertices
+    # (Mesh.faces_for_render); Scene.render must pass those, not the mesh's.
+    mesh = occluded_grid(4).prepare()
+    assert len(mesh.faces) >= mesh._ORDER_MIN_FACES
+    visit = mesh.faces_for_render()
+    assert visit.vertices is not mesh.vertices and not np.array_equal(visit.vertices, mesh.vertices)
+    cam = next(camera_path(mesh, 1))
+    ours = zbuffer.Scene(mesh).render(cam, algo=algo, width=96, height=72, shading="none")
+    ref = zbuffer.reference.render(mesh, camera=cam, width=96, height=72, shading="none")
+    assert_same_visibility(ours, ref)

@@ -23,6 +23,7 @@ class BvhBuilder {
   void build() {
     make_codes();
     radix_sort(codes_, faces_, 30);
+    clusters_.reserve(int64_t(codes_.size()));
     tree_.nodes.emplace_back();
     build_node(0, 0, int64_t(codes_.size()), 0);
     clusters_.finish();

@@ -77,16 +77,18 @@ ClusterBuilder::ClusterBuilder(const MeshView& mesh, ObjectTree& tree)
   vertex_local_.resize(size_t(mesh.n_vertices));
   tree_.n_input_faces = mesh.n_faces;
   if (tree_.shared) face_mark_.assign(size_t(mesh.n_faces), -1);
-  // Room for every face's three vertices (no cluster can copy more), so
-  // that the copies never move; only the pages written are ever mapped,
-  // and those of a large tree in huge pages (a fresh tree faults in
-  // hundreds of MB: 20% of a Scene build of 11.7 million triangles in 4 KiB
-  // pages).
-  const size_t references = size_t(mesh.n_faces) * (tree_.shared ? 2 : 1);
-  reserve_huge(tree_.faces, 3 * references);
-  reserve_huge(tree_.ids, references);
-  reserve_huge(tree_.positions, 9 * references);
-  if (tree_.shared) reserve_huge(tree_.source, references);
+}
+
+void ClusterBuilder::reserve(int64_t references) {
+  // Room for every reference's three vertices (no cluster can copy more);
+  // only the pages written are ever mapped, and those of a large tree in
+  // huge pages (a fresh tree faults in hundreds of MB: 20% of a Scene build
+  // of 11.7 million triangles in 4 KiB pages).
+  const size_t n = size_t(references);
+  reserve_huge(tree_.faces, 3 * n);
+  reserve_huge(tree_.ids, n);
+  reserve_huge(tree_.positions, 9 * n);
+  if (tree_.shared) reserve_huge(tree_.source, n);
 }
 
 void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
@@ -140,7 +142,7 @@ void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
         local_of[v] = local;
         const double* p = mesh_positions + 3 * int64_t(v);
         for (int a = 0; a < 3; ++a) {
-          out_positions[3 * local + a] = p[a];
+          out_positions[3 * int64_t(local) + a] = p[a];
           lo[a] = std::min(lo[a], p[a]);
           hi[a] = std::max(hi[a], p[a]);
         }

@@ -41,6 +41,7 @@ class OctreeBuilder {
   void build() {
     make_keys();
     radix_sort(keys_, faces_, 3 * params_.max_depth + kLevelBits);
+    clusters_.reserve(int64_t(keys_.size()));
     tree_.nodes.emplace_back();
     build_node(0, 0, int64_t(keys_.size()), 0);
     clusters_.finish();

@@ -72,7 +72,7 @@ def spatial_order(
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.int32], npt.NDArray[np.float64]]: ...
 # (order, cell_start, cell_centre)
 def first_use_order(
-    positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32]
+    faces: npt.NDArray[np.int32], n_vertices: int
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]: ...
 # (faces renumbered, vertex_order)
 def shade(

@@ -115,9 +115,9 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     offsets = indices = None
     if algo in _POLYGON_ALGORITHMS and mesh.polygon_sizes is not None:
         # Polygons as written; faces in polygon order for those drawn as triangles.
-        visit = Visit(mesh.faces)
+        visit = Visit(mesh.vertices, mesh.faces)
         offsets, indices = mesh.polygon_offsets, mesh.polygon_indices
-    out = _core.render(visit.positions(mesh), visit.faces, mvp, width, height, algo,
+    out = _core.render(visit.vertices, visit.faces, mvp, width, height, algo,
                        bool(cull_backfaces), polygon_offsets=offsets, polygon_indices=indices,
                        record_culls=check_record_culls(record_culls), **visit.render_args())
     return finish(mesh, camera, mvp, params, algo, *out, start=start)

@@ -39,26 +39,25 @@ def _as_colors(colors, n: int, what: str) -> Optional[np.ndarray]:
 
 
 class Visit(NamedTuple):
-    """A mesh's faces as the compiled algorithms visit them.
+    """A mesh as the compiled algorithms visit it: ``vertices`` and the
+    ``faces`` that index them.
 
-    ``faces`` are the mesh's faces, reordered if ``ids`` is not None (face k
-    is the mesh's face ``ids[k]``); with cells, ``faces[cell_start[k]:
-    cell_start[k + 1]]`` share a cell of a coarse grid centred at
-    ``cell_centre[k]``, which the image-space algorithms visit nearest first.
-    ``vertices``, if not None, are the positions ``faces`` index: the mesh's
-    vertices renumbered in the order the faces first use them (so that
-    neighbouring faces read neighbouring vertices); None means the mesh's own.
+    Unprepared, these are the mesh's own arrays. Prepared (:meth:`Mesh.prepare`),
+    ``faces`` are the mesh's triangles reordered -- face k is the mesh's face
+    ``ids[k]`` -- and ``vertices`` the mesh's vertices renumbered in the order
+    those faces first use them (so that neighbouring faces read neighbouring
+    vertices): ``vertices[faces[k]]`` equals ``mesh.vertices[mesh.faces[ids[k]]]``,
+    but ``faces`` do not index ``mesh.vertices``. With cells,
+    ``faces[cell_start[k]:cell_start[k + 1]]`` share a cell of a coarse grid
+    centred at ``cell_centre[k]``, which the image-space algorithms visit
+    nearest first.
     """
 
+    vertices: np.ndarray
     faces: np.ndarray
     ids: Optional[np.ndarray] = None
     cell_start: Optional[np.ndarray] = None
     cell_centre: Optional[np.ndarray] = None
-    vertices: Optional[np.ndarray] = None
-
-    def positions(self, mesh: "Mesh") -> np.ndarray:
-        """The positions ``faces`` index (``mesh`` is the mesh visited)."""
-        return mesh.vertices if self.vertices is None else self.vertices
 
     def render_args(self) -> dict:
         """The keyword arguments of ``_core.render`` that pass this visit."""
@@ -271,21 +270,22 @@ class Mesh:
             from . import _core
 
             order, cell_start, cell_centre = _core.spatial_order(self.vertices, self.faces)
-            faces, vertex_order = _core.first_use_order(self.vertices, self.faces[order])
-            self._visit = Visit(_readonly(faces), _readonly(order), _readonly(cell_start),
-                                _readonly(cell_centre), _readonly(self.vertices[vertex_order]))
+            faces, vertex_order = _core.first_use_order(self.faces[order], len(self.vertices))
+            self._visit = Visit(_readonly(self.vertices[vertex_order]), _readonly(faces),
+                                _readonly(order), _readonly(cell_start), _readonly(cell_centre))
         return self
 
     def faces_for_render(self) -> "Visit":
-        """The faces in the order the compiled algorithms visit them (a
-        :class:`Visit`). The order is computed on the second render of the
-        same Mesh (or by :meth:`prepare`), so that one-off renders of
-        temporary meshes do not pay for it."""
+        """The vertices and faces as the compiled algorithms visit them (a
+        :class:`Visit`; prepared, its faces index its own renumbered
+        vertices, not ``self.vertices``). The order is computed on the second
+        render of the same Mesh (or by :meth:`prepare`), so that one-off
+        renders of temporary meshes do not pay for it."""
         self._renders += 1
         if self._visit is None and self._renders >= 2:
             self.prepare()
         if self._visit is None:
-            return Visit(self.faces)
+            return Visit(self.vertices, self.faces)
         return self._visit
 
     @classmethod

@@ -175,7 +175,7 @@ class Scene:
         record_culls = check_record_culls(record_culls)
         if algo not in TREE_ALGORITHMS:
             visit = mesh.faces_for_render()
-            out = _core.render(visit.positions(mesh), visit.faces, mvp, width, height, algo,
+            out = _core.render(visit.vertices, visit.faces, mvp, width, height, algo,
                                bool(cull_backfaces), record_culls=record_culls,
                                **visit.render_args())
         else:

@@ -11,8 +11,9 @@
 
 namespace zbuffer {
 
-// std::allocator, except that value-initialisation (resize(n)) leaves
-// trivial types uninitialised.
+// std::allocator, except that value-initialisation (resize(n)) becomes
+// default-initialisation: for the plain numbers stored in Buffers, no write
+// at all.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
   template <class U>

@@ -38,8 +38,8 @@ void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& c
 // Design decision: faces in spatial order and vertices in the order of
 // their first use, so that consecutive faces read neighbouring vertices
 // (the vertex stage's outputs, gathered by assembly, stay in the nearest
-// caches). Good: 3% off single meshes, 9-15% off the 5 x 5 x 20 spot grid
-// (one process, medians of 7), for the same bits. Bad: a prepared mesh
+// caches). Good: 3-6% off single meshes, 10-20% off the 5 x 5 x N spot
+// grid at N = 20-40 (one process, medians of 7-9), for the same bits. Bad: a prepared mesh
 // holds a second copy of its positions (24 bytes a vertex).
 void first_use_order(int32_t* faces, int64_t n_faces, int64_t n_vertices, int32_t* old_of_new);
 

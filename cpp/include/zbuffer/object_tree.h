@@ -96,6 +96,10 @@ struct ObjectTree {
 class ClusterBuilder {
  public:
   ClusterBuilder(const MeshView& mesh, ObjectTree& tree);
+  // Room for `references` face references in all (the sum of add_cluster's
+  // n over the build), so that the tree's arrays never move while clusters
+  // are added; called once, before the first add_cluster.
+  void reserve(int64_t references);
   // Make node `node` own faces face[b .. e) (input indices); sets its
   // cluster and bounds. Duplicate faces within one cluster are dropped.
   void add_cluster(int32_t node, const int32_t* face, int64_t n);
