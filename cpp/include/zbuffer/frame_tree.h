@@ -19,8 +19,8 @@ namespace zbuffer {
 // scatters the faces into bucket order, and the nodes are read off the
 // bucket counts. The tree is `indexed` (object_tree.h): its clusters are
 // runs of the mesh's faces over the mesh's own vertices. T grows
-// with the mesh (about leaf_size triangles per occupied cell on a surface),
-// up to 6. Good: two passes over the faces, nothing sorted, no vertex
+// with the mesh (about leaf_size triangles per cell a closed surface
+// crosses), up to 6. Good: two passes over the faces, nothing sorted, no vertex
 // copied -- and when the faces already come in bucket order with their ids
 // (the BVH of a mesh in spatial order: Mesh.prepare's order is the same
 // Morton code), no second pass: the clusters are runs of the caller's own
