@@ -254,8 +254,7 @@ void bind_render(py::module_& m) {
         int32_t* order = old_of_new.mutable_data();
         {
           py::gil_scoped_release release;
-          std::copy_n(mesh.faces, 3 * mesh.n_faces, out);
-          zbuffer::first_use_order(out, mesh.n_faces, mesh.n_vertices, order);
+          zbuffer::first_use_order(mesh.faces, mesh.n_faces, mesh.n_vertices, out, order);
         }
         return py::make_tuple(renumbered, old_of_new);
       },

@@ -48,16 +48,18 @@ void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& c
   }
 }
 
-void first_use_order(int32_t* faces, int64_t n_faces, int64_t n_vertices, int32_t* old_of_new) {
+void first_use_order(const int32_t* faces, int64_t n_faces, int64_t n_vertices,
+                     int32_t* renumbered, int32_t* old_of_new) {
   std::vector<int32_t> new_of_old(static_cast<size_t>(n_vertices), -1);
   int32_t next = 0;
   for (int64_t i = 0; i < 3 * n_faces; ++i) {
-    int32_t& renamed = new_of_old[size_t(faces[i])];
+    const int32_t v = faces[i];
+    int32_t& renamed = new_of_old[size_t(v)];
     if (renamed < 0) {
       renamed = next;
-      old_of_new[next++] = faces[i];
+      old_of_new[next++] = v;
     }
-    faces[i] = renamed;
+    renumbered[i] = renamed;
   }
   for (int64_t v = 0; v < n_vertices; ++v)
     if (new_of_old[size_t(v)] < 0) old_of_new[next++] = int32_t(v);

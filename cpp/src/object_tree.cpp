@@ -8,10 +8,6 @@
 #include <stdexcept>
 #include <utility>
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
 #include "zbuffer/algorithms.h"
 #include "zbuffer/triangle_batch.h"
 #include "zbuffer/vertex_stage.h"
@@ -44,26 +40,8 @@ void ObjectTree::clear() {
 
 // Cluster Construction
 
-void advise_huge_pages(const void* p, size_t bytes) {
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-  constexpr uintptr_t kHuge = uintptr_t(1) << 21;
-  const uintptr_t b = (reinterpret_cast<uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
-  const uintptr_t e = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(kHuge - 1);
-  if (e > b) madvise(reinterpret_cast<void*>(b), e - b, MADV_HUGEPAGE);  // a hint: failure is harmless
-#else
-  (void)p, (void)bytes;
-#endif
-}
-
 namespace {
 constexpr int64_t kFetchAhead = 8;
-inline void prefetch(const void* p) {
-#if defined(__GNUC__)
-  __builtin_prefetch(p);
-#else
-  (void)p;
-#endif
-}
 std::vector<int32_t>& scratch(int k) {
   thread_local std::vector<int32_t> v[3];
   return v[k];

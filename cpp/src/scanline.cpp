@@ -18,14 +18,6 @@ namespace zbuffer {
 
 namespace {
 
-inline void prefetch(const void* p) {
-#if defined(__GNUC__)
-  __builtin_prefetch(p);
-#else
-  (void)p;
-#endif
-}
-
 // n = q * d + r with 0 <= r < d, for d > 0 and |n|, d < 2^53. The double
 // quotient is within one of the true one; integer arithmetic corrects it
 // (an int64 division costs several times as much).
@@ -574,8 +566,7 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
     _mm512_mask_i32scatter_epi32(bounds, live, _mm512_add_epi32(slot, _mm512_set1_epi32(1)),
                                  _mm512_sub_epi32(zero, x_max), 4);
     const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, f[kLarge], zero);
-    if (vec != live)
-      for (unsigned m = live & ~vec; m; m &= m - 1) active_polys_.push_back(idx[__builtin_ctz(m)]);
+    for (unsigned m = live & ~vec; m; m &= m - 1) active_polys_.push_back(idx[__builtin_ctz(m)]);
     for (int k = 0; k < kActiveFields; ++k) {
       const __m512i v = k == kIndex ? p : f[kFrom[k]];
       _mm512_storeu_si512(active_[k].data() + n_active_, _mm512_maskz_compress_epi32(vec, v));

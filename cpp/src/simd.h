@@ -40,6 +40,16 @@
 #include <cstdint>
 
 namespace zbuffer {
+
+// A hint to bring the line holding p into the caches (no-op elsewhere).
+inline void prefetch(const void* p) {
+#if defined(__GNUC__)
+  __builtin_prefetch(p);
+#else
+  (void)p;
+#endif
+}
+
 namespace simd {
 
 #ifdef ZBUFFER_AVX512

@@ -27,7 +27,8 @@ struct SpatialMesh {
     for (const int32_t f : order)
       for (int k = 0; k < 3; ++k) faces.push_back(base.faces[3 * int64_t(f) + k]);
     std::vector<int32_t> old_of_new(size_t(base.n_vertices));
-    zbuffer::first_use_order(faces.data(), base.n_faces, base.n_vertices, old_of_new.data());
+    zbuffer::first_use_order(faces.data(), base.n_faces, base.n_vertices, faces.data(),
+                             old_of_new.data());
     positions.resize(3 * size_t(base.n_vertices));
     for (size_t v = 0; v < old_of_new.size(); ++v)
       for (int a = 0; a < 3; ++a) positions[3 * v + a] = base.positions[3 * int64_t(old_of_new[v]) + a];

@@ -262,8 +262,7 @@ class Mesh:
         coarse grid that the image-space algorithms visit nearest first, and
         the vertices renumbered in the order those faces first use them: a
         second copy of the positions; 4-7 ms per 100k faces on the benchmark
-        machine of benchmarks/results) now rather
-        than at the second render.
+        machine of benchmarks/results) now rather than at the second render.
         Results never depend on it: only speed (and the counters that depend
         on order: pixels written, triangles culled) does. Returns the mesh
         itself."""

@@ -31,17 +31,19 @@ void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& c
                    std::vector<double>& cell_centre);
 
 // Renumbers the vertices of `faces` (n_faces rows of 3 indices below
-// n_vertices, rewritten in place) in the order the faces first use them;
-// vertices no face uses follow, in their old order. old_of_new[0 ..
-// n_vertices) receives the permutation: new vertex v is old vertex
-// old_of_new[v].
+// n_vertices) in the order the faces first use them, writing the faces so
+// renumbered to `renumbered` (which may be `faces` itself); vertices no face
+// uses follow, in their old order. old_of_new[0 .. n_vertices) receives the
+// permutation: new vertex v is old vertex old_of_new[v].
 // Design decision: faces in spatial order and vertices in the order of
 // their first use, so that consecutive faces read neighbouring vertices
 // (the vertex stage's outputs, gathered by assembly, stay in the nearest
 // caches). Good: 3-6% off single meshes, 10-20% off the 5 x 5 x N spot
-// grid at N = 20-40 (one process, medians of 7-9), for the same bits. Bad: a prepared mesh
-// holds a second copy of its positions (24 bytes a vertex).
-void first_use_order(int32_t* faces, int64_t n_faces, int64_t n_vertices, int32_t* old_of_new);
+// grid at N = 20-40 (one process, medians of 7-9), for the same bits.
+// Bad: a prepared mesh holds a second copy of its positions (24 bytes a
+// vertex).
+void first_use_order(const int32_t* faces, int64_t n_faces, int64_t n_vertices,
+                     int32_t* renumbered, int32_t* old_of_new);
 
 // The order to visit `cells` in for a frame with this mvp: nearest first, by
 // the clip-space z of their centres (an affine function of the view depth
