@@ -45,6 +45,7 @@ def camera_path(mesh, n=5):
 def test_one_tree_many_cameras_equals_the_reference(algo, options):
     mesh = occluded_grid()
     scene = zbuffer.Scene(mesh, **options)
+    culled_in_nodes = 0
     for k, cam in enumerate(camera_path(mesh)):
         res = scene.render(cam, algo=algo, width=80, height=64, shading="none")
         ref = zbuffer.reference.render(mesh, camera=cam, width=80, height=64, shading="none")
@@ -53,7 +54,10 @@ def test_one_tree_many_cameras_equals_the_reference(algo, options):
         assert (res.stats["build_ms"] > 0) == (k == 0)  # built by the first render only
         # The depth buffer and the pyramid levels kept above it (8x8 cells up).
         assert res.stats["depth_storage_bytes"] > 4 * 80 * 64
-        assert res.stats["culled_in_nodes"] > 0  # whole nodes were culled
+        culled_in_nodes += res.stats["culled_in_nodes"]
+    # Whole nodes were culled (not in every frame with the default leaves of
+    # 512 triangles: a view from the side hides no whole leaf of this grid).
+    assert culled_in_nodes > 0
     assert scene.tree_info(algo)["faces"] == len(mesh.faces)
 
 

@@ -10,7 +10,9 @@ namespace zbuffer {
 
 void render_hiz_bvh(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
   render_built_per_frame(input, target, stats, [](const MeshView& mesh, ObjectTree& tree) {
-    build_bvh_for_frame(mesh, BvhParams{}, tree);
+    BvhParams params;
+    params.leaf_size = kFrameLeafSize;
+    build_bvh_for_frame(mesh, params, tree);
   });
 }
 

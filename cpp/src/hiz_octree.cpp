@@ -10,7 +10,9 @@ namespace zbuffer {
 
 void render_hiz_octree(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
   render_built_per_frame(input, target, stats, [](const MeshView& mesh, ObjectTree& tree) {
-    build_octree_for_frame(mesh, OctreeParams{}, tree);
+    OctreeParams params;
+    params.leaf_size = kFrameLeafSize;
+    build_octree_for_frame(mesh, params, tree);
   });
 }
 

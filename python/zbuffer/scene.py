@@ -51,7 +51,8 @@ class Scene:
     leaf_size : int, optional
         Tree nodes with at most this many triangles are leaves (both trees).
         Default: each tree's own (``zbuffer._core.DEFAULT_OCTREE_LEAF_SIZE``,
-        ``DEFAULT_BVH_LEAF_SIZE``; 128, the fastest on the spot grid).
+        ``DEFAULT_BVH_LEAF_SIZE``; 512, the fastest measured both on the
+        spot grid and on single meshes, benchmarks/README.md).
     max_depth : int, optional
         Deepest octree level (cells of 1/2**max_depth of the root cube a
         side), 1 .. ``zbuffer._core.MAX_OCTREE_DEPTH`` (10).

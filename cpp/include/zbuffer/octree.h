@@ -28,7 +28,7 @@ bool parse_octree_rule(const std::string& name, OctreeRule& rule);
 
 struct OctreeParams {
   // A node with at most this many triangle references is a leaf.
-  int leaf_size = 128;  // measured on the spot grid (benchmarks/bench_hiz.py)
+  int leaf_size = 512;  // measured: spot grid and single meshes (benchmarks/README.md)
   // Depth of the finest cells (the root is depth 0): cells of the root cube
   // divided 2^max_depth times a side. 1 .. kMaxOctreeDepth.
   int max_depth = 10;
