@@ -27,9 +27,9 @@ namespace zbuffer {
 // arrays (9-13% off the per-frame BVH on the spot grid). Bad: leaves can
 // only be as fine as depth T (a dense cell is one large leaf), and bounds
 // are those of grid cells, up to two cells looser than the triangles'.
-// The face pass (each face's bucket and box) runs 16 faces per instruction
-// in AVX-512 builds; `vector = false` runs the scalar pass instead (tests
-// hold the two to the same tree).
+// The face pass (each face's bucket and box) and the copy into bucket order
+// run 16 faces per instruction in AVX-512 builds; `vector = false` runs the
+// scalar loops instead (tests hold the two to the same tree).
 void build_octree_for_frame(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree,
                             bool vector = true);
 void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTree& tree,
@@ -40,10 +40,10 @@ int frame_tree_depth(int64_t faces, int leaf_size);
 
 // The leaf size the registry's per-frame trees aim at: smaller than a
 // Scene's (512), as measured. A tree built every frame pays for its depth
-// within the frame: the depth this gives (one level deeper than 512 on
-// meshes under ~6M faces) is up to 8% faster on small single meshes (spot,
-// dragon_20k) and equal on the spot grid, where T is capped at 6 either
-// way (benchmarks/README.md).
+// within the frame: the depth this gives (one level deeper than 512 from
+// about 1,500 to 1.57M faces) is up to 8% faster on small single meshes
+// (spot, dragon_20k) and equal on the spot grid from N = 20 up, where T is
+// capped at 6 either way (benchmarks/README.md).
 constexpr int kFrameLeafSize = 128;
 
 }  // namespace zbuffer
