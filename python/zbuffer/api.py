@@ -117,9 +117,8 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         # Polygons as written; faces in polygon order for those drawn as triangles.
         visit = Visit(mesh.vertices, mesh.faces)
         offsets, indices = mesh.polygon_offsets, mesh.polygon_indices
-    out = _core.render(visit.vertices, visit.faces, mvp, width, height, algo,
-                       bool(cull_backfaces), polygon_offsets=offsets, polygon_indices=indices,
-                       record_culls=check_record_culls(record_culls), **visit.render_args())
+    out = visit.render(mvp, width, height, algo, cull_backfaces, polygon_offsets=offsets,
+                       polygon_indices=indices, record_culls=check_record_culls(record_culls))
     return finish(mesh, camera, mvp, params, algo, *out, start=start)
 
 

@@ -59,9 +59,17 @@ class Visit(NamedTuple):
     cell_start: Optional[np.ndarray] = None
     cell_centre: Optional[np.ndarray] = None
 
-    def render_args(self) -> dict:
-        """The keyword arguments of ``_core.render`` that pass this visit."""
-        return dict(face_ids=self.ids, cell_start=self.cell_start, cell_centre=self.cell_centre)
+    def render(self, mvp, width: int, height: int, algo: str, cull_backfaces: bool,
+               **options):
+        """``_core.render`` of this visit: its own vertices with the faces that
+        index them, their ids and cells (``options``: the other keywords of
+        ``_core.render``). The one place that passes a visit to the core, so
+        that faces are never paired with another mesh's vertices."""
+        from . import _core
+
+        return _core.render(self.vertices, self.faces, mvp, width, height, algo,
+                            bool(cull_backfaces), face_ids=self.ids, cell_start=self.cell_start,
+                            cell_centre=self.cell_centre, **options)
 
 
 class Mesh:

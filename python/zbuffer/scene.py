@@ -175,10 +175,8 @@ class Scene:
             background)
         record_culls = check_record_culls(record_culls)
         if algo not in TREE_ALGORITHMS:
-            visit = mesh.faces_for_render()
-            out = _core.render(visit.vertices, visit.faces, mvp, width, height, algo,
-                               bool(cull_backfaces), record_culls=record_culls,
-                               **visit.render_args())
+            out = mesh.faces_for_render().render(mvp, width, height, algo, cull_backfaces,
+                                                 record_culls=record_culls)
         else:
             build_ms = self.build(algo)
             out = self._trees[algo].render(mvp, width, height, bool(cull_backfaces),
