@@ -10,9 +10,10 @@ from hypothesis import given, settings
 
 import zbuffer
 from zbuffer import _core, scenes
+from zbuffer.obj import triangulate_polygons
 from zbuffer.scene import NODE_FATES, TREE_ALGORITHMS
 from helpers import TREE_ALGORITHMS as REGISTERED_TREES
-from helpers import assert_same_counters, assert_same_visibility, counters_add_up
+from helpers import assert_same_counters, assert_same_visibility, counters_add_up, reference_for
 from test_properties import MVP, SIZE, render_reference, to_arrays, triangles
 
 TREES = sorted(TREE_ALGORITHMS)
@@ -231,3 +232,24 @@ def test_scene_renders_a_prepared_mesh_through_its_own_vertices(algo):
     ours = zbuffer.Scene(mesh).render(cam, algo=algo, width=96, height=72, shading="none")
     ref = zbuffer.reference.render(mesh, camera=cam, width=96, height=72, shading="none")
     assert_same_visibility(ours, ref)
+
+
+@pytest.mark.parametrize("algo", sorted(set(zbuffer.algorithms()) - set(TREE_ALGORITHMS)))
+def test_scene_draws_polygon_faces_as_render_does(algo):
+    # A concave hexagon in front of a tilted quad: `scanline` draws the
+    # polygons as written through Scene.render too, the others their
+    # triangulation -- the same call as zbuffer.render either way.
+    hexagon = [(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)]
+    v = np.array([[x / 4.0 - 0.5, y / 4.0 - 0.5, 0.0] for x, y in hexagon]
+                 + [[-0.6, -0.6, -0.5], [0.6, -0.6, -0.3], [0.6, 0.6, -0.1], [-0.6, 0.6, -0.3]])
+    sizes, idx = np.array([6, 4]), np.arange(10)
+    faces, _ = triangulate_polygons(v, sizes, idx)
+    mesh = zbuffer.Mesh(v, faces, polygons=(sizes, idx))
+    cam = zbuffer.Camera.look_at((0.2, 0.1, 2), (0, 0, 0), projection="orthographic",
+                                 ortho_height=1.5)
+    kwargs = dict(camera=cam, width=48, height=40, shading="none")
+    ours = zbuffer.Scene(mesh).render(algo=algo, **kwargs)
+    assert_same_visibility(ours, reference_for(algo, mesh, **kwargs))
+    once = zbuffer.render(mesh, algo=algo, **kwargs)
+    for key in ("rasterized", "polygons_inserted", "pixels_tested"):
+        assert ours.stats.get(key) == once.stats.get(key), key

@@ -111,15 +111,24 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     check_algorithm(algo)
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
-    visit = mesh.faces_for_render()
-    offsets = indices = None
+    out = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
+                            check_record_culls(record_culls))
+    return finish(mesh, camera, mvp, params, algo, *out, start=start)
+
+
+def render_visibility(mesh: Mesh, algo: str, mvp, width: int, height: int,
+                      cull_backfaces: bool, record_culls: bool) -> tuple:
+    """The compiled call of an algorithm that needs no tree built beforehand
+    (for :func:`render` and :meth:`Scene.render`): the polygons as written for
+    an algorithm that draws them natively, the faces in visiting order
+    otherwise. Returns ``_core.render``'s tuple."""
     if algo in _POLYGON_ALGORITHMS and mesh.polygon_sizes is not None:
         # Polygons as written; faces in polygon order for those drawn as triangles.
-        visit = Visit(mesh.vertices, mesh.faces)
-        offsets, indices = mesh.polygon_offsets, mesh.polygon_indices
-    out = visit.render(mvp, width, height, algo, cull_backfaces, polygon_offsets=offsets,
-                       polygon_indices=indices, record_culls=check_record_culls(record_culls))
-    return finish(mesh, camera, mvp, params, algo, *out, start=start)
+        return Visit(mesh.vertices, mesh.faces).render(
+            mvp, width, height, algo, cull_backfaces, polygon_offsets=mesh.polygon_offsets,
+            polygon_indices=mesh.polygon_indices, record_culls=record_culls)
+    return mesh.faces_for_render().render(mvp, width, height, algo, cull_backfaces,
+                                          record_culls=record_culls)
 
 
 def check_record_culls(record_culls) -> bool:

@@ -10,7 +10,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from . import _core
-from .api import check_algorithm, check_record_culls, finish
+from .api import check_algorithm, check_record_culls, finish, render_visibility
 from .camera import Camera
 from .mesh import as_mesh
 from .options import DEFAULT_SIZE, prepare
@@ -175,8 +175,7 @@ class Scene:
             background)
         record_culls = check_record_culls(record_culls)
         if algo not in TREE_ALGORITHMS:
-            out = mesh.faces_for_render().render(mvp, width, height, algo, cull_backfaces,
-                                                 record_culls=record_culls)
+            out = render_visibility(mesh, algo, mvp, width, height, cull_backfaces, record_culls)
         else:
             build_ms = self.build(algo)
             out = self._trees[algo].render(mvp, width, height, bool(cull_backfaces),
