@@ -3,6 +3,9 @@
 // where the build is part of the frame time.
 #pragma once
 
+#include <algorithm>
+#include <cstdint>
+
 #include "zbuffer/bvh.h"
 #include "zbuffer/object_tree.h"
 #include "zbuffer/octree.h"
@@ -38,12 +41,18 @@ void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTr
 // The depth T used for a mesh of `faces` faces and the given leaf size.
 int frame_tree_depth(int64_t faces, int leaf_size);
 
-// The leaf size the registry's per-frame trees aim at: smaller than a
-// Scene's (512), as measured. A tree built every frame pays for its depth
-// within the frame: the depth this gives (one level deeper than 512 from
-// about 1,500 to 1.57M faces) is up to 8% faster on small single meshes
-// (spot, dragon_20k) and equal on the spot grid from N = 20 up, where T is
-// capped at 6 either way (benchmarks/README.md).
-constexpr int kFrameLeafSize = 128;
+// The leaf size the registry's per-frame trees aim at, by mesh size: 128
+// triangles up to 20,480 faces, then faces / 160 (the depth stays at 3), up
+// to 512 from 81,920 faces on. A tree built every frame pays for its depth
+// within the frame: measured against 128 throughout (one process, ratios of
+// medians, benchmarks/README.md), 512 made the octree 7% faster on
+// bunny_69k and armadillo_86k and 15% on the 5 x 5 x 10 spot grid (293k
+// faces) -- one level shallower: fewer, fuller clusters --, but up to 8%
+// slower on spot and dragon_20k, which lose a level they need; and within
+// 1-2% on the grids of 586k and 1.17M faces (N = 20, 40: depth 5 instead of
+// 6; from about 1.57M faces both give 6, the cap).
+inline int frame_leaf_size(int64_t faces) {
+  return int(std::min<int64_t>(512, std::max<int64_t>(128, faces / 160)));
+}
 
 }  // namespace zbuffer
