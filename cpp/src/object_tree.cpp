@@ -525,15 +525,18 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   stats.depth_storage_bytes = pyramid.storage_bytes();
 
   // Temporal coherence: record the clusters with a pixel in this frame.
-  // Every other row is enough: the set only decides what is drawn first
-  // next frame (anything missed is found by the traversal), and a cluster
-  // seen in one row of its projection is seen in the next.
+  // Rows 1/128 of the image apart (every row of a small image) are enough:
+  // the set only decides what is drawn first next frame (anything missed is
+  // found by the traversal), and what a cluster shows of itself is seldom
+  // so thin. (Every other row at 1024 x 1024 made temporal frames ~5%
+  // slower: the scan's lookups of cluster_of_id miss the caches.)
   if (temporal) {
+    const int stride = std::max(1, target.height / 128);
     frame.visible_clusters.clear();
     const int32_t* cluster_of_id = tree.cluster_of_id.data();
     uint32_t* seen = frame.visible_stamp.data();
     std::vector<int32_t>& visible = frame.visible_clusters;
-    for (int y = 0; y < target.height; y += 2) {
+    for (int y = 0; y < target.height; y += stride) {
       const int32_t* row = target.triangle_id + size_t(y) * size_t(target.width);
       int32_t last = -1;  // neighbouring pixels mostly show the same triangle
       for (int x = 0; x < target.width; ++x) {
