@@ -45,12 +45,11 @@ int frame_tree_depth(int64_t faces, int leaf_size);
 // triangles up to 20,480 faces, then faces / 160 (the depth stays at 3), up
 // to 512 from 81,920 faces on. A tree built every frame pays for its depth
 // within the frame: measured against 128 throughout (one process, ratios of
-// medians, benchmarks/README.md), 512 made the octree 7% faster on
-// bunny_69k and armadillo_86k and 15% on the 5 x 5 x 10 spot grid (293k
+// medians, benchmarks/README.md), 512 made the octree 4-7% faster on
+// bunny_69k and armadillo_86k and 15% on the 5 x 5 x 10 spot grid (1.46M
 // faces) -- one level shallower: fewer, fuller clusters --, but up to 8%
-// slower on spot and dragon_20k, which lose a level they need; and within
-// 1-2% on the grids of 586k and 1.17M faces (N = 20, 40: depth 5 instead of
-// 6; from about 1.57M faces both give 6, the cap).
+// slower on spot and dragon_20k, which lose a level they need. From about
+// 1.57M faces both give depth 6, the cap.
 inline int frame_leaf_size(int64_t faces) {
   return int(std::min<int64_t>(512, std::max<int64_t>(128, faces / 160)));
 }
