@@ -43,15 +43,18 @@ int frame_tree_depth(int64_t faces, int leaf_size);
 
 // The leaf size the registry's per-frame trees aim at, by mesh size: 128
 // triangles up to 20,480 faces, then faces / 160 (the depth stays at 3), up
-// to 512 from 81,920 faces on. A tree built every frame pays for its depth
-// within the frame: measured against 128 throughout (one process, ratios of
-// medians, benchmarks/README.md), 512 made the octree 4-7% faster on
-// bunny_69k and armadillo_86k and 15% on the 5 x 5 x 10 spot grid (1.46M
-// faces) -- one level shallower: fewer, fuller clusters --, but up to 8%
-// slower on spot and dragon_20k, which lose a level they need. From about
-// 1.57M faces both give depth 6, the cap.
-inline int frame_leaf_size(int64_t faces) {
-  return int(std::min<int64_t>(512, std::max<int64_t>(128, faces / 160)));
+// to `largest`: 512 for the BVH (from 81,920 faces on), 2048 for the
+// octree (from 327,680). A tree built every frame pays for its depth within
+// the frame. Measured (one process per variant, ratios of medians,
+// benchmarks/README.md) against 128 throughout, 512 made the octree 4-7%
+// faster on bunny_69k and armadillo_86k and 15% on the 5 x 5 x 10 spot grid
+// (1.46M faces) -- one level shallower: fewer, fuller clusters --, but up to
+// 8% slower on spot and dragon_20k, which lose a level they need. On the
+// grids the octree gains from one level less again (2048: N = 10 a further
+// 5-12%, N = 20 6-11%, N = 40 0-2%; N = 80 keeps depth 6, the cap, where 5
+// measured the same), the BVH does not (N = 10: 3-4% slower).
+inline int frame_leaf_size(int64_t faces, int64_t largest) {
+  return int(std::min<int64_t>(largest, std::max<int64_t>(128, faces / 160)));
 }
 
 }  // namespace zbuffer
