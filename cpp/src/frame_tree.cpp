@@ -73,9 +73,9 @@ struct Buckets {
     }
   }
 #endif
-  // Counts to starts, and the faces (and their ids) into bucket order --
-  // unless they came in that order, with ids: then the tree runs over the
-  // mesh's own arrays. `vector`: the AVX-512 loop below, which writes the
+  // Counts to starts, and the faces' indices in bucket order (the tree's
+  // order) -- unless they came in that order, with ids: then the tree's rows
+  // are the mesh's own. `vector`: the AVX-512 loop below, which writes the
   // same rows in the same order as the scalar one (tests hold it to that).
   void scatter(const MeshView& mesh, ObjectTree& tree, bool vector) {
     end_run();
@@ -89,10 +89,10 @@ struct Buckets {
     }
     thread_local std::vector<int64_t> next;
     next.assign(start.begin(), start.end() - 1);
-    tree.faces.resize(3 * size_t(mesh.n_faces));
-    tree.ids.resize(size_t(mesh.n_faces));
-    int32_t* faces = tree.faces.data();
-    int32_t* ids = tree.ids.data();
+    tree.mesh_faces = mesh.faces;
+    tree.mesh_ids = mesh.face_ids;
+    tree.order.resize(size_t(mesh.n_faces));
+    int32_t* order = tree.order.data();
     int64_t f = 0;
 #ifdef ZBUFFER_AVX512
     // 16 faces at a time: those in the bucket of the first go to consecutive
@@ -101,50 +101,23 @@ struct Buckets {
     // the depth-T cells) broken by single faces that straddle a cell border
     // and belong to a coarser node.
     const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    __m512i face_of[3];  // element 16 p + j of a block of 16 faces is in face (16 p + j) / 3
-    for (int part = 0; part < 3; ++part)
-      face_of[part] = _mm512_srli_epi32(
-          _mm512_mullo_epi32(_mm512_add_epi32(lane, _mm512_set1_epi32(16 * part)), _mm512_set1_epi32(43691)), 17);
     for (; vector && f + 16 <= mesh.n_faces; f += 16) {
       const __m512i bucket = _mm512_loadu_si512(&of_face[size_t(f)]);
       const int32_t b = of_face[size_t(f)];
       const __mmask16 same = _mm512_cmpeq_epi32_mask(bucket, _mm512_set1_epi32(b));
-      int64_t to = next[size_t(b)];
-      // Face k's three indices are elements 3k .. 3k + 2 of the block.
-      const __m512i flag = _mm512_maskz_set1_epi32(same, -1);
-      int64_t at = 3 * to;
-      for (int part = 0; part < 3; ++part) {
-        const __mmask16 m = _mm512_movepi32_mask(_mm512_permutexvar_epi32(face_of[part], flag));
-        const __m512i v = _mm512_maskz_compress_epi32(m, _mm512_loadu_si512(mesh.faces + 3 * f + 16 * part));
-        const int n = __builtin_popcount(m);
-        _mm512_mask_storeu_epi32(faces + at, __mmask16((1u << n) - 1u), v);
-        at += n;
-      }
-      const __m512i id = mesh.face_ids ? _mm512_loadu_si512(mesh.face_ids + f)
-                                       : _mm512_add_epi32(_mm512_set1_epi32(int32_t(f)), lane);
+      const int64_t to = next[size_t(b)];
       const int n_same = __builtin_popcount(same);
-      _mm512_mask_storeu_epi32(ids + to, __mmask16((1u << n_same) - 1u),
-                               _mm512_maskz_compress_epi32(same, id));
+      _mm512_mask_storeu_epi32(order + to, __mmask16((1u << n_same) - 1u),
+                               _mm512_maskz_compress_epi32(same, _mm512_add_epi32(_mm512_set1_epi32(int32_t(f)), lane)));
       next[size_t(b)] = to + n_same;
       for (__mmask16 other = __mmask16(~same); other; other &= __mmask16(other - 1)) {
         const int64_t g = f + __builtin_ctz(other);
-        const int64_t dst = next[size_t(of_face[size_t(g)])]++;
-        std::memcpy(faces + 3 * dst, mesh.faces + 3 * g, 3 * sizeof(int32_t));
-        ids[dst] = mesh.id(g);
+        order[next[size_t(of_face[size_t(g)])]++] = int32_t(g);
       }
     }
 #endif
     (void)vector;
-    while (f < mesh.n_faces) {
-      // A run of faces of one bucket goes to consecutive places.
-      const int32_t b = of_face[size_t(f)];
-      int64_t to = next[size_t(b)];
-      for (; f < mesh.n_faces && of_face[size_t(f)] == b; ++f, ++to) {
-        std::memcpy(faces + 3 * to, mesh.faces + 3 * f, 3 * sizeof(int32_t));
-        ids[to] = mesh.id(f);
-      }
-      next[size_t(b)] = to;
-    }
+    for (; f < mesh.n_faces; ++f) order[next[size_t(of_face[size_t(f)])]++] = int32_t(f);
   }
   // Grid box of buckets [b, e) into lo/hi (empty buckets do not widen it).
   void unite(size_t b, size_t e, uint32_t* lo, uint32_t* hi) const {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -12,6 +13,7 @@
 #include "zbuffer/triangle_batch.h"
 #include "zbuffer/vertex_stage.h"
 #include "zbuffer/zpyramid.h"
+#include "setup16.h"
 #include "simd.h"
 #include "timing.h"
 
@@ -21,6 +23,7 @@ int64_t ObjectTree::memory_bytes() const {
   return int64_t(nodes.size() * sizeof(TreeNode) + clusters.size() * sizeof(TriangleCluster) +
                  positions.size() * sizeof(double) + faces.size() * sizeof(int32_t) +
                  ids.size() * sizeof(int32_t) + source.size() * sizeof(int32_t) +
+                 order.size() * sizeof(int32_t) +
                  cluster_of_id.size() * sizeof(int32_t));
 }
 
@@ -36,6 +39,7 @@ void ObjectTree::clear() {
   mesh_positions = nullptr;
   mesh_vertices = 0;
   mesh_faces = mesh_ids = nullptr;
+  order.clear();
 }
 
 // Cluster Construction
@@ -334,6 +338,48 @@ float farthest_under(const ZPyramid& pyramid, const ProjectedNode& r) {
   return m;
 }
 
+// The faces and ids of an indexed tree's cluster `cl`, gathered from the
+// mesh's arrays by the tree's order into `faces` and `ids`.
+void gather_rows(const ObjectTree& tree, const TriangleCluster& cl, std::vector<int32_t>& faces,
+                 std::vector<int32_t>& ids) {
+  const size_t n = size_t(cl.face_end - cl.face_begin);
+  faces.resize(3 * n);
+  ids.resize(n);
+  const int32_t* order = tree.order.data() + cl.face_begin;
+  size_t k = 0;
+#ifdef ZBUFFER_AVX512
+  // 16 rows at a time: three gathers of corners, one of ids, and the
+  // corners interleaved back into rows (simd::interleave16) -- where 3 x the
+  // face index fits the gathers' int32 lanes.
+  const bool narrow = tree.n_input_faces <= std::numeric_limits<int32_t>::max() / 3;
+  for (; narrow && k < n; k += 16) {
+    const __mmask16 live = n - k >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (n - k)) - 1u);
+    if (k + 64 < n) {  // mostly runs of consecutive faces: fetch ahead along them
+      const int64_t ahead = order[k + 64];
+      for (int line = 0; line < 3; ++line) prefetch(tree.mesh_faces + 3 * ahead + 16 * line);
+      if (tree.mesh_ids) prefetch(tree.mesh_ids + ahead);
+    }
+    const __m512i f = _mm512_maskz_loadu_epi32(live, order + k);
+    const __m512i f3 = _mm512_mullo_epi32(f, _mm512_set1_epi32(3));
+    __m512i corner[3];
+    for (int j = 0; j < 3; ++j)
+      corner[j] = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), live,
+                                              _mm512_add_epi32(f3, _mm512_set1_epi32(j)),
+                                              tree.mesh_faces, 4);
+    const __m512i id = tree.mesh_ids ? _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), live, f,
+                                                                    tree.mesh_ids, 4)
+                                     : f;
+    simd::interleave16(corner, int(std::min<size_t>(16, n - k)), &faces[3 * k]);
+    _mm512_mask_storeu_epi32(&ids[k], live, id);
+  }
+#endif
+  for (; k < n; ++k) {
+    const int32_t f = order[k];
+    std::memcpy(&faces[3 * k], tree.mesh_faces + 3 * int64_t(f), 3 * sizeof(int32_t));
+    ids[k] = tree.mesh_ids ? tree.mesh_ids[f] : f;
+  }
+}
+
 }  // namespace
 
 // Traversal
@@ -405,7 +451,12 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     mesh.faces = tree.face_rows() + 3 * cl.face_begin;
     mesh.face_ids = tree.id_rows() + cl.face_begin;
     mesh.n_faces = cl.face_end - cl.face_begin;
-    if (tree.shared) {
+    if (!tree.order.empty()) {
+      // An indexed tree's rows name faces of the mesh: gather them.
+      gather_rows(tree, cl, kept_faces, kept_ids);
+      mesh.faces = kept_faces.data();
+      mesh.face_ids = kept_ids.data();
+    } else if (tree.shared) {
       // Greene's rule put some faces in several clusters: keep those not
       // drawn yet this frame.
       kept_faces.clear();

@@ -50,6 +50,32 @@ ZBUFFER_INLINE void deinterleave16(const int32_t* p, int count, __m512i out[3]) 
         _mm512_load_si512(kDeinterleave.tc[k]), c);
 }
 
+// The inverse of deinterleave16: the three vectors in[k] (lane j: face j's
+// corner k) stored as the interleaved indices of `count` faces at p.
+struct Interleave {
+  alignas(64) int32_t ab[3][16];  // corner 0 or 1 into place
+  alignas(64) int32_t tc[3][16];  // then corner 2
+  constexpr Interleave() : ab{}, tc{} {
+    for (int part = 0; part < 3; ++part)
+      for (int e = 0; e < 16; ++e) {
+        const int p = 16 * part + e, face = p / 3, corner = p % 3;
+        ab[part][e] = corner == 1 ? 16 + face : face;
+        tc[part][e] = corner == 2 ? 16 + face : e;
+      }
+  }
+};
+inline constexpr Interleave kInterleave{};
+
+ZBUFFER_INLINE void interleave16(const __m512i in[3], int count, int32_t* p) {
+  auto first_lanes = [](int n) { return __mmask16(n >= 16 ? 0xFFFF : n <= 0 ? 0 : (1u << n) - 1); };
+  const int ints = 3 * count;
+  for (int part = 0; part < 3; ++part)
+    _mm512_mask_storeu_epi32(p + 16 * part, first_lanes(ints - 16 * part),
+                             _mm512_permutex2var_epi32(
+                                 _mm512_permutex2var_epi32(in[0], _mm512_load_si512(kInterleave.ab[part]), in[1]),
+                                 _mm512_load_si512(kInterleave.tc[part]), in[2]));
+}
+
 // The 16 int64 products a * b of the sign-extended int32 lanes, as two halves.
 ZBUFFER_INLINE void mul_wide(__m512i a, __m512i b, __m512i& lo, __m512i& hi) {
   lo = _mm512_mul_epi32(_mm512_cvtepi32_epi64(_mm512_castsi512_si256(a)),

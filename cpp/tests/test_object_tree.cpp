@@ -7,6 +7,7 @@
 #include <limits>
 #include <vector>
 
+#include "../src/morton.h"
 #include "check.h"
 #include "spatial.h"
 #include "zbuffer/algorithms.h"
@@ -200,8 +201,9 @@ void test_frame_trees() {
         }
         CHECK(tree.mesh_positions == mesh.positions && tree.positions.empty());
         if (ordered && kind == 1)  // the BVH's buckets follow the spatial order
-          CHECK(tree.mesh_faces == mesh.faces && tree.faces.empty() && tree.ids.empty());
-        if (!ordered) CHECK(tree.mesh_faces == nullptr);
+          CHECK(tree.order.empty());
+        if (!ordered) CHECK(tree.order.size() == size_t(mesh.n_faces));
+        CHECK(tree.mesh_faces == mesh.faces && tree.faces.empty() && tree.ids.empty());
         std::vector<int> seen(size_t(mesh.n_faces), 0);
         for (size_t i = 0; i < tree.nodes.size(); ++i) {
           const TreeNode& node = tree.nodes[i];
@@ -212,10 +214,10 @@ void test_frame_trees() {
           if (node.cluster < 0) continue;
           const TriangleCluster& cl = tree.clusters[size_t(node.cluster)];
           for (int64_t r = cl.face_begin; r < cl.face_end; ++r) {
-            const int32_t id = tree.id_rows()[r];
+            const int32_t id = tree.id(r);
             ++seen[size_t(id)];
             for (int k = 0; k < 3; ++k) {  // the face's corners (renumbered in spatial order)
-              const double* p = mesh.positions + 3 * int64_t(tree.face_rows()[3 * r + k]);
+              const double* p = mesh.positions + 3 * int64_t(tree.face(r)[k]);
               CHECK(std::memcmp(p, &soup.pos[3 * size_t(soup.faces[3 * size_t(id) + k])],
                                 3 * sizeof(double)) == 0);
               CHECK(inside(p, node));
@@ -283,19 +285,19 @@ void test_frame_tree_vector_pass_equals_scalar() {
             CHECK(fast.clusters[c].face_begin == slow.clusters[c].face_begin &&
                   fast.clusters[c].face_end == slow.clusters[c].face_end &&
                   fast.clusters[c].node == slow.clusters[c].node);
-          CHECK(fast.faces == slow.faces && fast.ids == slow.ids && fast.mesh_faces == slow.mesh_faces);
+          CHECK(fast.order == slow.order && fast.mesh_faces == mesh.faces && slow.mesh_faces == mesh.faces);
           // In spatial order, the BVH's buckets come in order; out of order,
-          // or without ids, the faces are copied.
-          if (kind == 1 && variant == 1) CHECK(fast.mesh_faces == mesh.faces);
-          if (variant == 0 || variant >= 2) CHECK(fast.mesh_faces == nullptr);
+          // or without ids, the tree lists the faces in its order.
+          if (kind == 1 && variant == 1) CHECK(fast.order.empty());
+          if (variant == 0 || variant >= 2) CHECK(fast.order.size() == n);
           // Either way the clusters' rows are the faces they name.
           std::vector<int> seen(n, 0);
           for (const TriangleCluster& cl : fast.clusters)
             for (int64_t r = cl.face_begin; r < cl.face_end; ++r) {
-              const int32_t id = fast.id_rows()[r];
+              const int32_t id = fast.id(r);
               ++seen[size_t(id)];
               for (int k = 0; k < 3; ++k)
-                CHECK(std::memcmp(mesh.positions + 3 * int64_t(fast.face_rows()[3 * r + k]),
+                CHECK(std::memcmp(mesh.positions + 3 * int64_t(fast.face(r)[k]),
                                   &soup.pos[3 * size_t(soup.faces[3 * size_t(id) + k])],
                                   3 * sizeof(double)) == 0);
             }
@@ -304,9 +306,43 @@ void test_frame_tree_vector_pass_equals_scalar() {
     }
 }
 
+// A vertex grid built again for the same positions array (per-frame trees,
+// frame after frame) reuses the bounds it knew only if they are still the
+// bounds: whatever changed in the array, the grid equals one built afresh.
+void test_vertex_grid_rebuilt_equals_fresh() {
+  const Soup original = random_soup(11, 3001);
+  Soup soup = original;
+  const MeshView mesh = soup.view();  // points into soup.pos, edited below
+  auto same = [](const VertexGrid& a, const VertexGrid& b) {
+    return a.cell == b.cell && std::memcmp(a.origin, b.origin, sizeof a.origin) == 0 &&
+           a.cell_size == b.cell_size;
+  };
+  for (bool vector : {true, false}) {
+    VertexGrid kept;
+    kept.build(mesh, vector);
+    // Edits: none; an inner vertex moved (same bounds); a vertex moved out
+    // of the bounds; the vertices below x = -0.5 moved up to it (bounds
+    // that shrank).
+    for (int edit = 0; edit < 4; ++edit) {
+      if (edit == 1) soup.pos[3 * 100] = 0.25;
+      if (edit == 2) soup.pos[3 * 200 + 1] = 3.0;
+      if (edit == 3)
+        for (size_t v = 0; v < soup.pos.size() / 3; ++v) soup.pos[3 * v] = std::max(soup.pos[3 * v], -0.5);
+      kept.build(mesh, vector);
+      VertexGrid fresh;
+      fresh.build(mesh, vector);
+      CHECK(same(kept, fresh));
+      kept.build(mesh, vector);  // and once more, unchanged
+      CHECK(same(kept, fresh));
+    }
+    std::copy(original.pos.begin(), original.pos.end(), soup.pos.begin());
+  }
+}
+
 }  // namespace
 
 int main() {
+  test_vertex_grid_rebuilt_equals_fresh();
   test_frame_tree_vector_pass_equals_scalar();
   test_structures();
   test_frame_trees();

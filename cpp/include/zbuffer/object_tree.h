@@ -47,11 +47,13 @@ struct TriangleCluster {
 // bits each time, so the output does not change -- and the tree holds about
 // 40 bytes per triangle.
 //
-// A tree built for one frame (frame_tree.h) is `indexed` instead: its faces
-// keep the mesh's vertex indices, and the traversal transforms all of the
-// mesh's vertices up front (as the plain Z-buffer does), so that building
-// copies nothing but the faces (and not even those when they came in the
-// tree's order with their ids: a BVH of a mesh in spatial order).
+// A tree built for one frame (frame_tree.h) is `indexed` instead: it runs
+// over the mesh's own arrays, and the traversal transforms all of the mesh's
+// vertices up front (as the plain Z-buffer does). Its clusters are runs of
+// `order`, the mesh's face index of each row, so that building writes 4
+// bytes a face -- or, when the faces came in the tree's order with their ids
+// (a BVH of a mesh in spatial order), runs of the mesh's face and id arrays
+// themselves, and building writes nothing per face.
 struct ObjectTree {
   std::vector<TreeNode> nodes;           // nodes[0] is the root (empty mesh: none)
   std::vector<TriangleCluster> clusters;
@@ -68,13 +70,27 @@ struct ObjectTree {
   // caller keeps them alive while rendering); `positions` is then empty.
   const double* mesh_positions = nullptr;
   int64_t mesh_vertices = 0;
-  // Non-null for an indexed tree whose clusters are runs of the mesh's own
-  // face and id arrays, which came in cluster order (a per-frame BVH of a
-  // mesh in spatial order): `faces` and `ids` are then empty.
+  // Non-null for an indexed tree: the mesh's face and id arrays (no ids:
+  // a face's id is its index). `faces` and `ids` are then empty.
   const int32_t* mesh_faces = nullptr;
   const int32_t* mesh_ids = nullptr;
+  // An indexed tree's rows: the mesh's face index of each; empty when the
+  // rows are the mesh's own (the faces came in cluster order, with ids).
+  Buffer<int32_t> order;
 
-  // The rows clusters index: faces (3 per row) and ids.
+  // Row r of the clusters: its three vertex indices, and its id.
+  const int32_t* face(int64_t r) const {
+    if (!mesh_faces) return faces.data() + 3 * r;
+    return mesh_faces + 3 * int64_t(order.empty() ? r : order[size_t(r)]);
+  }
+  int32_t id(int64_t r) const {
+    if (!mesh_faces) return ids[size_t(r)];
+    if (order.empty()) return mesh_ids[r];
+    const int32_t f = order[size_t(r)];
+    return mesh_ids ? mesh_ids[f] : f;
+  }
+  // The rows of a tree that are runs of arrays (all but an indexed tree with
+  // an order): faces (3 per row) and ids.
   const int32_t* face_rows() const { return mesh_faces ? mesh_faces : faces.data(); }
   const int32_t* id_rows() const { return mesh_faces ? mesh_ids : ids.data(); }
   // id -> cluster (the first one holding it), if ids are the face indices
