@@ -168,21 +168,26 @@ void transform_4(const double* p, const double* m, const Viewport& vp, int32_t* 
 void transform_vertices(const MeshView& mesh, const double* mvp, const Viewport& vp,
                         ScreenVertices& out) {
   out.resize(size_t(mesh.n_vertices));
-  int64_t i = 0;
+  out.any_outcode = transform_vertex_range(mesh, mvp, vp, 0, mesh.n_vertices, out);
+}
+
+uint32_t transform_vertex_range(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                                int64_t begin, int64_t end, ScreenVertices& out) {
+  int64_t i = begin;
 #if defined(ZBUFFER_AVX512)
-  for (; i + 8 <= mesh.n_vertices; i += 8)
+  for (; i + 8 <= end; i += 8)
     transform_8(mesh.positions + 3 * i, mvp, vp, &out.x_fx[i], &out.y_fx[i], &out.outcode[i],
                 &out.z[i]);
 #elif defined(ZBUFFER_AVX2)
-  for (; i + 4 <= mesh.n_vertices; i += 4)
+  for (; i + 4 <= end; i += 4)
     transform_4(mesh.positions + 3 * i, mvp, vp, &out.x_fx[i], &out.y_fx[i], &out.outcode[i],
                 &out.z[i]);
 #endif
-  for (; i < mesh.n_vertices; ++i) transform_vertex(mesh, mvp, vp, i, out);
+  for (; i < end; ++i) transform_vertex(mesh, mvp, vp, i, out);
   uint32_t any = 0;
   const uint32_t* oc = out.outcode.data();
-  for (int64_t v = 0; v < mesh.n_vertices; ++v) any |= oc[v];
-  out.any_outcode = any;
+  for (int64_t v = begin; v < end; ++v) any |= oc[v];
+  return any;
 }
 
 int clip_polygon(ClipVertex* poly, int n, const Viewport& vp) {

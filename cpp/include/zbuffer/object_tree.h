@@ -48,8 +48,9 @@ struct TriangleCluster {
 // 40 bytes per triangle.
 //
 // A tree built for one frame (frame_tree.h) is `indexed` instead: it runs
-// over the mesh's own arrays, and the traversal transforms all of the mesh's
-// vertices up front (as the plain Z-buffer does). Its clusters are runs of
+// over the mesh's own arrays, and the traversal transforms the mesh's
+// vertices as the clusters it draws need them (object_tree.cpp,
+// LazyVertices; small meshes all up front). Its clusters are runs of
 // `order`, the mesh's face index of each row, so that building writes 4
 // bytes a face -- or, when the faces came in the tree's order with their ids
 // (a BVH of a mesh in spatial order), runs of the mesh's face and id arrays
@@ -161,6 +162,10 @@ struct TreeFrame {
   std::vector<uint8_t> node_fate;       // NodeFate of each node in the last frame
   std::vector<int32_t> visible_clusters;  // clusters with a pixel in the last frame
   bool has_visible = false;             // visible_clusters belongs to the tree's last frame
+  // An indexed tree over at least this many vertices has them transformed
+  // as the clusters drawn need them (object_tree.cpp: LazyVertices), a
+  // smaller one all up front. Tests lower it.
+  int64_t lazy_vertices_from = int64_t(1) << 18;
 };
 
 // Renders one frame of the tree into the cleared target (depth +inf, ids -1)

@@ -157,6 +157,12 @@ inline ScreenVertex to_screen(const ClipVertex& c, const Viewport& vp) {
 void transform_vertices(const MeshView& mesh, const double* mvp,
                         const Viewport& vp, ScreenVertices& out);
 
+// The same for vertices begin .. end - 1 only, into `out` as it is (sized by
+// the caller); returns the OR of their outcodes (out.any_outcode is left
+// alone). Vertices come out the same whichever range they are part of.
+uint32_t transform_vertex_range(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                                int64_t begin, int64_t end, ScreenVertices& out);
+
 // The vertex stage of a whole render: every vertex of input.mesh once, into
 // a buffer of the calling thread that is reused from frame to frame
 // (allocating, zeroing and faulting in a new one cost more than the
