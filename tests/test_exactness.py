@@ -35,14 +35,40 @@ def test_algorithm_equals_reference(procedural_scenes, algo, scene, cull):
         assert_same_counters(res.stats, ref.stats)
 
 
+@pytest.mark.parametrize("algo", ALGORITHMS)
+def test_large_triangles_equal_reference(procedural_scenes, algo):
+    # Boxes 64 pixels wide or more, and triangles reaching far outside the
+    # image, are drawn by exact spans (docs/rasterization.md, 3.6).
+    width, height = 320, 240
+    for scene in ("boxes", "interpenetrating", "coplanar"):
+        mesh = procedural_scenes[scene]
+        for name, cam in cameras(mesh, width / height):
+            res = zbuffer.render(mesh, algo=algo, camera=cam, width=width, height=height,
+                                 shading="none")
+            ref = zbuffer.reference.render(mesh, camera=cam, width=width, height=height,
+                                           shading="none")
+            assert_same_visibility(res, ref)
+            assert_same_counters(res.stats, ref.stats)
+            if algo == "zbuffer":  # spans test fewer pixels than the boxes hold
+                assert res.stats["pixels_tested"] < ref.stats["pixels_tested"], f"{scene}/{name}"
+
+
 def test_pixel_counters_match_reference_for_plain_zbuffer(procedural_scenes):
-    # The plain Z-buffer visits each triangle's whole box, as the reference does.
+    # The plain Z-buffer tests every pixel of each triangle's box, as the
+    # reference counts them, where boxes are under 64 pixels wide (all of
+    # them at 120x90); wider ones it walks by exact spans, testing only
+    # their covered pixels (docs/rasterization.md, 3.6).
     mesh = procedural_scenes["default"]
     res = zbuffer.render(mesh, algo="zbuffer", width=120, height=90, shading="none")
     ref = zbuffer.reference.render(mesh, width=120, height=90, shading="none")
     assert res.stats["pixels_tested"] == ref.stats["pixels_tested"]
     assert res.stats["pixels_covered"] == ref.stats["pixels_covered"]
     assert 0 < res.stats["pixels_written"] <= res.stats["pixels_covered"]
+
+    res = zbuffer.render(mesh, algo="zbuffer", width=800, height=600, shading="none")
+    ref = zbuffer.reference.render(mesh, width=800, height=600, shading="none")
+    assert res.stats["pixels_covered"] == ref.stats["pixels_covered"]
+    assert res.stats["pixels_covered"] <= res.stats["pixels_tested"] < ref.stats["pixels_tested"]
 
 
 def test_depth_range_and_empty_pixels(procedural_scenes):

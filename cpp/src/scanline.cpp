@@ -18,22 +18,6 @@ namespace zbuffer {
 
 namespace {
 
-// n = q * d + r with 0 <= r < d, for d > 0 and |n|, d < 2^53. The double
-// quotient is within one of the true one; integer arithmetic corrects it
-// (an int64 division costs several times as much).
-inline void floor_divmod(int64_t n, int64_t d, int64_t& q, int64_t& r) {
-  q = int64_t(std::floor(double(n) / double(d)));
-  r = n - q * d;
-  while (r < 0) {
-    --q;
-    r += d;
-  }
-  while (r >= d) {
-    ++q;
-    r -= d;
-  }
-}
-
 #ifdef ZBUFFER_AVX512
 // Transposes a 16 x 16 matrix of int32 held as 16 rows: afterwards r[j]
 // holds what was column j (element k of r[j] = old element j of r[k]).

@@ -101,12 +101,24 @@ struct DepthPlane16 {
       : z0(z0_), a1(a1_), a2(a2_), lo(lo_), hi(hi_) {}
 };
 
-// The depth formula: z0 + (float(w1) * a1 + float(w2) * a2), clamped, for
-// exact unbiased int32 edge values w1, w2.
-ZBUFFER_INLINE __m512 depth16(const DepthPlane16& p, __m512i w1, __m512i w2) {
-  const __m512 z = _mm512_add_ps(p.z0, _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(w1), p.a1),
-                                                     _mm512_mul_ps(_mm512_cvtepi32_ps(w2), p.a2)));
+// The depth formula: z0 + (f1 * a1 + f2 * a2), clamped, for f1, f2 the
+// exact unbiased edge values w1, w2 rounded to float.
+ZBUFFER_INLINE __m512 depth16_of(const DepthPlane16& p, __m512 f1, __m512 f2) {
+  const __m512 z =
+      _mm512_add_ps(p.z0, _mm512_add_ps(_mm512_mul_ps(f1, p.a1), _mm512_mul_ps(f2, p.a2)));
   return _mm512_min_ps(_mm512_max_ps(z, p.lo), p.hi);  // clamp (no NaN, no -0 here)
+}
+
+// The same for exact unbiased int32 edge values w1, w2.
+ZBUFFER_INLINE __m512 depth16(const DepthPlane16& p, __m512i w1, __m512i w2) {
+  return depth16_of(p, _mm512_cvtepi32_ps(w1), _mm512_cvtepi32_ps(w2));
+}
+
+// float(w) of 16 exact int64 values, lanes 0-7 in lo and 8-15 in hi
+// (rounded to nearest even, as float(int64) in scalar code).
+ZBUFFER_INLINE __m512 to_float16(__m512i lo, __m512i hi) {
+  return _mm512_insertf32x8(_mm512_castps256_ps512(_mm512_cvtepi64_ps(lo)),
+                            _mm512_cvtepi64_ps(hi), 1);
 }
 
 // The same for 8 lanes of int64 edge values (triangles too big for int32).
@@ -229,12 +241,23 @@ struct DepthPlane8 {
         lo(_mm256_set1_ps(lo_)), hi(_mm256_set1_ps(hi_)) {}
 };
 
-// The depth formula: z0 + (float(w1) * a1 + float(w2) * a2), clamped, for
-// exact unbiased int32 edge values w1, w2 (no fused multiply-add).
-ZBUFFER_INLINE __m256 depth8x32(const DepthPlane8& p, __m256i w1, __m256i w2) {
-  const __m256 z = _mm256_add_ps(p.z0, _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(w1), p.a1),
-                                                     _mm256_mul_ps(_mm256_cvtepi32_ps(w2), p.a2)));
+// The depth formula: z0 + (f1 * a1 + f2 * a2), clamped, for f1, f2 the
+// exact unbiased edge values w1, w2 rounded to float (no fused multiply-add).
+ZBUFFER_INLINE __m256 depth8_of(const DepthPlane8& p, __m256 f1, __m256 f2) {
+  const __m256 z =
+      _mm256_add_ps(p.z0, _mm256_add_ps(_mm256_mul_ps(f1, p.a1), _mm256_mul_ps(f2, p.a2)));
   return _mm256_min_ps(_mm256_max_ps(z, p.lo), p.hi);  // clamp (no NaN, no -0 here)
+}
+
+// The same for exact unbiased int32 edge values w1, w2.
+ZBUFFER_INLINE __m256 depth8x32(const DepthPlane8& p, __m256i w1, __m256i w2) {
+  return depth8_of(p, _mm256_cvtepi32_ps(w1), _mm256_cvtepi32_ps(w2));
+}
+
+// float(w) of 8 integers held exactly in doubles (|w| < 2^53), lanes 0-3
+// in lo and 4-7 in hi: one rounding from the exact value, as float(int64).
+ZBUFFER_INLINE __m256 to_float8(__m256d lo, __m256d hi) {
+  return _mm256_set_m128(_mm256_cvtpd_ps(hi), _mm256_cvtpd_ps(lo));
 }
 
 // The depth write's decision: of the lanes `inside`, those nearer than the

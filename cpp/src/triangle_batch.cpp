@@ -440,19 +440,27 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
   }
   const float* tile_max = pyramid_->level(kTileShift);
   const int tiles_wide = pyramid_->width(kTileShift);
-  for (int ty = ty0; ty <= ty1; ++ty)
-    for (int tx = tx0; tx <= tx1; ++tx) {
-      if (s.z_lo > tile_max[size_t(ty) * tiles_wide + tx]) {  // already nearer: skip
+  for (int ty = ty0; ty <= ty1; ++ty) {
+    const float* row = tile_max + size_t(ty) * tiles_wide;
+    const int y0 = std::max(s.y_min, ty << kTileShift);
+    const int y1 = std::min(s.y_max, ((ty + 1) << kTileShift) - 1);
+    // Runs of tiles not already nearer, each drawn as one rectangle (wide
+    // ones by exact spans: raster.h, TriangleSpans).
+    for (int tx = tx0; tx <= tx1;) {
+      if (s.z_lo > row[tx]) {  // already nearer: skip
         ++stats_.tiles_skipped;
+        ++tx;
         continue;
       }
+      int end = tx + 1;
+      while (end <= tx1 && !(s.z_lo > row[end])) ++end;
       const int x0 = std::max(s.x_min, tx << kTileShift);
-      const int x1 = std::min(s.x_max, ((tx + 1) << kTileShift) - 1);
-      const int y0 = std::max(s.y_min, ty << kTileShift);
-      const int y1 = std::min(s.y_max, ((ty + 1) << kTileShift) - 1);
+      const int x1 = std::min(s.x_max, (end << kTileShift) - 1);
       rasterize_rect(s, x0, y0, x1, y1, target_, stats_);
       mark_blocks(x0, y0, x1, y1);
+      tx = end;
     }
+  }
 }
 
 void TriangleBatch::update_pyramid() {

@@ -1,4 +1,5 @@
-// The plain Z-buffer: every triangle, its whole pixel box. It is the baseline
+// The plain Z-buffer: every triangle, every pixel of its box (wide boxes by
+// exact spans, raster.h: rasterize_rect). It is the baseline
 // every other algorithm is measured against, so it takes the fastest path the
 // core has (triangle_batch.h).
 #include "zbuffer/algorithms.h"

@@ -123,7 +123,7 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
       nodes_hidden[algo.name] += stats.nodes_hidden;
       if (std::string(algo.name) == "scanline") {
         // Spans are exact: every pixel tested is covered, and the pixels
-        // covered are the plain Z-buffer's (which tests whole boxes).
+        // covered are the reference's.
         CHECK(stats.pixels_tested == stats.pixels_covered);
         CHECK(stats.pixels_covered == ref_stats.pixels_covered);
         CHECK(stats.polygons_inserted > 0 && stats.polygons_inserted <= stats.rasterized);
