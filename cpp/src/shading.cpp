@@ -1,9 +1,8 @@
 // Lambert shading of a visibility result. See shading.h for the model.
 //
 // Per-face work (normal, facing, perspective-correct barycentric functions,
-// and for flat faces the final colour) is done once, the first time a face
-// shows up in the image, and cached; per-pixel work is then a handful of
-// multiply-adds.
+// and for flat faces the final colour) is done once per face, before the
+// pixels are visited; per-pixel work is then a handful of multiply-adds.
 #include "zbuffer/shading.h"
 
 #include <algorithm>
@@ -89,8 +88,10 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary) {
     // evaluates them in float32, whose range the raw products can exceed.
     double big = 0.0;
     for (double b : s.bary) big = std::max(big, std::abs(b));
-    if (big > 0.0 && std::isfinite(big))
-      for (double& b : s.bary) b /= big;
+    if (big > 0.0 && std::isfinite(big)) {
+      const double scale = 1.0 / big;
+      for (double& b : s.bary) b *= scale;
+    }
   }
   const Vec3 to_light = -1.0 * load3(in.light_dir);
   const double light = intensity(in, s.normal, to_light);
@@ -215,28 +216,218 @@ namespace {
 // within one level). Per-face data sits in structure-of-arrays form for
 // gathers.
 
+// Design decision: the per-face table is prepared before the pixel pass,
+// for the faces that show up, in face order -- not lazily, face by face as
+// the pixels meet them. Good: the faces' corners are read in the mesh's own
+// order (a prepared mesh keeps neighbours together), AVX-512 builds prepare
+// 8 faces per instruction, and the pixel pass has no "seen yet?" test.
+// Bad: which faces show up takes a pass over the ids of its own (only where
+// the mesh has more faces than a quarter of the pixels: otherwise every face
+// is prepared, which costs less than finding out). The table lives on from
+// frame to frame (one per thread, up to kKeptFaces faces), so it is not
+// allocated and faulted in anew each time.
 struct FaceTable {
-  explicit FaceTable(size_t n)
-      : bary(new float[9 * n]), normal(new float[3 * n]), side(new float[n]),
-        rgb(new int32_t[n]), ready(n, 0) {}
-  std::unique_ptr<float[]> bary;    // 9 per face: coefficient c of row k at 9 f + 3 k + c
-  std::unique_ptr<float[]> normal;  // 3 per face: the flat normal, facing the viewer
-  std::unique_ptr<float[]> side;
-  std::unique_ptr<int32_t[]> rgb;   // flat colour, 0x00BBGGRR
-  std::vector<int32_t> ready;  // int32 so that 16 flags are one gather
+  static constexpr size_t kKeptFaces = size_t(1) << 20;  // 4 MB flat, 56 MB interpolated
+  // Room for n faces, with the fields the interpolated passes read if need_bary.
+  void resize(size_t n, bool need_bary) {
+    if (stride < n) {
+      stride = n;
+      rgb.resize(n);
+      bary.clear();
+      normal.clear();
+      side.clear();
+    }
+    if (need_bary && side.size() < stride) {
+      bary.resize(9 * stride);
+      normal.resize(3 * stride);
+      side.resize(stride);
+    }
+  }
+  // After a pass: give back the memory of a table too large to keep.
+  void trim() {
+    if (stride > kKeptFaces) *this = FaceTable();
+  }
+  // Structure of arrays: field c of face f at c * stride + f.
+  size_t stride = 0;
+  std::vector<float> bary;    // 9 fields: coefficient c of row k is field 3 k + c
+  std::vector<float> normal;  // 3 fields: the flat normal, facing the viewer
+  std::vector<float> side;
+  std::vector<int32_t> rgb;   // flat colour, 0x00BBGGRR
+  const float* bary_field(int c) const { return bary.data() + size_t(c) * stride; }
+  const float* normal_field(int c) const { return normal.data() + size_t(c) * stride; }
 };
 
-// Everything a vector pass reads per face, prepared the first time the
-// face shows up (scalar, once per face).
-void prepare_table(const ShadingInput& in, FaceTable& table, int32_t face, bool need_bary) {
-  const FaceShade s = prepare_face(in, face, need_bary);
-  for (int c = 0; c < 9; ++c) table.bary[9 * size_t(face) + c] = float(s.bary[c]);
-  table.normal[3 * size_t(face) + 0] = float(s.normal.x);
-  table.normal[3 * size_t(face) + 1] = float(s.normal.y);
-  table.normal[3 * size_t(face) + 2] = float(s.normal.z);
-  table.side[face] = float(s.side);
-  table.rgb[face] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
-  table.ready[face] = 1;
+void store_face(FaceTable& table, int32_t face, const FaceShade& s, bool need_bary) {
+  const size_t f = size_t(face), n = table.stride;
+  table.rgb[f] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
+  if (!need_bary) return;
+  for (int c = 0; c < 9; ++c) table.bary[c * n + f] = float(s.bary[c]);
+  table.normal[0 * n + f] = float(s.normal.x);
+  table.normal[1 * n + f] = float(s.normal.y);
+  table.normal[2 * n + f] = float(s.normal.z);
+  table.side[f] = float(s.side);
+}
+
+#ifdef ZBUFFER_AVX512
+// prepare_face for the 8 faces f (lanes `live`), in double: the same
+// operations in the same order, so the same bits. `first` >= 0: the faces
+// are first .. first + 7.
+void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask8 live,
+                    bool need_bary, int64_t first) {
+  const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
+  const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
+  __m512d p[3][3];  // corner k, coordinate c
+  for (int k = 0; k < 3; ++k) {
+    const __m256i v = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live,
+                                                   _mm256_add_epi32(f3, _mm256_set1_epi32(k)),
+                                                   in.mesh.faces, 4);
+    const __m256i v3 = _mm256_mullo_epi32(v, _mm256_set1_epi32(3));
+    for (int c = 0; c < 3; ++c)
+      p[k][c] = _mm512_mask_i32gather_pd(zero, live, _mm256_add_epi32(v3, _mm256_set1_epi32(c)),
+                                         in.mesh.positions, 8);
+  }
+  auto dot = [](const __m512d* a, const __m512d* b) {
+    return _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(a[0], b[0]), _mm512_mul_pd(a[1], b[1])),
+                         _mm512_mul_pd(a[2], b[2]));
+  };
+  __m512d e1[3], e2[3], ng[3], to_viewer[3];
+  for (int c = 0; c < 3; ++c) {
+    e1[c] = _mm512_sub_pd(p[1][c], p[0][c]);
+    e2[c] = _mm512_sub_pd(p[2][c], p[0][c]);
+  }
+  for (int c = 0; c < 3; ++c) {
+    const int a = (c + 1) % 3, b = (c + 2) % 3;
+    ng[c] = _mm512_sub_pd(_mm512_mul_pd(e1[a], e2[b]), _mm512_mul_pd(e1[b], e2[a]));
+    to_viewer[c] = _mm512_sub_pd(_mm512_set1_pd(in.viewer[c]),
+                                 _mm512_mul_pd(_mm512_set1_pd(in.viewer[3]), p[0][c]));
+  }
+  const __mmask8 back = _mm512_cmp_pd_mask(dot(ng, to_viewer), zero, _CMP_LT_OQ);
+  const __m512d side = _mm512_mask_blend_pd(back, one, _mm512_set1_pd(-1.0));
+  const __m512d len = _mm512_sqrt_pd(dot(ng, ng));
+  const __mmask8 nonzero = _mm512_cmp_pd_mask(len, zero, _CMP_GT_OQ);
+  const __m512d inv = _mm512_div_pd(one, len);
+  __m512d normal[3];
+  for (int c = 0; c < 3; ++c)
+    normal[c] = _mm512_mul_pd(side, _mm512_maskz_mov_pd(nonzero, _mm512_mul_pd(inv, ng[c])));
+  __m512d to_light[3];
+  for (int c = 0; c < 3; ++c) to_light[c] = _mm512_set1_pd(-1.0 * in.light_dir[c]);
+  const __m512d light = _mm512_add_pd(
+      _mm512_set1_pd(in.ambient),
+      _mm512_mul_pd(_mm512_set1_pd(in.diffuse), _mm512_max_pd(dot(normal, to_light), zero)));
+  __m512i rgb = _mm512_setzero_si512();
+  for (int c = 0; c < 3; ++c) {
+    const __m512d albedo =
+        in.color_source == ColorSource::kPerFace
+            ? _mm512_cvtps_pd(_mm256_mmask_i32gather_ps(_mm256_setzero_ps(), live,
+                                                        _mm256_add_epi32(f3, _mm256_set1_epi32(c)),
+                                                        in.colors, 4))
+            : _mm512_set1_pd(double(in.uniform_color[c]));
+    const __m512d v = _mm512_min_pd(_mm512_max_pd(_mm512_mul_pd(albedo, light), zero), one);
+    const __m512d byte = _mm512_roundscale_pd(
+        _mm512_add_pd(_mm512_mul_pd(v, _mm512_set1_pd(255.0)), _mm512_set1_pd(0.5)),
+        _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    rgb = _mm512_or_si512(rgb, _mm512_slli_epi64(_mm512_cvtpd_epi64(byte), 8 * c));
+  }
+
+  __m512d bary[9];
+  if (need_bary) {
+    const double* m = in.mvp;
+    __m512d cx[3], cy[3], cw[3];
+    auto row = [&](const double* r, int k) {
+      return _mm512_add_pd(
+          _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(r[0]), p[k][0]),
+                                      _mm512_mul_pd(_mm512_set1_pd(r[1]), p[k][1])),
+                        _mm512_mul_pd(_mm512_set1_pd(r[2]), p[k][2])),
+          _mm512_set1_pd(r[3]));
+    };
+    for (int k = 0; k < 3; ++k) {
+      cx[k] = row(m, k);
+      cy[k] = row(m + 4, k);
+      cw[k] = row(m + 12, k);
+    }
+    __m512d b[9], big = zero;
+    for (int k = 0; k < 3; ++k) {
+      const int a = (k + 1) % 3, c = (k + 2) % 3;
+      b[3 * k + 0] = _mm512_sub_pd(_mm512_mul_pd(cy[a], cw[c]), _mm512_mul_pd(cy[c], cw[a]));
+      b[3 * k + 1] = _mm512_sub_pd(_mm512_mul_pd(cw[a], cx[c]), _mm512_mul_pd(cw[c], cx[a]));
+      b[3 * k + 2] = _mm512_sub_pd(_mm512_mul_pd(cx[a], cy[c]), _mm512_mul_pd(cx[c], cy[a]));
+    }
+    for (const __m512d& v : b) big = _mm512_max_pd(_mm512_abs_pd(v), big);
+    constexpr int kNanOrInf = 0x01 | 0x80 | 0x08 | 0x10;
+    const __mmask8 scale = _mm512_cmp_pd_mask(big, zero, _CMP_GT_OQ) &
+                           ~_mm512_fpclass_pd_mask(big, kNanOrInf);
+    const __m512d inv_big = _mm512_div_pd(one, big);
+    for (int c = 0; c < 9; ++c) bary[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
+  }
+
+  // Into the table: 8 consecutive entries (the faces are first .. first + 7)
+  // by masked stores, else by scatters. Flat shading needs only the colour.
+  const size_t n = table.stride;
+  auto put = [&](float* field, __m256 v) {
+    if (first >= 0)
+      _mm256_mask_storeu_ps(field + first, live, v);
+    else
+      _mm256_mask_i32scatter_ps(field, live, f, v, 4);
+  };
+  const __m256i colour = _mm512_cvtepi64_epi32(rgb);
+  if (first >= 0)
+    _mm256_mask_storeu_epi32(table.rgb.data() + first, live, colour);
+  else
+    _mm256_mask_i32scatter_epi32(table.rgb.data(), live, f, colour, 4);
+  if (need_bary) {
+    for (int c = 0; c < 9; ++c) put(table.bary.data() + c * n, _mm512_cvtpd_ps(bary[c]));
+    for (int c = 0; c < 3; ++c) put(table.normal.data() + c * n, _mm512_cvtpd_ps(normal[c]));
+    put(table.side.data(), _mm512_cvtpd_ps(side));
+  }
+}
+#endif
+
+// Prepares the table for every face that shows up in triangle_id (maybe
+// more): all faces when there are few, else those found by a pass over the
+// ids (each run of one id looked up once), in face order.
+void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable& table,
+                   bool need_bary) {
+  const size_t n_faces = size_t(in.mesh.n_faces);
+  const size_t n_pixels = size_t(in.width) * size_t(in.height);
+  table.resize(n_faces, need_bary);
+  thread_local std::vector<int32_t> list;
+  thread_local std::vector<uint64_t> seen;
+  const bool all = n_faces <= n_pixels / 4;
+  if (!all) {
+    seen.assign((n_faces + 63) / 64, 0);
+    int32_t previous = -1;
+    for (size_t p = 0; p < n_pixels; ++p) {
+      const int32_t f = triangle_id[p];
+      if (f != previous && f >= 0) seen[size_t(f) >> 6] |= uint64_t(1) << (f & 63);
+      previous = f;
+    }
+    list.clear();
+    for (size_t w = 0; w < seen.size(); ++w)
+      for (uint64_t bits = seen[w]; bits; bits &= bits - 1)
+        list.push_back(int32_t(64 * w + size_t(__builtin_ctzll(bits))));
+  }
+  const size_t count = all ? n_faces : list.size();
+#ifdef ZBUFFER_AVX512
+  // (int32 gather indices: 3 n_vertices and 3 n_faces must fit)
+  constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
+  const bool vector = in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed;
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  for (size_t i = 0; vector && i < count; i += 8) {
+    const __mmask8 live = __mmask8(_bzhi_u32(0xFF, uint32_t(std::min<size_t>(count - i, 8))));
+    const __m256i f = all ? _mm256_add_epi32(_mm256_set1_epi32(int32_t(i)), lane)
+                          : _mm256_maskz_loadu_epi32(live, list.data() + i);
+    prepare_faces8(in, table, f, live, need_bary, all ? int64_t(i) : -1);
+  }
+  for (size_t i = 0; !vector && i < count; ++i) {
+    const int32_t face = all ? int32_t(i) : list[i];
+    store_face(table, face, prepare_face(in, face, need_bary), need_bary);
+  }
+#else
+  for (size_t i = 0; i < count; ++i) {
+    const int32_t face = all ? int32_t(i) : list[i];
+    store_face(table, face, prepare_face(in, face, need_bary), need_bary);
+  }
+#endif
 }
 
 // Vertex normals or colours as float32 structure of arrays (component c of
@@ -283,8 +474,12 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
   const bool smooth = in.vertex_normals != nullptr;
   const bool per_vertex = in.color_source == ColorSource::kPerVertex;
   const bool need_bary = smooth || per_vertex;
-  const size_t n_faces = size_t(in.mesh.n_faces);
-  FaceTable table(n_faces);
+  thread_local FaceTable table;
+  struct Trim {
+    FaceTable& table;
+    ~Trim() { table.trim(); }
+  } trim{table};
+  prepare_table(in, triangle_id, table, need_bary);
 
   // Vertex normals and colours as float32 structure of arrays.
   const size_t nv = size_t(in.mesh.n_vertices);
@@ -292,7 +487,9 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
   const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
 
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
-  const __m512 lanes_f = _mm512_set_ps(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+  // x of each column's pixel centres in NDC (and 16 spare entries).
+  std::vector<float> xn_row(size_t(in.width) + 16);
+  for (size_t i = 0; i < xn_row.size(); ++i) xn_row[i] = (float(i) + 0.5f) / half_w - 1.0f;
   const __m512i zero = _mm512_setzero_si512();
   const int32_t bg = int32_t(in.background[0]) | (int32_t(in.background[1]) << 8) |
                      (int32_t(in.background[2]) << 16);
@@ -313,34 +510,48 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
           in.width - i >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (in.width - i)) - 1);
       const __m512i f = _mm512_maskz_loadu_epi32(valid, ids + i);
       const __mmask16 drawn = _mm512_mask_cmpge_epi32_mask(valid, f, zero);
-      // Faces seen for the first time: prepare them (scalar, once per face).
-      const __mmask16 first_seen = _mm512_mask_cmpeq_epi32_mask(
-          drawn, _mm512_mask_i32gather_epi32(zero, drawn, f, table.ready.data(), 4), zero);
-      for (unsigned m = first_seen; m; m &= m - 1) {
-        const int32_t face = ids[i + __builtin_ctz(m)];
-        if (!table.ready[face]) prepare_table(in, table, face, need_bary);  // once per face
-      }
       __m512i rgba = background;
       if (drawn && !need_bary) {
-        rgba = _mm512_mask_i32gather_epi32(background, drawn, f, table.rgb.get(), 4);
+        rgba = _mm512_mask_i32gather_epi32(background, drawn, f, table.rgb.data(), 4);
       } else if (drawn) {
-        // Barycentrics at the pixel centres, normalised and clamped.
-        const __m512 xn = _mm512_sub_ps(
-            _mm512_div_ps(_mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(float(i)), lanes_f),
-                                        _mm512_set1_ps(0.5f)),
-                          _mm512_set1_ps(half_w)),
-            one);
-        const __m512i f9 = _mm512_mullo_epi32(f, _mm512_set1_epi32(9));
-        __m512 b[3];
-        for (int k = 0; k < 3; ++k) {
-          auto coef = [&](int c) {
-            return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), drawn,
-                                            _mm512_add_epi32(f9, _mm512_set1_epi32(3 * k + c)),
-                                            table.bary.get(), 4);
-          };
-          b[k] = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(coef(0), xn), _mm512_mul_ps(coef(1), yn)),
-                               coef(2));
+        // Each lane's face data, face by face: 16 neighbouring pixels show
+        // few faces (a triangle covers runs of pixels), and a masked
+        // broadcast per face and field costs far less than a gather per
+        // field (about one element a cycle on Zen 4).
+        __m512 coef[9], n[3], side = one, corner_n[3][3], corner_c[3][3], albedo[3];
+        for (auto& v : coef) v = _mm512_setzero_ps();
+        for (auto& v : n) v = _mm512_setzero_ps();
+        for (int k = 0; k < 3; ++k)
+          for (int c = 0; c < 3; ++c) corner_n[k][c] = corner_c[k][c] = _mm512_setzero_ps();
+        for (int c = 0; c < 3; ++c) albedo[c] = _mm512_set1_ps(in.uniform_color[c]);
+        for (unsigned left = drawn; left;) {
+          const int32_t face = ids[i + __builtin_ctz(left)];
+          const __mmask16 same =
+              _mm512_mask_cmpeq_epi32_mask(__mmask16(left), f, _mm512_set1_epi32(face));
+          left &= ~unsigned(same);
+          auto put = [&](__m512& reg, float v) { reg = _mm512_mask_mov_ps(reg, same, _mm512_set1_ps(v)); };
+          for (int c = 0; c < 9; ++c) put(coef[c], table.bary_field(c)[face]);
+          for (int c = 0; c < 3; ++c) put(n[c], table.normal_field(c)[face]);
+          put(side, table.side[size_t(face)]);
+          const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
+          // The corners' normals (smooth) and colours (per vertex).
+          for (int k = 0; k < 3; ++k)
+            for (int c = 0; c < 3; ++c) {
+              const size_t at = size_t(c) * nv + size_t(idx[k]);
+              if (smooth) put(corner_n[k][c], vn[at]);
+              if (per_vertex) put(corner_c[k][c], vc[at]);
+            }
+          if (in.color_source == ColorSource::kPerFace)
+            for (int c = 0; c < 3; ++c) put(albedo[c], in.colors[3 * int64_t(face) + c]);
         }
+
+        // Barycentrics at the pixel centres, normalised and clamped.
+        const __m512 xn = _mm512_loadu_ps(xn_row.data() + i);
+        __m512 b[3];
+        for (int k = 0; k < 3; ++k)
+          b[k] = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(coef[3 * k], xn),
+                                             _mm512_mul_ps(coef[3 * k + 1], yn)),
+                               coef[3 * k + 2]);
         const __m512 sum = _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]);
         constexpr int kNanOrInfOrZero = 0x01 | 0x80 | 0x08 | 0x10 | 0x02 | 0x04;
         const __mmask16 bad = _mm512_fpclass_ps_mask(sum, kNanOrInfOrZero);
@@ -350,34 +561,17 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
         const __m512 inv_total = _mm512_div_ps(one, _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]));
         for (auto& bk : b) bk = _mm512_mask_mov_ps(_mm512_mul_ps(bk, inv_total), bad, third);
 
-        // Vertex indices of each lane's face.
-        const __m512i f3 = _mm512_mullo_epi32(f, _mm512_set1_epi32(3));
-        __m512i vid[3];
-        if (smooth || per_vertex)
-          for (int k = 0; k < 3; ++k)
-            vid[k] = _mm512_mask_i32gather_epi32(zero, drawn, _mm512_add_epi32(f3, _mm512_set1_epi32(k)),
-                                                 in.mesh.faces, 4);
         // Normal: flat, or interpolated and normalised.
-        __m512 n[3];
-        for (int c = 0; c < 3; ++c)
-          n[c] = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), drawn,
-                                          _mm512_add_epi32(f3, _mm512_set1_epi32(c)),
-                                          table.normal.get(), 4);
         if (smooth) {
           __m512 ns[3];
           for (int c = 0; c < 3; ++c) {
-            const float* comp = vn.data() + size_t(c) * nv;
             ns[c] = _mm512_setzero_ps();
-            for (int k = 0; k < 3; ++k)
-              ns[c] = _mm512_add_ps(ns[c], _mm512_mul_ps(b[k], _mm512_mask_i32gather_ps(
-                                                                   _mm512_setzero_ps(), drawn,
-                                                                   vid[k], comp, 4)));
+            for (int k = 0; k < 3; ++k) ns[c] = _mm512_add_ps(ns[c], _mm512_mul_ps(b[k], corner_n[k][c]));
           }
           const __m512 len2 = _mm512_add_ps(
               _mm512_add_ps(_mm512_mul_ps(ns[0], ns[0]), _mm512_mul_ps(ns[1], ns[1])),
               _mm512_mul_ps(ns[2], ns[2]));
           const __mmask16 usable = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);
-          const __m512 side = _mm512_mask_i32gather_ps(one, drawn, f, table.side.get(), 4);
           const __m512 scale = _mm512_div_ps(side, _mm512_sqrt_ps(len2));
           for (int c = 0; c < 3; ++c) n[c] = _mm512_mask_mov_ps(n[c], usable, _mm512_mul_ps(ns[c], scale));
         }
@@ -388,22 +582,12 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
         // Albedo.
         __m512i channel[3];
         for (int c = 0; c < 3; ++c) {
-          __m512 albedo;
           if (per_vertex) {
-            const float* comp = vc.data() + size_t(c) * nv;
-            albedo = _mm512_setzero_ps();
+            albedo[c] = _mm512_setzero_ps();
             for (int k = 0; k < 3; ++k)
-              albedo = _mm512_add_ps(albedo, _mm512_mul_ps(b[k], _mm512_mask_i32gather_ps(
-                                                                    _mm512_setzero_ps(), drawn,
-                                                                    vid[k], comp, 4)));
-          } else if (in.color_source == ColorSource::kPerFace) {
-            albedo = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), drawn,
-                                              _mm512_add_epi32(f3, _mm512_set1_epi32(c)),
-                                              in.colors, 4);
-          } else {
-            albedo = _mm512_set1_ps(in.uniform_color[c]);
+              albedo[c] = _mm512_add_ps(albedo[c], _mm512_mul_ps(b[k], corner_c[k][c]));
           }
-          channel[c] = to_bytes(_mm512_mul_ps(albedo, intensity));
+          channel[c] = to_bytes(_mm512_mul_ps(albedo[c], intensity));
         }
         const __m512i colour = _mm512_or_si512(
             channel[0], _mm512_or_si512(_mm512_slli_epi32(channel[1], 8),
@@ -430,7 +614,12 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
   const bool smooth = in.vertex_normals != nullptr;
   const bool per_vertex = in.color_source == ColorSource::kPerVertex;
   const bool need_bary = smooth || per_vertex;
-  FaceTable table(size_t(in.mesh.n_faces));
+  thread_local FaceTable table;
+  struct Trim {
+    FaceTable& table;
+    ~Trim() { table.trim(); }
+  } trim{table};
+  prepare_table(in, triangle_id, table, need_bary);
   const size_t nv = size_t(in.mesh.n_vertices);
   const std::vector<float> vn = smooth ? components(in.vertex_normals, nv) : std::vector<float>();
   const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
@@ -466,17 +655,9 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
       const __m256i f = _mm256_maskload_epi32(ids + i, valid);
       const __m256i drawn = _mm256_and_si256(valid, _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
       const __m256 drawn_f = _mm256_castsi256_ps(drawn);
-      // Faces seen for the first time: prepare them (scalar, once per face).
-      const __m256i ready = _mm256_mask_i32gather_epi32(zero, table.ready.data(), f, drawn, 4);
-      const unsigned first_seen = unsigned(_mm256_movemask_ps(
-          _mm256_castsi256_ps(_mm256_and_si256(drawn, _mm256_cmpeq_epi32(ready, zero)))));
-      for (unsigned m = first_seen; m; m &= m - 1) {
-        const int32_t face = ids[i + __builtin_ctz(m)];
-        if (!table.ready[face]) prepare_table(in, table, face, need_bary);
-      }
       __m256i rgba = background;
       if (!_mm256_testz_si256(drawn, drawn) && !need_bary) {
-        rgba = _mm256_mask_i32gather_epi32(background, table.rgb.get(), f, drawn, 4);
+        rgba = _mm256_mask_i32gather_epi32(background, table.rgb.data(), f, drawn, 4);
       } else if (!_mm256_testz_si256(drawn, drawn)) {
         auto gather = [&](const float* base, __m256i index, __m256 fallback) {
           return _mm256_mask_i32gather_ps(fallback, base, index, drawn_f, 4);
@@ -487,12 +668,9 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
                                         _mm256_set1_ps(0.5f)),
                           _mm256_set1_ps(half_w)),
             one);
-        const __m256i f9 = _mm256_mullo_epi32(f, _mm256_set1_epi32(9));
         __m256 b[3];
         for (int k = 0; k < 3; ++k) {
-          auto coef = [&](int c) {
-            return gather(table.bary.get(), _mm256_add_epi32(f9, _mm256_set1_epi32(3 * k + c)), zero_f);
-          };
+          auto coef = [&](int c) { return gather(table.bary_field(3 * k + c), f, zero_f); };
           b[k] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(coef(0), xn), _mm256_mul_ps(coef(1), yn)),
                                coef(2));
         }
@@ -517,7 +695,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
         // Normal: flat, or interpolated and normalised.
         __m256 n[3];
         for (int c = 0; c < 3; ++c)
-          n[c] = gather(table.normal.get(), _mm256_add_epi32(f3, _mm256_set1_epi32(c)), zero_f);
+          n[c] = gather(table.normal_field(c), f, zero_f);
         if (smooth) {
           __m256 ns[3];
           for (int c = 0; c < 3; ++c) {
@@ -530,7 +708,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
               _mm256_add_ps(_mm256_mul_ps(ns[0], ns[0]), _mm256_mul_ps(ns[1], ns[1])),
               _mm256_mul_ps(ns[2], ns[2]));
           const __m256 usable = _mm256_cmp_ps(len2, zero_f, _CMP_GT_OQ);
-          const __m256 side = gather(table.side.get(), f, one);
+          const __m256 side = gather(table.side.data(), f, one);
           const __m256 scale = _mm256_div_ps(side, _mm256_sqrt_ps(len2));
           for (int c = 0; c < 3; ++c) n[c] = _mm256_blendv_ps(n[c], _mm256_mul_ps(ns[c], scale), usable);
         }

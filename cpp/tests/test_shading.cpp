@@ -32,7 +32,11 @@ void sphere(int rings, int sectors, std::vector<double>& pos, std::vector<int32_
     }
 }
 
-void test_vector_pass_matches_scalar_pass() {
+// At 77 x 61 pixels the sphere has more faces than a quarter of the pixels
+// (the vector pass prepares the faces it finds in the image), at 160 x 121
+// fewer (it prepares all of them). Flat colours from uniform or per-face
+// colours are the same bytes; interpolated ones within one level.
+void test_vector_pass_matches_scalar_pass(int w, int h) {
   std::vector<double> pos, normals;
   std::vector<int32_t> faces;
   sphere(24, 48, pos, faces, normals);
@@ -42,7 +46,6 @@ void test_vector_pass_matches_scalar_pass() {
   const double ez = 3.0;
   const double mvp[16] = {f, 0, 0, 0, 0, f, 0, 0, 0, 0, -(fa + n) / (fa - n),
                           -2 * fa * n / (fa - n) + (fa + n) / (fa - n) * ez, 0, 0, -1, ez};
-  const int w = 77, h = 61;
   RenderInput input;
   input.mesh = {pos.data(), n_vertices, faces.data(), n_faces};
   for (int k = 0; k < 16; ++k) input.mvp[k] = mvp[k];
@@ -78,13 +81,15 @@ void test_vector_pass_matches_scalar_pass() {
       shade_scalar(in, ids.data(), slow.data());
       int worst = 0;
       for (size_t k = 0; k < fast.size(); ++k) worst = std::max(worst, std::abs(int(fast[k]) - int(slow[k])));
-      CHECK(worst <= 1);
+      CHECK(worst <= (smooth == 0 && source != 1 ? 0 : 1));
     }
 }
 
 }  // namespace
 
 int main() {
-  test_vector_pass_matches_scalar_pass();
+  test_vector_pass_matches_scalar_pass(77, 61);
+  test_vector_pass_matches_scalar_pass(160, 121);
+  test_vector_pass_matches_scalar_pass(77, 61);  // a table prepared before, for more faces
   return check_report("test_shading");
 }
