@@ -5,6 +5,8 @@
 // pixels are visited; per-pixel work is then a handful of multiply-adds.
 #include "zbuffer/shading.h"
 
+#include "zbuffer/buffer.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -221,17 +223,25 @@ namespace {
 // the pixels meet them. Good: the faces' corners are read in the mesh's own
 // order (a prepared mesh keeps neighbours together), AVX-512 builds prepare
 // 8 faces per instruction, and the pixel pass has no "seen yet?" test.
-// Bad: which faces show up takes a pass over the ids of its own (only where
-// the mesh has more faces than a quarter of the pixels: otherwise every face
-// is prepared, which costs less than finding out). The table lives on from
-// frame to frame (one per thread, up to kKeptFaces faces), so it is not
-// allocated and faulted in anew each time.
+// Bad: where the mesh has more faces than a quarter of the pixels (1/64
+// for interpolated shading, whose rows cost more), finding
+// the faces that show up takes a pass over the ids of its own, and their
+// rows are then numbered apart from the faces (a slot per face found, so
+// that the table stays as small as the image's faces: a mesh of millions
+// of faces would otherwise scatter its few visible rows over hundreds of
+// megabytes of fresh pages). With fewer faces every face is prepared, which
+// costs less than finding out, and row = face. The tables live on from
+// frame to frame (one per thread, the rows up to kKeptRows), so that they
+// are not allocated and faulted in anew each time.
 struct FaceTable {
-  static constexpr size_t kKeptFaces = size_t(1) << 20;  // 4 MB flat, 56 MB interpolated
-  // Room for n faces, with the fields the interpolated passes read if need_bary.
+  static constexpr size_t kKeptRows = size_t(1) << 20;   // 4 MB flat, 56 MB interpolated
+  static constexpr size_t kKeptSlots = size_t(1) << 24;  // 64 MB of slot numbers
+  // Room for n rows, with the fields the interpolated passes read if
+  // need_bary. Not zeroed (Buffer): the passes read only the rows prepared.
   void resize(size_t n, bool need_bary) {
     if (stride < n) {
       stride = n;
+      rgb.clear();  // (emptied first: nothing copied into the new arrays)
       rgb.resize(n);
       bary.clear();
       normal.clear();
@@ -243,37 +253,47 @@ struct FaceTable {
       side.resize(stride);
     }
   }
-  // After a pass: give back the memory of a table too large to keep.
+  // After a pass: give back the memory of tables too large to keep.
   void trim() {
-    if (stride > kKeptFaces) *this = FaceTable();
+    if (stride > kKeptRows) {
+      Buffer<int32_t> keep;
+      keep.swap(slot);
+      *this = FaceTable();
+      keep.swap(slot);
+    }
+    if (slot.size() > kKeptSlots) Buffer<int32_t>().swap(slot);
   }
-  // Structure of arrays: field c of face f at c * stride + f.
+  // Row of face f: f itself, or slot[f] when by_slot.
+  bool by_slot = false;
+  Buffer<int32_t> slot;  // by_slot: the row of each face found (others unset)
+  int32_t row(int32_t f) const { return by_slot ? slot[size_t(f)] : f; }
+  // Structure of arrays: field c of row r at c * stride + r.
   size_t stride = 0;
-  std::vector<float> bary;    // 9 fields: coefficient c of row k is field 3 k + c
-  std::vector<float> normal;  // 3 fields: the flat normal, facing the viewer
-  std::vector<float> side;
-  std::vector<int32_t> rgb;   // flat colour, 0x00BBGGRR
+  Buffer<float> bary;    // 9 fields: coefficient c of row k is field 3 k + c
+  Buffer<float> normal;  // 3 fields: the flat normal, facing the viewer
+  Buffer<float> side;
+  Buffer<int32_t> rgb;   // flat colour, 0x00BBGGRR
   const float* bary_field(int c) const { return bary.data() + size_t(c) * stride; }
   const float* normal_field(int c) const { return normal.data() + size_t(c) * stride; }
 };
 
-void store_face(FaceTable& table, int32_t face, const FaceShade& s, bool need_bary) {
-  const size_t f = size_t(face), n = table.stride;
-  table.rgb[f] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
+void store_row(FaceTable& table, size_t r, const FaceShade& s, bool need_bary) {
+  const size_t n = table.stride;
+  table.rgb[r] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
   if (!need_bary) return;
-  for (int c = 0; c < 9; ++c) table.bary[c * n + f] = float(s.bary[c]);
-  table.normal[0 * n + f] = float(s.normal.x);
-  table.normal[1 * n + f] = float(s.normal.y);
-  table.normal[2 * n + f] = float(s.normal.z);
-  table.side[f] = float(s.side);
+  for (int c = 0; c < 9; ++c) table.bary[c * n + r] = float(s.bary[c]);
+  table.normal[0 * n + r] = float(s.normal.x);
+  table.normal[1 * n + r] = float(s.normal.y);
+  table.normal[2 * n + r] = float(s.normal.z);
+  table.side[r] = float(s.side);
 }
 
 #ifdef ZBUFFER_AVX512
 // prepare_face for the 8 faces f (lanes `live`), in double: the same
-// operations in the same order, so the same bits. `first` >= 0: the faces
-// are first .. first + 7.
+// operations in the same order, so the same bits; into rows first ..
+// first + 7.
 void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask8 live,
-                    bool need_bary, int64_t first) {
+                    bool need_bary, size_t first) {
   const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
   const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
   __m512d p[3][3];  // corner k, coordinate c
@@ -360,20 +380,10 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
     for (int c = 0; c < 9; ++c) bary[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
   }
 
-  // Into the table: 8 consecutive entries (the faces are first .. first + 7)
-  // by masked stores, else by scatters. Flat shading needs only the colour.
+  // Into the table's rows, by masked stores. Flat shading needs only the colour.
   const size_t n = table.stride;
-  auto put = [&](float* field, __m256 v) {
-    if (first >= 0)
-      _mm256_mask_storeu_ps(field + first, live, v);
-    else
-      _mm256_mask_i32scatter_ps(field, live, f, v, 4);
-  };
-  const __m256i colour = _mm512_cvtepi64_epi32(rgb);
-  if (first >= 0)
-    _mm256_mask_storeu_epi32(table.rgb.data() + first, live, colour);
-  else
-    _mm256_mask_i32scatter_epi32(table.rgb.data(), live, f, colour, 4);
+  auto put = [&](float* field, __m256 v) { _mm256_mask_storeu_ps(field + first, live, v); };
+  _mm256_mask_storeu_epi32(table.rgb.data() + first, live, _mm512_cvtepi64_epi32(rgb));
   if (need_bary) {
     for (int c = 0; c < 9; ++c) put(table.bary.data() + c * n, _mm512_cvtpd_ps(bary[c]));
     for (int c = 0; c < 3; ++c) put(table.normal.data() + c * n, _mm512_cvtpd_ps(normal[c]));
@@ -384,19 +394,36 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
 
 // Prepares the table for every face that shows up in triangle_id (maybe
 // more): all faces when there are few, else those found by a pass over the
-// ids (each run of one id looked up once), in face order.
+// ids (each run of one id looked up once), in face order, a slot each.
 void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable& table,
                    bool need_bary) {
   const size_t n_faces = size_t(in.mesh.n_faces);
   const size_t n_pixels = size_t(in.width) * size_t(in.height);
-  table.resize(n_faces, need_bary);
   thread_local std::vector<int32_t> list;
   thread_local std::vector<uint64_t> seen;
-  const bool all = n_faces <= n_pixels / 4;
-  if (!all) {
+  // (Interpolated shading prepares 4x more per face: finding the faces pays sooner.)
+  table.by_slot = n_faces > n_pixels / (need_bary ? 64 : 4);
+  if (table.by_slot) {
     seen.assign((n_faces + 63) / 64, 0);
+    size_t p = 0;
     int32_t previous = -1;
-    for (size_t p = 0; p < n_pixels; ++p) {
+#ifdef ZBUFFER_AVX512
+    // The first pixel of each run of one id, 16 pixels per instruction.
+    __m512i before = _mm512_set1_epi32(-1);
+    for (; p + 16 <= n_pixels; p += 16) {
+      const __m512i f = _mm512_loadu_si512(triangle_id + p);
+      const __m512i shifted = _mm512_alignr_epi32(f, before, 15);  // lane k: pixel p + k - 1
+      unsigned starts = _mm512_cmpneq_epi32_mask(f, shifted) &
+                        _mm512_cmpge_epi32_mask(f, _mm512_setzero_si512());
+      for (; starts; starts &= starts - 1) {
+        const int32_t face = triangle_id[p + __builtin_ctz(starts)];
+        seen[size_t(face) >> 6] |= uint64_t(1) << (face & 63);
+      }
+      before = f;
+    }
+    if (p > 0) previous = triangle_id[p - 1];
+#endif
+    for (; p < n_pixels; ++p) {
       const int32_t f = triangle_id[p];
       if (f != previous && f >= 0) seen[size_t(f) >> 6] |= uint64_t(1) << (f & 63);
       previous = f;
@@ -405,33 +432,37 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
     for (size_t w = 0; w < seen.size(); ++w)
       for (uint64_t bits = seen[w]; bits; bits &= bits - 1)
         list.push_back(int32_t(64 * w + size_t(__builtin_ctzll(bits))));
+    if (table.slot.size() < n_faces) {
+      table.slot.clear();
+      table.slot.resize(n_faces);
+    }
+    for (size_t i = 0; i < list.size(); ++i) table.slot[size_t(list[i])] = int32_t(i);
   }
-  const size_t count = all ? n_faces : list.size();
+  const size_t count = table.by_slot ? list.size() : n_faces;
+  table.resize(count, need_bary);
+  auto face_at = [&](size_t i) { return table.by_slot ? list[i] : int32_t(i); };
+  size_t i = 0;
 #ifdef ZBUFFER_AVX512
   // (int32 gather indices: 3 n_vertices and 3 n_faces must fit)
   constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
-  const bool vector = in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed;
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  for (size_t i = 0; vector && i < count; i += 8) {
-    const __mmask8 live = __mmask8(_bzhi_u32(0xFF, uint32_t(std::min<size_t>(count - i, 8))));
-    const __m256i f = all ? _mm256_add_epi32(_mm256_set1_epi32(int32_t(i)), lane)
-                          : _mm256_maskz_loadu_epi32(live, list.data() + i);
-    prepare_faces8(in, table, f, live, need_bary, all ? int64_t(i) : -1);
-  }
-  for (size_t i = 0; !vector && i < count; ++i) {
-    const int32_t face = all ? int32_t(i) : list[i];
-    store_face(table, face, prepare_face(in, face, need_bary), need_bary);
-  }
-#else
-  for (size_t i = 0; i < count; ++i) {
-    const int32_t face = all ? int32_t(i) : list[i];
-    store_face(table, face, prepare_face(in, face, need_bary), need_bary);
+  if (in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed) {
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for (; i < count; i += 8) {
+      const __mmask8 live = __mmask8(_bzhi_u32(0xFF, uint32_t(std::min<size_t>(count - i, 8))));
+      const __m256i f = table.by_slot ? _mm256_maskz_loadu_epi32(live, list.data() + i)
+                                      : _mm256_add_epi32(_mm256_set1_epi32(int32_t(i)), lane);
+      prepare_faces8(in, table, f, live, need_bary, i);
+    }
   }
 #endif
+  for (; i < count; ++i) store_row(table, i, prepare_face(in, face_at(i), need_bary), need_bary);
 }
 
+#endif
+
+#ifdef ZBUFFER_AVX2
 // Vertex normals or colours as float32 structure of arrays (component c of
-// vertex v at c * n + v).
+// vertex v at c * n + v), for the AVX2 pass's gathers.
 std::vector<float> components(const double* values, size_t n) {
   std::vector<float> out(3 * n);
   for (size_t v = 0; v < n; ++v)
@@ -444,7 +475,6 @@ std::vector<float> components(const float* values, size_t n) {
     for (int c = 0; c < 3; ++c) out[c * n + v] = values[3 * v + c];
   return out;
 }
-
 #endif
 
 #ifdef ZBUFFER_AVX512
@@ -481,11 +511,6 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
   } trim{table};
   prepare_table(in, triangle_id, table, need_bary);
 
-  // Vertex normals and colours as float32 structure of arrays.
-  const size_t nv = size_t(in.mesh.n_vertices);
-  const std::vector<float> vn = smooth ? components(in.vertex_normals, nv) : std::vector<float>();
-  const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
-
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
   // x of each column's pixel centres in NDC (and 16 spare entries).
   std::vector<float> xn_row(size_t(in.width) + 16);
@@ -512,7 +537,9 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
       const __mmask16 drawn = _mm512_mask_cmpge_epi32_mask(valid, f, zero);
       __m512i rgba = background;
       if (drawn && !need_bary) {
-        rgba = _mm512_mask_i32gather_epi32(background, drawn, f, table.rgb.data(), 4);
+        const __m512i row =
+            table.by_slot ? _mm512_mask_i32gather_epi32(zero, drawn, f, table.slot.data(), 4) : f;
+        rgba = _mm512_mask_i32gather_epi32(background, drawn, row, table.rgb.data(), 4);
       } else if (drawn) {
         // Each lane's face data, face by face: 16 neighbouring pixels show
         // few faces (a triangle covers runs of pixels), and a masked
@@ -530,16 +557,17 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
               _mm512_mask_cmpeq_epi32_mask(__mmask16(left), f, _mm512_set1_epi32(face));
           left &= ~unsigned(same);
           auto put = [&](__m512& reg, float v) { reg = _mm512_mask_mov_ps(reg, same, _mm512_set1_ps(v)); };
-          for (int c = 0; c < 9; ++c) put(coef[c], table.bary_field(c)[face]);
-          for (int c = 0; c < 3; ++c) put(n[c], table.normal_field(c)[face]);
-          put(side, table.side[size_t(face)]);
+          const size_t r = size_t(table.row(face));
+          for (int c = 0; c < 9; ++c) put(coef[c], table.bary_field(c)[r]);
+          for (int c = 0; c < 3; ++c) put(n[c], table.normal_field(c)[r]);
+          put(side, table.side[r]);
           const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
           // The corners' normals (smooth) and colours (per vertex).
           for (int k = 0; k < 3; ++k)
             for (int c = 0; c < 3; ++c) {
-              const size_t at = size_t(c) * nv + size_t(idx[k]);
-              if (smooth) put(corner_n[k][c], vn[at]);
-              if (per_vertex) put(corner_c[k][c], vc[at]);
+              const size_t at = 3 * size_t(idx[k]) + size_t(c);
+              if (smooth) put(corner_n[k][c], float(in.vertex_normals[at]));
+              if (per_vertex) put(corner_c[k][c], in.colors[at]);
             }
           if (in.color_source == ColorSource::kPerFace)
             for (int c = 0; c < 3; ++c) put(albedo[c], in.colors[3 * int64_t(face) + c]);
@@ -655,9 +683,13 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
       const __m256i f = _mm256_maskload_epi32(ids + i, valid);
       const __m256i drawn = _mm256_and_si256(valid, _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
       const __m256 drawn_f = _mm256_castsi256_ps(drawn);
+      // Each lane's row of the table.
+      const __m256i r = table.by_slot
+                            ? _mm256_mask_i32gather_epi32(zero, table.slot.data(), f, drawn, 4)
+                            : f;
       __m256i rgba = background;
       if (!_mm256_testz_si256(drawn, drawn) && !need_bary) {
-        rgba = _mm256_mask_i32gather_epi32(background, table.rgb.data(), f, drawn, 4);
+        rgba = _mm256_mask_i32gather_epi32(background, table.rgb.data(), r, drawn, 4);
       } else if (!_mm256_testz_si256(drawn, drawn)) {
         auto gather = [&](const float* base, __m256i index, __m256 fallback) {
           return _mm256_mask_i32gather_ps(fallback, base, index, drawn_f, 4);
@@ -670,7 +702,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
             one);
         __m256 b[3];
         for (int k = 0; k < 3; ++k) {
-          auto coef = [&](int c) { return gather(table.bary_field(3 * k + c), f, zero_f); };
+          auto coef = [&](int c) { return gather(table.bary_field(3 * k + c), r, zero_f); };
           b[k] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(coef(0), xn), _mm256_mul_ps(coef(1), yn)),
                                coef(2));
         }
@@ -695,7 +727,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
         // Normal: flat, or interpolated and normalised.
         __m256 n[3];
         for (int c = 0; c < 3; ++c)
-          n[c] = gather(table.normal_field(c), f, zero_f);
+          n[c] = gather(table.normal_field(c), r, zero_f);
         if (smooth) {
           __m256 ns[3];
           for (int c = 0; c < 3; ++c) {
@@ -708,7 +740,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
               _mm256_add_ps(_mm256_mul_ps(ns[0], ns[0]), _mm256_mul_ps(ns[1], ns[1])),
               _mm256_mul_ps(ns[2], ns[2]));
           const __m256 usable = _mm256_cmp_ps(len2, zero_f, _CMP_GT_OQ);
-          const __m256 side = gather(table.side.data(), f, one);
+          const __m256 side = gather(table.side.data(), r, one);
           const __m256 scale = _mm256_div_ps(side, _mm256_sqrt_ps(len2));
           for (int c = 0; c < 3; ++c) n[c] = _mm256_blendv_ps(n[c], _mm256_mul_ps(ns[c], scale), usable);
         }
