@@ -55,9 +55,10 @@ def test_large_triangles_equal_reference(procedural_scenes, algo):
 
 def test_pixel_counters_match_reference_for_plain_zbuffer(procedural_scenes):
     # The plain Z-buffer tests every pixel of each triangle's box, as the
-    # reference counts them, where boxes are under 64 pixels wide (all of
-    # them at 120x90); wider ones it walks by exact spans, testing only
-    # their covered pixels (docs/rasterization.md, 3.6).
+    # reference counts them, where boxes are under 64 pixels wide and their
+    # edge values under 2^30 (all of them in this scene at 120x90); other
+    # boxes it walks by exact spans, testing only their covered pixels
+    # (docs/rasterization.md, 3.6).
     mesh = procedural_scenes["default"]
     res = zbuffer.render(mesh, algo="zbuffer", width=120, height=90, shading="none")
     ref = zbuffer.reference.render(mesh, width=120, height=90, shading="none")

@@ -22,8 +22,8 @@ ZBUFFER_INLINE void rect_origin(const TriangleSetup& s, int x0, int y0, int64_t 
 }
 
 // Rectangles at least this wide are drawn by exact spans (TriangleSpans)
-// instead of testing every pixel, and so are all whose edge values leave
-// int32. Narrower ones keep the box loops, whose fixed number of 16-pixel
+// instead of testing every pixel, and so are all whose edge values reach
+// 2^30 in magnitude (fits_int32). Narrower ones keep the box loops, whose fixed number of 16-pixel
 // passes a row beat a span's DDA steps and varying trip count (measured on
 // the models suite at 1024x1024: spans from 16 pixels across made meshes of
 // medium triangles 10-35% slower; from 64, as fast as the box loops there,
@@ -137,10 +137,10 @@ void rasterize_span_scalar(const TriangleSetup& s, int y, int x0, int x1, float*
 
 namespace {
 
-#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
 // True if every edge value over the rectangle, and every step the int32
-// loop takes, fits in int32 with room to spare. Edge functions are affine,
-// so their extremes over the rectangle are at its corners.
+// loop takes, fits in int32 with room to spare (magnitudes below 2^30).
+// Edge functions are affine, so their extremes over the rectangle are at
+// its corners.
 ZBUFFER_INLINE bool fits_int32(const TriangleSetup& s, const int64_t row[3], int width, int height) {
   constexpr int64_t kLimit = int64_t(1) << 30;
   for (int k = 0; k < 3; ++k) {
@@ -154,7 +154,13 @@ ZBUFFER_INLINE bool fits_int32(const TriangleSetup& s, const int64_t row[3], int
   return true;
 }
 
-#endif
+// Whether rasterize_rect draws the rectangle by exact spans rather than
+// testing each of its pixels: the same choice in every build, so that
+// pixels_tested does not depend on the instruction set.
+ZBUFFER_INLINE bool draw_by_spans(const TriangleSetup& s, const int64_t row[3], int width,
+                                  int height) {
+  return width >= kSpanMinWidth || !fits_int32(s, row, width, height);
+}
 
 #ifdef ZBUFFER_AVX512
 
@@ -265,7 +271,9 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
   stats.pixels_written += written;
 }
 
-// Any triangle: int64 edge values, 8 pixels of a row per step.
+// Any rectangle, with int64 edge values, 8 pixels of a row per step: what
+// rasterize_span_avx512 falls back on where a span's values leave int32
+// (rasterize_rect draws such triangles by exact spans instead).
 ZBUFFER_INLINE void rasterize_rect_i64(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                         const int64_t row0[3], DepthTarget& target, RenderStats& stats) {
   const int width = x1 - x0 + 1;
@@ -383,11 +391,11 @@ ZBUFFER_INLINE void rasterize_rect_avx512(const TriangleSetup& s, int x0, int y0
   const int width = x1 - x0 + 1, height = y1 - y0 + 1;
   int64_t row[3];
   rect_origin(s, x0, y0, row);
-  if (width < kSpanMinWidth && fits_int32(s, row, width, height)) {
+  if (draw_by_spans(s, row, width, height)) {
+    rasterize_spans(s, x0, y0, x1, y1, target, stats, SpanRun16(s));
+  } else {
     rasterize_rect_i32(s, x0, y0, x1, y1, row, target, stats);
     stats.pixels_tested += int64_t(width) * height;
-  } else {
-    rasterize_spans(s, x0, y0, x1, y1, target, stats, SpanRun16(s));
   }
 }
 
@@ -442,8 +450,8 @@ ZBUFFER_INLINE void rasterize_span_avx512(const TriangleSetup& s, int y, int x0,
 #ifdef ZBUFFER_AVX2
 
 // The AVX2 loop: the same operations as the scalar loop, 8 pixels per
-// instruction with int32 edge values (triangles whose values do not fit take
-// the scalar loop). A box at most 4 pixels wide is walked two rows at a time
+// instruction with int32 edge values (rectangles whose values do not fit
+// are drawn by spans). A box at most 4 pixels wide is walked two rows at a time
 // (lanes 0-3 row y, lanes 4-7 row y + 1), a wider one 8 pixels of a row at
 // a time. Loads and stores of 8 (or twice 4) pixels that lie inside the
 // image are whole (simd::write8); at the image's end they are masked.
@@ -589,11 +597,11 @@ ZBUFFER_INLINE void rasterize_rect_avx2(const TriangleSetup& s, int x0, int y0, 
   const int width = x1 - x0 + 1, height = y1 - y0 + 1;
   int64_t row[3];
   rect_origin(s, x0, y0, row);
-  if (width < kSpanMinWidth && fits_int32(s, row, width, height)) {
+  if (draw_by_spans(s, row, width, height)) {
+    rasterize_spans(s, x0, y0, x1, y1, target, stats, SpanRun8(s));
+  } else {
     rasterize_rect_avx2_i32(s, x0, y0, x1, y1, row, target, stats);
     stats.pixels_tested += int64_t(width) * height;
-  } else {
-    rasterize_spans(s, x0, y0, x1, y1, target, stats, SpanRun8(s));
   }
 }
 #endif
@@ -618,7 +626,9 @@ void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
 #elif defined(ZBUFFER_AVX2)
   rasterize_rect_avx2(s, x0, y0, x1, y1, target, stats);
 #else
-  if (x1 - x0 + 1 >= kSpanMinWidth)
+  int64_t row[3];
+  rect_origin(s, x0, y0, row);
+  if (draw_by_spans(s, row, x1 - x0 + 1, y1 - y0 + 1))
     rasterize_spans(s, x0, y0, x1, y1, target, stats, ScalarRun{s});
   else
     rasterize_rect_scalar(s, x0, y0, x1, y1, target, stats);

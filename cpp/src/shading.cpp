@@ -46,11 +46,9 @@ inline double intensity(const ShadingInput& in, Vec3 n, Vec3 to_light) {
   return in.ambient + in.diffuse * std::max(0.0, dot(n, to_light));
 }
 
-// What a face needs at every pixel it covers.
-// Design decision: computed lazily, the first time the face is seen, into
-// an uninitialised per-render array. Good: hidden faces cost nothing, and
-// per-pixel work is a few multiply-adds. Bad: ~120 bytes per face of memory
-// for the duration of the pass.
+// What a face needs at every pixel it covers, in double. The scalar pass
+// computes it lazily, the first time a pixel shows the face; the vector
+// passes keep it in float32 in a FaceTable prepared before their pixels.
 struct FaceShade {
   // Perspective-correct barycentrics: with clip-space corners (x_k, y_k, w_k)
   // as the columns of M, adj(M) (x_ndc, y_ndc, 1) is proportional to them.
@@ -215,8 +213,8 @@ namespace {
 //
 // 16 (AVX-512) or 8 (AVX2) pixels of a row per step, in float32 (shading
 // need not be bit-exact; it agrees with the scalar pass and the numpy twin
-// within one level). Per-face data sits in structure-of-arrays form for
-// gathers.
+// within one level). Per-face data sits in structure-of-arrays form: the
+// AVX2 pass gathers it, the AVX-512 pass broadcasts it face by face.
 
 // Design decision: the per-face table is prepared before the pixel pass,
 // for the faces that show up, in face order -- not lazily, face by face as
@@ -234,8 +232,11 @@ namespace {
 // frame to frame (one per thread, the rows up to kKeptRows), so that they
 // are not allocated and faulted in anew each time.
 struct FaceTable {
-  static constexpr size_t kKeptRows = size_t(1) << 20;   // 4 MB flat, 56 MB interpolated
-  static constexpr size_t kKeptSlots = size_t(1) << 24;  // 64 MB of slot numbers
+  // What a thread keeps after a pass: 4 MB of flat rows or 16 MB of
+  // interpolation rows, 16 MB of slot numbers and of the faces found.
+  static constexpr size_t kKeptRows = size_t(1) << 20;
+  static constexpr size_t kKeptRowsInterpolated = size_t(1) << 18;
+  static constexpr size_t kKeptSlots = size_t(1) << 22;
   // Room for n rows, with the fields the interpolated passes read if
   // need_bary. Not zeroed (Buffer): the passes read only the rows prepared.
   void resize(size_t n, bool need_bary) {
@@ -253,19 +254,24 @@ struct FaceTable {
       side.resize(stride);
     }
   }
-  // After a pass: give back the memory of tables too large to keep.
+  // After a pass: give back the memory of arrays too large to keep.
   void trim() {
-    if (stride > kKeptRows) {
-      Buffer<int32_t> keep;
-      keep.swap(slot);
-      *this = FaceTable();
-      keep.swap(slot);
+    if (stride > kKeptRows || (stride > kKeptRowsInterpolated && !side.empty())) {
+      stride = 0;
+      Buffer<int32_t>().swap(rgb);
+      Buffer<float>().swap(bary);
+      Buffer<float>().swap(normal);
+      Buffer<float>().swap(side);
     }
     if (slot.size() > kKeptSlots) Buffer<int32_t>().swap(slot);
+    if (found.capacity() > kKeptSlots) std::vector<int32_t>().swap(found);
+    if (seen.capacity() > kKeptSlots) std::vector<uint64_t>().swap(seen);
   }
   // Row of face f: f itself, or slot[f] when by_slot.
   bool by_slot = false;
-  Buffer<int32_t> slot;  // by_slot: the row of each face found (others unset)
+  Buffer<int32_t> slot;         // by_slot: the row of each face found (others unset)
+  std::vector<int32_t> found;   // by_slot: the faces found, in face order (row r: found[r])
+  std::vector<uint64_t> seen;   // by_slot: a bit per face, set where found
   int32_t row(int32_t f) const { return by_slot ? slot[size_t(f)] : f; }
   // Structure of arrays: field c of row r at c * stride + r.
   size_t stride = 0;
@@ -399,8 +405,8 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
                    bool need_bary) {
   const size_t n_faces = size_t(in.mesh.n_faces);
   const size_t n_pixels = size_t(in.width) * size_t(in.height);
-  thread_local std::vector<int32_t> list;
-  thread_local std::vector<uint64_t> seen;
+  std::vector<int32_t>& list = table.found;
+  std::vector<uint64_t>& seen = table.seen;
   // (Interpolated shading prepares 4x more per face: finding the faces pays sooner.)
   table.by_slot = n_faces > n_pixels / (need_bary ? 64 : 4);
   if (table.by_slot) {
@@ -639,6 +645,11 @@ inline __m256i to_bytes8(__m256 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
 
 // The AVX-512 pass above, 8 pixels per step; lane masks are vectors.
 void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+  // The gathers index faces' corners and colours with int32 (3 f + c).
+  if (in.mesh.n_faces > int64_t(std::numeric_limits<int32_t>::max()) / 3) {
+    shade_scalar(in, triangle_id, image);
+    return;
+  }
   const bool smooth = in.vertex_normals != nullptr;
   const bool per_vertex = in.color_source == ColorSource::kPerVertex;
   const bool need_bary = smooth || per_vertex;

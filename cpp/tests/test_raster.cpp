@@ -226,6 +226,20 @@ void test_spans_equal_coverage_and_scalar_loop() {
   CHECK(ss.pixels_covered > 100000 && checked_rows > 50000);
 }
 
+// A huge triangle (edge values beyond 2^30) is drawn by exact spans even in
+// a narrow image, in every build alike: only its covered pixels are tested.
+void test_huge_triangle_tested_by_spans_in_every_build() {
+  Frame fr(50, 50);
+  RenderStats stats;
+  // Its long edge crosses the image's diagonal.
+  ScreenTriangle tri;
+  CHECK(make_triangle(sv(-(1 << 22), -(1 << 22), 0.5), sv((1 << 22) + 50 * 256, (1 << 22) + 50 * 256, 0.5),
+                      sv(-(1 << 22), (1 << 22), 0.5), 0, false, tri, stats));
+  rasterize_triangle(tri, fr.target, stats);
+  CHECK(stats.pixels_covered > 0 && stats.pixels_covered < 2500);
+  CHECK(stats.pixels_tested == stats.pixels_covered);
+}
+
 // Spans (the scanline algorithm's primitive) written into a one-row buffer
 // give the bits of the scalar rectangle loop, row by row, for any sub-range
 // of a row: small triangles (int32 lanes) and huge ones (int64 lanes).
@@ -342,8 +356,8 @@ void test_batch_faces_equal_scalar_assembly() {
     CHECK(fs.rasterized == ss.rasterized && fs.clipped == ss.clipped &&
           fs.culled_frustum == ss.culled_frustum && fs.culled_backface == ss.culled_backface &&
           fs.culled_degenerate == ss.culled_degenerate && fs.clip_pieces == ss.clip_pieces);
-    // Boxes of 16 pixels or more across are walked by exact spans: only
-    // their covered pixels are tested.
+    // Rectangles 64 pixels or more across, or with edge values of 2^30 or
+    // more, are walked by exact spans: only their covered pixels are tested.
     CHECK(fs.pixels_covered == ss.pixels_covered);
     CHECK(fs.pixels_tested >= fs.pixels_covered && fs.pixels_tested < ss.pixels_tested);
     CHECK(ss.clipped > 0 && ss.culled_degenerate > 0 && ss.pixels_covered > 1000);
@@ -355,6 +369,7 @@ void test_batch_faces_equal_scalar_assembly() {
 
 int main() {
   test_spans_equal_coverage_and_scalar_loop();
+  test_huge_triangle_tested_by_spans_in_every_build();
   test_span_equals_scalar_rect();
   test_batch_faces_equal_scalar_assembly();
   test_batch_equals_scalar_loop();

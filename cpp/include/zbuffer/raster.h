@@ -219,9 +219,9 @@ inline bool depth_write(float* depth, int32_t* ids, size_t p, float z, int32_t i
 // [x0, x1] x [y0, y1] (inclusive, already inside the triangle's box), with
 // the fastest loop this build has (see raster_backend()): narrow rectangles
 // by testing each of their pixels, wide ones (64 pixels or more) and those
-// of huge triangles (edge values beyond int32) by exact spans
-// (TriangleSpans), which test only the covered pixels. pixels_tested counts
-// the pixels tested either way.
+// where an edge value reaches 2^30 in magnitude (huge triangles) by exact
+// spans (TriangleSpans), which test only the covered pixels. The choice is
+// the same in every build; pixels_tested counts the pixels tested either way.
 void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                     DepthTarget& target, RenderStats& stats);
 
