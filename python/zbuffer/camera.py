@@ -99,7 +99,7 @@ class Camera:
             raise ValueError("degenerate camera: eye and target are the same point")
         if np.linalg.norm(up) == 0.0:
             raise ValueError("degenerate camera: up is the zero vector")
-        side = np.cross(forward / dist, up / np.linalg.norm(up))
+        side = _cross(forward / dist, up / np.linalg.norm(up))
         if np.linalg.norm(side) < 1e-9:
             raise ValueError("degenerate camera: up is parallel to the viewing direction")
         fov = float(self.fov_y)
@@ -269,9 +269,9 @@ class Camera:
         eye = np.asarray(self.eye)
         f = np.asarray(self.target) - eye
         f /= np.linalg.norm(f)
-        s = np.cross(f, np.asarray(self.up))
+        s = _cross(f, np.asarray(self.up))
         s /= np.linalg.norm(s)
-        u = np.cross(s, f)
+        u = _cross(s, f)
         m = np.eye(4)
         m[0, :3], m[1, :3], m[2, :3] = s, u, -f
         m[:3, 3] = -m[:3, :3] @ eye
@@ -330,6 +330,13 @@ class Camera:
         """(3,) float64 unit viewing direction."""
         f = np.asarray(self.target) - np.asarray(self.eye)
         return f / np.linalg.norm(f)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The cross product of two 3-vectors (np.cross costs ~15 us a call,
+    a third of a small render's Python time)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
 
 
 def bounding_sphere(vertices) -> Tuple[np.ndarray, float]:

@@ -249,6 +249,19 @@ class Mesh:
         length = np.linalg.norm(acc, axis=1, keepdims=True)
         return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
 
+    def resolved_camera(self, camera):
+        """``camera.resolve(self)``, remembered per camera (cameras are
+        immutable), so that rendering one mesh from one camera again does
+        not fit the clip planes and build the matrices again."""
+        cache = self.__dict__.setdefault("_resolved_cameras", {})
+        resolved = cache.get(camera)
+        if resolved is None:
+            resolved = camera.resolve(self)
+            if len(cache) >= 64:
+                cache.clear()
+            cache[camera] = resolved
+        return resolved
+
     def auto_camera(self, aspect: float):
         """The camera ``render(camera=None)`` uses: :meth:`Camera.fit` from
         +z, resolved (cached per aspect ratio)."""

@@ -43,7 +43,7 @@ def prepare(mesh, camera: Optional[Camera], width, height, shading, light_dir,
         camera = mesh.auto_camera(width / height)
     elif not isinstance(camera, Camera):
         raise TypeError(f"camera must be a zbuffer.Camera or None, got {type(camera).__name__}")
-    camera = camera.resolve(mesh)
+    camera = mesh.resolved_camera(camera)
     mvp = camera.mvp(width, height)
     if not np.isfinite(mvp).all():
         raise ValueError("the camera matrix has a NaN or infinite entry")
