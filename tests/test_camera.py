@@ -79,3 +79,21 @@ def test_eye_depth_is_the_distance_along_the_view_axis():
         d = res.eye_depth()
         np.testing.assert_allclose(d[res.mask], 4.0, rtol=1e-5)
         assert np.isinf(d[~res.mask]).all()
+
+
+def test_mesh_remembers_resolved_cameras_per_camera():
+    mesh = scenes.default_scene()
+    other = scenes.overlapping_boxes(3, seed=4)
+    cams = [zbuffer.Camera.look_at(eye=(0.0, 1.0, z), target=(0, 0, 0)) for z in (3.0, 5.0)]
+    first = mesh.resolved_camera(cams[0])
+    assert first == cams[0].resolve(mesh) and first.near is not None
+    # The same camera (an equal one too) gets the same resolved camera back;
+    # another camera or another mesh gets its own.
+    assert mesh.resolved_camera(zbuffer.Camera.look_at(eye=(0.0, 1.0, 3.0), target=(0, 0, 0))) \
+        is first
+    assert mesh.resolved_camera(cams[1]) == cams[1].resolve(mesh) != first
+    assert other.resolved_camera(cams[0]) == cams[0].resolve(other) != first
+    # Bounded: many cameras do not pile up.
+    for k in range(200):
+        mesh.resolved_camera(zbuffer.Camera.look_at(eye=(0.0, 1.0, 3.0 + k), target=(0, 0, 0)))
+    assert len(mesh.__dict__["_resolved_cameras"]) <= 64
