@@ -32,17 +32,17 @@ constexpr int kSpanMinWidth = 64;
 
 // Exact Spans
 //
-// The covered pixels of a rectangle of a triangle's box, row by row
-// (raster.h: TriangleSpans): `run(w1, w2, n, depth, ids, room)` draws the n
+// The covered pixels of a rectangle of a triangle's box, row by row, from
+// `spans` at row y0 (raster.h: TriangleSpans): `run(w1, w2, n, depth, ids, room)` draws the n
 // pixels of a run, all covered, from the exact unbiased edge values w1, w2
 // of its first pixel (the depth formula and the depth write only), with
 // `room` pixels of the target from its first one to the end of the planes;
 // it returns how many it wrote. Only covered pixels are tested, so
 // pixels_tested counts them.
 template <class Run>
-ZBUFFER_INLINE void rasterize_spans(const TriangleSetup& s, int x0, int y0, int x1, int y1,
-                                    DepthTarget& target, RenderStats& stats, const Run& run) {
-  TriangleSpans spans(s, y0);
+ZBUFFER_INLINE void rasterize_spans(const TriangleSetup& s, TriangleSpans spans, int x0, int y0,
+                                    int x1, int y1, DepthTarget& target, RenderStats& stats,
+                                    const Run& run) {
   const int64_t dy = int64_t(y0) - s.y_min;
   int64_t row1 = s.w_origin[1] + s.bias[1] + dy * s.step_y[1];  // exact, at (x_min, y)
   int64_t row2 = s.w_origin[2] + s.bias[2] + dy * s.step_y[2];
@@ -387,12 +387,14 @@ class SpanRun16 {
 };
 
 ZBUFFER_INLINE void rasterize_rect_avx512(const TriangleSetup& s, int x0, int y0, int x1, int y1,
-                           DepthTarget& target, RenderStats& stats) {
+                                          DepthTarget& target, RenderStats& stats,
+                                          const TriangleSpans* spans) {
   const int width = x1 - x0 + 1, height = y1 - y0 + 1;
   int64_t row[3];
   rect_origin(s, x0, y0, row);
   if (draw_by_spans(s, row, width, height)) {
-    rasterize_spans(s, x0, y0, x1, y1, target, stats, SpanRun16(s));
+    rasterize_spans(s, spans ? *spans : TriangleSpans(s, y0), x0, y0, x1, y1, target, stats,
+                    SpanRun16(s));
   } else {
     rasterize_rect_i32(s, x0, y0, x1, y1, row, target, stats);
     stats.pixels_tested += int64_t(width) * height;
@@ -593,12 +595,14 @@ class SpanRun8 {
 };
 
 ZBUFFER_INLINE void rasterize_rect_avx2(const TriangleSetup& s, int x0, int y0, int x1, int y1,
-                                        DepthTarget& target, RenderStats& stats) {
+                                        DepthTarget& target, RenderStats& stats,
+                                        const TriangleSpans* spans) {
   const int width = x1 - x0 + 1, height = y1 - y0 + 1;
   int64_t row[3];
   rect_origin(s, x0, y0, row);
   if (draw_by_spans(s, row, width, height)) {
-    rasterize_spans(s, x0, y0, x1, y1, target, stats, SpanRun8(s));
+    rasterize_spans(s, spans ? *spans : TriangleSpans(s, y0), x0, y0, x1, y1, target, stats,
+                    SpanRun8(s));
   } else {
     rasterize_rect_avx2_i32(s, x0, y0, x1, y1, row, target, stats);
     stats.pixels_tested += int64_t(width) * height;
@@ -620,16 +624,17 @@ const char* raster_backend() {
 }
 
 void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
-                    DepthTarget& target, RenderStats& stats) {
+                    DepthTarget& target, RenderStats& stats, const TriangleSpans* spans) {
 #if defined(ZBUFFER_AVX512)
-  rasterize_rect_avx512(s, x0, y0, x1, y1, target, stats);
+  rasterize_rect_avx512(s, x0, y0, x1, y1, target, stats, spans);
 #elif defined(ZBUFFER_AVX2)
-  rasterize_rect_avx2(s, x0, y0, x1, y1, target, stats);
+  rasterize_rect_avx2(s, x0, y0, x1, y1, target, stats, spans);
 #else
   int64_t row[3];
   rect_origin(s, x0, y0, row);
   if (draw_by_spans(s, row, x1 - x0 + 1, y1 - y0 + 1))
-    rasterize_spans(s, x0, y0, x1, y1, target, stats, ScalarRun{s});
+    rasterize_spans(s, spans ? *spans : TriangleSpans(s, y0), x0, y0, x1, y1, target, stats,
+                    ScalarRun{s});
   else
     rasterize_rect_scalar(s, x0, y0, x1, y1, target, stats);
 #endif

@@ -440,12 +440,15 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
   }
   const float* tile_max = pyramid_->level(kTileShift);
   const int tiles_wide = pyramid_->width(kTileShift);
+  // The triangle's exact spans (raster.h), set up once and walked down the
+  // rows of tiles: each run of tiles starts from a copy at its first row.
+  TriangleSpans spans(s, s.y_min);
   for (int ty = ty0; ty <= ty1; ++ty) {
     const float* row = tile_max + size_t(ty) * tiles_wide;
     const int y0 = std::max(s.y_min, ty << kTileShift);
     const int y1 = std::min(s.y_max, ((ty + 1) << kTileShift) - 1);
     // Runs of tiles not already nearer, each drawn as one rectangle (wide
-    // ones by exact spans: raster.h, TriangleSpans).
+    // ones by exact spans).
     for (int tx = tx0; tx <= tx1;) {
       if (s.z_lo > row[tx]) {  // already nearer: skip
         ++stats_.tiles_skipped;
@@ -456,10 +459,11 @@ void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
       while (end <= tx1 && !(s.z_lo > row[end])) ++end;
       const int x0 = std::max(s.x_min, tx << kTileShift);
       const int x1 = std::min(s.x_max, (end << kTileShift) - 1);
-      rasterize_rect(s, x0, y0, x1, y1, target_, stats_);
+      rasterize_rect(s, x0, y0, x1, y1, target_, stats_, &spans);
       mark_blocks(x0, y0, x1, y1);
       tx = end;
     }
+    for (int y = y0; y <= y1; ++y) spans.next_row();
   }
 }
 

@@ -10,6 +10,7 @@
 #include "frame.h"
 #include "zbuffer/raster.h"
 #include "zbuffer/triangle_batch.h"
+#include "zbuffer/zpyramid.h"
 
 using namespace zbuffer;
 
@@ -240,6 +241,47 @@ void test_huge_triangle_tested_by_spans_in_every_build() {
   CHECK(stats.pixels_tested == stats.pixels_covered);
 }
 
+// A hierarchical batch draws a large triangle by runs of the 8 x 8 tiles
+// its pyramid does not show to be nearer already: behind two near stripes,
+// large far triangles are drawn in several runs a row of tiles (each run
+// from a copy of the triangle's spans), with the scalar loop's bits.
+void test_large_triangles_drawn_by_runs_of_tiles() {
+  const int w = 200, h = 150;
+  Frame fast(w, h), slow(w, h);
+  RenderStats fs, ss;
+  ZPyramid pyramid(fast.depth.data(), w, h, 1, /*cleared=*/true);
+  TriangleBatch batch(fast.target, fs, &pyramid, 16);
+  auto add = [&](ScreenVertex a, ScreenVertex b, ScreenVertex c, int32_t id) {
+    ScreenTriangle t;
+    if (!make_triangle(a, b, c, id, false, t, fs)) return;
+    batch.add(t);
+    const TriangleSetup s = setup_triangle(t, w, h);
+    if (s.x_min <= s.x_max && s.y_min <= s.y_max)
+      rasterize_rect_scalar(s, s.x_min, s.y_min, s.x_max, s.y_max, slow.target, ss);
+  };
+  // Two near stripes, full height, drawn and brought into the pyramid first.
+  int32_t id = 0;
+  for (int x0 : {24, 104}) {
+    const int32_t l = x0 * 256, r = (x0 + 40) * 256, b = (h + 1) * 256;
+    add(sv(l, -256, 0.1), sv(r, -256, 0.1), sv(r, b, 0.1), id++);
+    add(sv(l, -256, 0.1), sv(r, b, 0.1), sv(l, b, 0.1), id++);
+  }
+  batch.flush();
+  // Large far triangles across them.
+  Lcg next{31337};
+  for (int t = 0; t < 40; ++t) {
+    ScreenVertex v[3];
+    for (auto& p : v)
+      p = sv(int32_t(next(-40 * 256, (w + 40) * 256)), int32_t(next(-40 * 256, (h + 40) * 256)),
+             0.3 + double(next(0, 60)) / 100.0);
+    add(v[0], v[1], v[2], id++);
+  }
+  batch.flush();
+  CHECK(same_pixels(fast, slow));
+  CHECK(fs.pixels_covered <= ss.pixels_covered && fs.pixels_covered > 10000);
+  CHECK(fs.tiles_skipped > 100);
+}
+
 // Spans (the scanline algorithm's primitive) written into a one-row buffer
 // give the bits of the scalar rectangle loop, row by row, for any sub-range
 // of a row: small triangles (int32 lanes) and huge ones (int64 lanes).
@@ -370,6 +412,7 @@ void test_batch_faces_equal_scalar_assembly() {
 int main() {
   test_spans_equal_coverage_and_scalar_loop();
   test_huge_triangle_tested_by_spans_in_every_build();
+  test_large_triangles_drawn_by_runs_of_tiles();
   test_span_equals_scalar_rect();
   test_batch_faces_equal_scalar_assembly();
   test_batch_equals_scalar_loop();

@@ -222,8 +222,11 @@ inline bool depth_write(float* depth, int32_t* ids, size_t p, float z, int32_t i
 // where an edge value reaches 2^30 in magnitude (huge triangles) by exact
 // spans (TriangleSpans), which test only the covered pixels. The choice is
 // the same in every build; pixels_tested counts the pixels tested either way.
+// `spans`, if given, is the triangle's TriangleSpans at row y0: callers that
+// draw many rectangles of one triangle (tiles) save its setup.
 void rasterize_rect(const TriangleSetup& s, int x0, int y0, int x1, int y1,
-                    DepthTarget& target, RenderStats& stats);
+                    DepthTarget& target, RenderStats& stats,
+                    const TriangleSpans* spans = nullptr);
 
 // The plain scalar loop, one pixel at a time: the literal form of the rules,
 // kept callable so that tests can hold the vector loop to it.
