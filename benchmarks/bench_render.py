@@ -26,11 +26,16 @@ CASES = [
     ("bunny_10k.obj", 666, 500, "flat", "zbuffer", "shaded frame, for reference"),
     ("bunny_69k.obj", 1024, 1024, "none", "zbuffer", "target >= 30 M triangles/s"),
     ("armadillo_86k.obj", 1024, 1024, "none", "zbuffer", "target >= 30 M triangles/s"),
+    ("bunny_69k.obj", 1024, 1024, "flat", "zbuffer", "shaded frame (the default shading)"),
     ("bunny_69k.obj", 1024, 1024, "smooth", "zbuffer", "shaded frame, for reference"),
     ("bunny_69k.obj", 1024, 1024, "none", "hiz", "target <= 1.25x zbuffer (issue 4)"),
     ("armadillo_86k.obj", 1024, 1024, "none", "hiz", "target <= 1.25x zbuffer (issue 4)"),
     ("bunny_69k.obj", 1024, 1024, "none", "scanline", "target <= 1.5x zbuffer (issue 3)"),
     ("armadillo_86k.obj", 1024, 1024, "none", "scanline", "target <= 1.5x zbuffer (issue 3)"),
+    ("cornell_box_original.obj", 1024, 1024, "none", "zbuffer",
+     "large triangles (drawn by exact spans)"),
+    ("cornell_box_original.obj", 1024, 1024, "none", "hiz", "large triangles, by tiles"),
+    ("cornell_box_original.obj", 1024, 1024, "none", "scanline", "large triangles"),
     ("flowers.obj", 1024, 1024, "none", "zbuffer", "polygon mesh (12-gons) as triangles"),
     ("flowers.obj", 1024, 1024, "none", "scanline", "polygon mesh, polygons drawn natively"),
 ]
@@ -47,7 +52,7 @@ def bench(mesh, width, height, shading, algo, runs):
     render = lambda a: zbuffer.render(mesh, algo=a, camera=camera, width=width,  # noqa: E731
                                       height=height, shading=shading)
     render(algo)  # warm up
-    core, total, wall, paired = [], [], [], []
+    core, total, wall, paired, shade = [], [], [], [], []
     stats = None
     for _ in range(runs):
         if algo != "zbuffer":
@@ -57,12 +62,14 @@ def bench(mesh, width, height, shading, algo, runs):
         res = render(algo)
         wall.append((time.perf_counter() - t0) * 1e3)
         core.append(res.stats["render_ms"] + res.stats["shade_ms"])
+        shade.append(res.stats["shade_ms"])
         total.append(res.stats["total_ms"])
         stats = res.stats
     extra = {"x_zbuffer": statistics.median(core) / statistics.median(paired)} if paired else {}
     return {
         **extra,
         "core_ms_median": statistics.median(core),
+        "shade_ms_median": statistics.median(shade),
         "total_ms_median": statistics.median(total),
         "wall_ms_median": statistics.median(wall),
         "core_ms_min": min(core),

@@ -53,6 +53,16 @@ def _render(report):
         if c:
             lines.append(verdict(c["mtris_per_s"] >= 30, f"{mesh} at {c['size']}: "
                                  f"{c['mtris_per_s']:.1f} M triangles/s against 30 (issue 2)."))
+    for shading in ("flat", "smooth"):
+        c = find("bunny_69k.obj", "zbuffer", shading)
+        if c and c.get("shade_ms_median") is not None:
+            shade = c["shade_ms_median"]
+            render = c["core_ms_median"] - shade
+            text = (f"`shading=\"{shading}\"` on bunny_69k.obj at {c['size']}: the shading pass "
+                    f"takes {shade:.2f} ms of the frame's {c['core_ms_median']:.2f} ms "
+                    f"({shade / c['core_ms_median']:.0%}; the render {render:.2f} ms)")
+            lines.append(verdict(shade <= render, text + "; issue 2: shading never dominates "
+                                 "a frame.") if shading == "flat" else "- " + text + ".")
     for algo, limit, issue in (("scanline", 1.5, 3), ("hiz", 1.25, 4)):
         for mesh in ("bunny_69k.obj", "armadillo_86k.obj"):
             c = find(mesh, algo)
