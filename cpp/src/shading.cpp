@@ -464,6 +464,22 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
   for (; i < count; ++i) store_row(table, i, prepare_face(in, face_at(i), need_bary), need_bary);
 }
 
+// The calling thread's table, prepared for one pass and trimmed after it.
+struct PreparedTable {
+  FaceTable& table;
+  PreparedTable(const ShadingInput& in, const int32_t* triangle_id, bool need_bary)
+      : table(local()) {
+    prepare_table(in, triangle_id, table, need_bary);
+  }
+  ~PreparedTable() { table.trim(); }
+  PreparedTable(const PreparedTable&) = delete;
+  PreparedTable& operator=(const PreparedTable&) = delete;
+  static FaceTable& local() {
+    thread_local FaceTable t;
+    return t;
+  }
+};
+
 #endif
 
 #ifdef ZBUFFER_AVX2
@@ -510,12 +526,8 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
   const bool smooth = in.vertex_normals != nullptr;
   const bool per_vertex = in.color_source == ColorSource::kPerVertex;
   const bool need_bary = smooth || per_vertex;
-  thread_local FaceTable table;
-  struct Trim {
-    FaceTable& table;
-    ~Trim() { table.trim(); }
-  } trim{table};
-  prepare_table(in, triangle_id, table, need_bary);
+  const PreparedTable prepared(in, triangle_id, need_bary);
+  const FaceTable& table = prepared.table;
 
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
   // x of each column's pixel centres in NDC (and 16 spare entries).
@@ -653,12 +665,8 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
   const bool smooth = in.vertex_normals != nullptr;
   const bool per_vertex = in.color_source == ColorSource::kPerVertex;
   const bool need_bary = smooth || per_vertex;
-  thread_local FaceTable table;
-  struct Trim {
-    FaceTable& table;
-    ~Trim() { table.trim(); }
-  } trim{table};
-  prepare_table(in, triangle_id, table, need_bary);
+  const PreparedTable prepared(in, triangle_id, need_bary);
+  const FaceTable& table = prepared.table;
   const size_t nv = size_t(in.mesh.n_vertices);
   const std::vector<float> vn = smooth ? components(in.vertex_normals, nv) : std::vector<float>();
   const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
