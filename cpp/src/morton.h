@@ -206,13 +206,18 @@ struct VertexGrid {
       }
     bool inside = true;
     for (int a = 0; a < 3; ++a) inside &= lo[a] >= origin[a] && hi[a] <= origin[a] + side_;
-    if (!quantize || !inside) return inside;
+    if (!quantize) return inside;
+    // Every vertex gets its cell, whether or not the cube held them all
+    // (a vertex at the far end may round past it: cell 1023 holds it).
     for (; v < n; ++v) {
       uint32_t q[3];
-      for (int a = 0; a < 3; ++a) q[a] = std::min(kMask, uint32_t((p[3 * v + a] - origin[a]) * scale_));
+      for (int a = 0; a < 3; ++a) {
+        const double t = (p[3 * v + a] - origin[a]) * scale_;
+        q[a] = t > 0.0 ? uint32_t(std::min(t, double(kMask))) : 0u;  // (NaN: 0)
+      }
       cell[size_t(v)] = q[0] | q[1] << kBits | q[2] << (2 * kBits);
     }
-    return true;
+    return inside;
   }
 
   // The grid's cube from the vertices' bounds.

@@ -252,6 +252,41 @@ void test_frame_trees() {
   }
 }
 
+// Per-frame trees' bounds contain their triangles also where the vertex
+// grid's cube, set from the vertices' bounds, rounds short of its far end
+// (lo + (hi - lo) < hi: x from -3 to 0.3), for every number of vertices
+// past the last group of 8 (the scalar tail of the grid's pass), and after
+// a grid built for other positions (no cell left over from them).
+void test_frame_tree_bounds_when_the_cube_rounds() {
+  for (int n = 3; n <= 20; ++n) {
+    Soup soup;
+    for (int v = 0; v < n; ++v) {
+      const double t = double(v) / double(n - 1);
+      soup.pos.insert(soup.pos.end(), {v == 0 ? -3.0 : 0.3, v == 0 ? 0.0 : t, 0.1 * t});
+    }
+    CHECK(soup.pos[0] + (0.3 - soup.pos[0]) < 0.3);  // the case this test is about
+    for (int v = 1; v + 1 < n; ++v) soup.faces.insert(soup.faces.end(), {0, v, v + 1});
+    for (int kind = 0; kind < 2; ++kind) {
+      ObjectTree warm, tree;
+      Soup other = random_soup(7, 5);  // a grid built for other positions first
+      if (kind == 0) {
+        build_octree_for_frame(other.view(), OctreeParams(), warm);
+        build_octree_for_frame(soup.view(), OctreeParams(), tree);
+      } else {
+        build_bvh_for_frame(other.view(), BvhParams(), warm);
+        build_bvh_for_frame(soup.view(), BvhParams(), tree);
+      }
+      for (const TreeNode& node : tree.nodes) {
+        if (node.cluster < 0) continue;
+        const TriangleCluster& cl = tree.clusters[size_t(node.cluster)];
+        for (int64_t r = cl.face_begin; r < cl.face_end; ++r)
+          for (int k = 0; k < 3; ++k)
+            CHECK(inside(soup.view().positions + 3 * int64_t(tree.face(r)[k]), node));
+      }
+    }
+  }
+}
+
 // The per-frame builders' vector face pass and scatter (AVX-512 builds)
 // give the very tree of the scalar ones: same nodes, bounds, clusters and
 // face order -- and the same decision whether the faces came in bucket
@@ -355,6 +390,7 @@ void test_vertex_grid_rebuilt_equals_fresh() {
 }  // namespace
 
 int main() {
+  test_frame_tree_bounds_when_the_cube_rounds();
   test_vertex_grid_rebuilt_equals_fresh();
   test_frame_tree_vector_pass_equals_scalar();
   test_structures();
