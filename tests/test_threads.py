@@ -27,3 +27,28 @@ def test_parallel_renders_equal_sequential_ones():
         np.testing.assert_array_equal(res.depth, ref.depth)
         if ref.image is not None:
             np.testing.assert_array_equal(res.image, ref.image)
+
+
+def test_visit_passes_arrays_no_other_thread_can_write(monkeypatch):
+    # The core checks a visit's arrays, then reads them without the GIL: a
+    # writeable array (which another thread could change in between: out of
+    # range indices, a crash) goes as a copy, a Mesh's read-only ones as they are.
+    from zbuffer import _core
+
+    passed = {}
+
+    def fake_render(vertices, faces, *args, **kwargs):
+        passed.update(vertices=vertices, faces=faces, ids=kwargs["face_ids"])
+        return None
+
+    monkeypatch.setattr(_core, "render", fake_render)
+    vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    faces = np.array([[0, 1, 2]], np.int32)
+    ids = np.array([0], np.int32)
+    zbuffer.Visit(vertices, faces, ids).render(np.eye(4), 8, 8, "zbuffer", False)
+    for name, mine in (("vertices", vertices), ("faces", faces), ("ids", ids)):
+        assert not np.shares_memory(passed[name], mine)
+        np.testing.assert_array_equal(passed[name], mine)
+    mesh = zbuffer.Mesh(vertices, faces)
+    mesh.faces_for_render().render(np.eye(4), 8, 8, "zbuffer", False)
+    assert passed["faces"] is mesh.faces and passed["vertices"] is mesh.vertices

@@ -67,9 +67,20 @@ class Visit(NamedTuple):
         that faces are never paired with another mesh's vertices."""
         from . import _core
 
-        return _core.render(self.vertices, self.faces, mvp, width, height, algo,
-                            bool(cull_backfaces), face_ids=self.ids, cell_start=self.cell_start,
-                            cell_centre=self.cell_centre, **options)
+        # The core checks the arrays, then reads them without the GIL: an
+        # array another thread could still write is passed as a copy (a
+        # Mesh's own arrays are read-only, and passed as they are).
+        return _core.render(_settled(self.vertices), _settled(self.faces), mvp, width, height,
+                            algo, bool(cull_backfaces), face_ids=_settled(self.ids),
+                            cell_start=_settled(self.cell_start),
+                            cell_centre=_settled(self.cell_centre), **options)
+
+
+def _settled(a):
+    """``a`` if it is None or a read-only array, else a copy of it."""
+    if a is None or (isinstance(a, np.ndarray) and not a.flags.writeable):
+        return a
+    return np.array(a, copy=True)
 
 
 class Mesh:
