@@ -97,6 +97,28 @@ def test_triangulation_covers_the_polygon_exactly(seed):
     np.testing.assert_allclose(np.linalg.norm(tri_areas, axis=1).sum(), np.linalg.norm(target))
 
 
+@pytest.mark.parametrize("turns", [2, 9])
+def test_triangulation_of_a_long_spiral_covers_it_exactly(turns):
+    # A thin spiral band (many reflex corners, ears far apart along the
+    # outline): triangles tile it with no overlap or gap, each wound as the
+    # polygon is.
+    k = np.arange(40 * turns)
+    inner = np.stack([(1 + .05 * k) * np.cos(.15 * k), (1 + .05 * k) * np.sin(.15 * k)], 1)
+    outer = np.stack([(1.2 + .05 * k) * np.cos(.15 * k), (1.2 + .05 * k) * np.sin(.15 * k)], 1)
+    ring = np.concatenate([inner, outer[::-1]])
+    ring = np.roll(ring, len(ring) // 4, axis=0)
+    p = np.column_stack([ring, np.zeros(len(ring))])
+    n = len(p)
+    faces, _ = triangulate_polygons(p, np.array([n]), np.arange(n))
+    assert len(faces) == n - 2
+    tri = p[faces]
+    tri_areas = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    target = polygon_area_normal(p)
+    assert (tri_areas @ target > 0).all()
+    np.testing.assert_allclose(np.linalg.norm(tri_areas, axis=1).sum(), np.linalg.norm(target),
+                               rtol=1e-12)
+
+
 @pytest.mark.models
 def test_concave_plane_is_not_triangulated_as_a_fan():
     mesh = zbuffer.load(model_path("concave_plane.obj"))

