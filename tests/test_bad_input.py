@@ -1,10 +1,14 @@
 """Bad input gets a clear Python exception naming the problem, never a crash."""
 
+import re
+
 import numpy as np
 import pytest
 
 import zbuffer
 from zbuffer import _core, scenes
+
+TRI = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
 
 V, F = scenes.box()
 CAM = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0))
@@ -201,3 +205,34 @@ def test_coordinates_that_overflow_the_transform_are_skipped():
     assert res.stats["culled_invalid"] == 1 == ref.stats["culled_invalid"]
     np.testing.assert_array_equal(res.triangle_id, ref.triangle_id)
     assert res.mask.any()
+
+
+@pytest.mark.parametrize("call, error, message", [
+    (lambda: zbuffer.Camera.fit(TRI, fov_y=0), ValueError, "fov_y must be in (0, 180)"),
+    (lambda: zbuffer.Camera.fit(TRI, margin=0), ValueError, "margin must be positive"),
+    (lambda: zbuffer.Camera.fit(TRI, margin=float("nan")), ValueError, "margin must be positive"),
+    (lambda: zbuffer.Camera.fit(TRI, margin=-1), ValueError, "margin must be positive"),
+    (lambda: zbuffer.Camera.fit(np.zeros(3)), ValueError, "vertices must have shape (N, 3)"),
+    (lambda: zbuffer.Camera.look_at((0, 0, 1), near=1, far=2).mvp(10, 0), ValueError,
+     "width and height must be positive"),
+    (lambda: zbuffer.Camera.look_at((0, 0, 1), fov_y="x"), TypeError, "fov_y must be a number"),
+    (lambda: zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, light_dir="abc"), TypeError,
+     "light_dir must be 3 numbers"),
+    (lambda: zbuffer.render((TRI * 1e-170, [[0, 1, 2]]), width=8, height=8), ValueError,
+     "too small for double precision"),
+])
+def test_camera_and_light_arguments_are_checked(call, error, message):
+    with pytest.raises(error, match=re.escape(message)):
+        call()
+
+
+def test_lengths_that_overflow_or_underflow_a_plain_norm_still_work():
+    # np.linalg.norm of (1e200, 0, 0) is inf and of (1e-200, 0, 0) zero.
+    far = zbuffer.Camera.look_at((1e200, 0, 0), (0, 0, 0))
+    assert np.isfinite(far.view_matrix()).all()
+    lit = {}
+    for scale in (1.0, 1e200, 1e-200):
+        res = zbuffer.render((TRI, [[0, 1, 2]]), width=16, height=16,
+                             light_dir=(-scale, -scale, -scale))
+        lit[scale] = res.image[res.mask].tolist()
+    assert lit[1e200] == lit[1.0] == lit[1e-200]

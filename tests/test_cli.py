@@ -38,17 +38,27 @@ def test_render_a_file_with_options(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["render", "missing.obj"], "no such mesh file"),
     (["render", "--algo", "painter", "--out", "none"], "unknown algorithm 'painter'"),
-    (["render", "--size", "0x10", "--out", "none"], "must be positive"),
+    (["render", "--fov", "0", "--out", "none"], "fov_y must be in (0, 180)"),
+    (["render", "--out", ""], "is not a file name"),
+    (["render", "--out", "."], "is not a file name"),
+    (["render", "--out", "picture.xyz"], "must end in .png"),
+    (["render", "--out", "no/such/folder/t.png"], "no folder"),
+    (["render", "--out", "none", "--depth", "d.jpg"], "must end in .png"),
 ])
-def test_errors_are_reported_not_raised(args, message, capsys):
+def test_errors_are_reported_not_raised(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     assert main(args) == 2
     assert message in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())  # refused before anything was written
 
 
-def test_bad_size_syntax_is_a_usage_error(capsys):
+@pytest.mark.parametrize("size, message", [("big", "size must look like 800x600"),
+                                           ("0x10", "must be positive"),
+                                           ("5x0", "must be positive")])
+def test_bad_size_is_a_usage_error(size, message, capsys):
     with pytest.raises(SystemExit):
-        main(["render", "--size", "big"])
-    assert "size must look like 800x600" in capsys.readouterr().err
+        main(["render", "--size", size])
+    assert message in capsys.readouterr().err
 
 
 def test_algorithms_lists_the_registry(capsys):

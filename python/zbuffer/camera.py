@@ -36,6 +36,18 @@ def _vec3(value, name: str) -> np.ndarray:
     return v
 
 
+def _unit(v: np.ndarray) -> Tuple[np.ndarray, float]:
+    """``v`` scaled to length 1, and its length (0 for the zero vector):
+    computed on ``v / max|v|`` so that neither overflows nor underflows
+    (np.linalg.norm of (1e200, 0, 0) is inf, of (1e-200, 0, 0) zero)."""
+    m = float(np.max(np.abs(v)))
+    if m == 0.0:
+        return np.zeros(3), 0.0
+    w = v / m
+    n = float(np.sqrt(w @ w))
+    return w / n, m * n
+
+
 def _positive(value, name: str, allow_none: bool = False) -> Optional[float]:
     if value is None and allow_none:
         return None
@@ -93,15 +105,21 @@ class Camera:
                 f"projection must be one of {', '.join(map(repr, PROJECTIONS))}, "
                 f"got {self.projection!r}"
             )
-        forward = target - eye
-        dist = float(np.linalg.norm(forward))
+        forward, dist = _unit(target - eye)
         if dist == 0.0:
             raise ValueError("degenerate camera: eye and target are the same point")
-        if np.linalg.norm(up) == 0.0:
+        if not math.isfinite(dist):
+            raise ValueError("degenerate camera: eye and target are too far apart "
+                             "(their distance overflows)")
+        up_unit, up_length = _unit(up)
+        if up_length == 0.0:
             raise ValueError("degenerate camera: up is the zero vector")
-        side = _cross(forward / dist, up / np.linalg.norm(up))
+        side = _cross(forward, up_unit)
         if np.linalg.norm(side) < 1e-9:
             raise ValueError("degenerate camera: up is parallel to the viewing direction")
+        if isinstance(self.fov_y, bool) or not isinstance(
+                self.fov_y, (int, float, np.floating, np.integer)):
+            raise TypeError(f"fov_y must be a number of degrees, got {self.fov_y!r}")
         fov = float(self.fov_y)
         if not (0.0 < fov < 180.0):
             raise ValueError(f"fov_y must be in (0, 180) degrees, got {self.fov_y!r}")
@@ -206,13 +224,15 @@ class Camera:
             Extra room around the bounding sphere (1.0 = touching).
         """
         center, radius = bounding_sphere(vertices)
-        d = _vec3(direction, "direction")
-        norm = np.linalg.norm(d)
+        d, norm = _unit(_vec3(direction, "direction"))
         if norm == 0.0:
             raise ValueError("direction must not be the zero vector")
-        d = d / norm
         aspect = _positive(aspect, "aspect")
-        r = radius * float(margin)
+        margin = _positive(margin, "margin")
+        if isinstance(fov_y, bool) or not isinstance(fov_y, (int, float, np.floating, np.integer)) \
+                or not 0.0 < float(fov_y) < 180.0:
+            raise ValueError(f"fov_y must be in (0, 180) degrees, got {fov_y!r}")
+        r = radius * margin
         if projection == "orthographic":
             height = 2.0 * r / min(1.0, aspect)
             eye = center + d * (2.0 * r)
@@ -241,8 +261,7 @@ class Camera:
             return self
         center, radius = bounding_sphere(vertices)
         eye = np.asarray(self.eye)
-        forward = np.asarray(self.target) - eye
-        forward /= np.linalg.norm(forward)
+        forward, _ = _unit(np.asarray(self.target) - eye)
         dist = float(np.dot(center - eye, forward))  # along the view axis
         changes = {}
         far = self.far
@@ -267,10 +286,8 @@ class Camera:
     def view_matrix(self) -> np.ndarray:
         """(4, 4) float64 world-to-eye matrix (gluLookAt)."""
         eye = np.asarray(self.eye)
-        f = np.asarray(self.target) - eye
-        f /= np.linalg.norm(f)
-        s = _cross(f, np.asarray(self.up))
-        s /= np.linalg.norm(s)
+        f, _ = _unit(np.asarray(self.target) - eye)
+        s, _ = _unit(_cross(f, _unit(np.asarray(self.up))[0]))
         u = _cross(s, f)
         m = np.eye(4)
         m[0, :3], m[1, :3], m[2, :3] = s, u, -f
@@ -293,6 +310,9 @@ class Camera:
             m[2, 2] = -(f + n) / (f - n)
             m[2, 3] = -2.0 * f * n / (f - n)
             m[3, 2] = -1.0
+            if m[2, 3] == 0.0:
+                raise ValueError(f"near={n!r} and far={f!r} are too small for double precision "
+                                 "(2 near far / (far - near) underflows to 0): scale the scene up")
         else:
             if self.ortho_height is None:
                 raise ValueError("ortho_height is not set: call camera.resolve(vertices) first")
@@ -308,6 +328,8 @@ class Camera:
         """(4, 4) float64 C-contiguous, read-only model-view-projection matrix
         (computed once per image size: cameras are immutable)."""
         key = (int(width), int(height))
+        if key[0] <= 0 or key[1] <= 0:
+            raise ValueError(f"width and height must be positive, got {key[0]}x{key[1]}")
         m = self._mvp_cache.get(key)
         if m is None:
             with np.errstate(all="ignore"):  # absurd parameters: caught as non-finite
@@ -323,13 +345,12 @@ class Camera:
         """(4,) float64 homogeneous viewer: (eye, 1), or (towards camera, 0) if orthographic."""
         if self.projection == "perspective":
             return np.array([*self.eye, 1.0])
-        back = np.asarray(self.eye) - np.asarray(self.target)
-        return np.array([*(back / np.linalg.norm(back)), 0.0])
+        back, _ = _unit(np.asarray(self.eye) - np.asarray(self.target))
+        return np.array([*back, 0.0])
 
     def forward(self) -> np.ndarray:
         """(3,) float64 unit viewing direction."""
-        f = np.asarray(self.target) - np.asarray(self.eye)
-        return f / np.linalg.norm(f)
+        return _unit(np.asarray(self.target) - np.asarray(self.eye))[0]
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -347,16 +368,29 @@ def bounding_sphere(vertices) -> Tuple[np.ndarray, float]:
     attribute (a :class:`zbuffer.Mesh` caches its own)."""
     if hasattr(vertices, "bounding_sphere"):
         return vertices.bounding_sphere
-    if vertices is None or len(vertices) == 0:
+    if vertices is None:
         return np.zeros(3), 1.0
-    v = np.asarray(vertices, dtype=np.float64)
+    try:
+        v = np.asarray(vertices, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError("vertices must be an (N, 3) array of numbers or a Mesh") from None
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise ValueError(f"vertices must have shape (N, 3), got {v.shape}")
+    if len(v) == 0:
+        return np.zeros(3), 1.0
     lo, hi = v.min(axis=0), v.max(axis=0)
     with np.errstate(over="ignore", invalid="ignore"):
         center = lo * 0.5 + hi * 0.5
-        radius = float(np.sqrt(((v - center) ** 2).sum(axis=1).max()))
-    if not math.isfinite(radius) or not np.all(np.isfinite(center)):
+        # Scaled by the largest offset, so that tiny meshes do not underflow
+        # to a radius of 0 (nor huge ones overflow before the check below).
+        offset = v - center
+        scale = float(np.abs(offset).max())
+        radius = scale * float(np.sqrt(((offset / scale) ** 2).sum(axis=1).max())) \
+            if scale > 0.0 else 0.0
+    # (Beyond ~1e150 the camera's matrices, products of such lengths, overflow.)
+    if not (math.isfinite(radius) and radius < 1e150) or not np.all(np.abs(center) < 1e150):
         raise ValueError("vertex coordinates are too large to frame automatically "
-                         "(the bounding sphere overflows); pass a camera")
+                         "(the camera's matrices would overflow); pass a camera")
     if radius == 0.0:
         radius = max(1e-6, float(np.abs(center).max()) * 1e-6)
     return center, radius

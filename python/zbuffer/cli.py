@@ -21,9 +21,47 @@ __all__ = ["main", "save_image", "save_depth"]
 def _size(text: str):
     try:
         w, h = text.lower().split("x")
-        return int(w), int(h)
+        w, h = int(w), int(h)
     except ValueError:
         raise argparse.ArgumentTypeError(f"size must look like 800x600, got {text!r}") from None
+    if w <= 0 or h <= 0:
+        raise argparse.ArgumentTypeError(f"width and height must be positive, got {text!r}")
+    return w, h
+
+
+# What the images can be written as: any 8-bit RGB format for the image, a
+# 16-bit PNG for the depth map.
+_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+_DEPTH_SUFFIXES = (".png",)
+
+
+def _check_output(path: str, what: str, suffixes) -> None:
+    """ValueError unless ``path`` names a file of one of ``suffixes`` in an
+    existing folder (checked before rendering, so that a bad name costs no
+    render and leaves no empty file)."""
+    from pathlib import Path
+
+    p = Path(path)
+    if not path or p.is_dir():
+        raise ValueError(f"{what} {path!r} is not a file name")
+    if p.suffix.lower() not in suffixes:
+        raise ValueError(f"{what} {path!r}: the file name must end in "
+                         f"{', '.join(suffixes)}")
+    if not p.resolve().parent.is_dir():
+        raise ValueError(f"{what} {path!r}: no folder {str(p.parent)!r} to write it in")
+
+
+def _write(path: str, what: str, write) -> None:
+    """``write(path)``, with an OSError reported as a ValueError naming the
+    file (and no half-written file left behind)."""
+    import os
+
+    try:
+        write(path)
+    except OSError as err:
+        if os.path.isfile(path) and os.path.getsize(path) == 0:
+            os.remove(path)
+        raise ValueError(f"cannot write {what} {path!r}: {err}") from None
 
 
 def _vec3(text: str):
@@ -76,6 +114,10 @@ def _cmd_render(args) -> int:
     from .scenes import default_camera, default_scene
 
     width, height = args.size
+    if args.out is not None:
+        _check_output(args.out, "--out", _IMAGE_SUFFIXES)
+    if args.depth is not None:
+        _check_output(args.depth, "--depth", _DEPTH_SUFFIXES)
     mesh = default_scene() if args.mesh is None else zbuffer.load(args.mesh)
     if args.eye is not None:
         target = args.target if args.target is not None else tuple(mesh.bounding_sphere[0])
@@ -96,10 +138,10 @@ def _cmd_render(args) -> int:
           f"{int(result.mask.sum()):,} pixels drawn")
     _print_stats(result.stats, sys.stdout)
     if args.out is not None:
-        save_image(args.out, result.image)
+        _write(args.out, "the image", lambda p: save_image(p, result.image))
         print(f"wrote {args.out}")
     if args.depth is not None:
-        save_depth(args.depth, result.eye_depth())
+        _write(args.depth, "the depth map", lambda p: save_depth(p, result.eye_depth()))
         print(f"wrote {args.depth}")
     return 0
 
@@ -111,6 +153,8 @@ def _cmd_view(args) -> int:
     from .viewer import Viewer, run
 
     width, height = args.size
+    if args.screenshot is not None:
+        _check_output(args.screenshot, "--screenshot", (".png",))
     mesh = default_scene() if args.mesh is None else zbuffer.load(args.mesh)
     viewer = Viewer(mesh, algo=args.algo, width=width, height=height, shading=args.shading)
     if args.overlay == "pyramid":

@@ -13,6 +13,8 @@ from typing import Optional
 
 import numpy as np
 
+from .camera import _unit
+
 __all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy"]
 
 SHADINGS = ("flat", "smooth", "none")
@@ -65,13 +67,15 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
     if light_dir is None:
         light = camera.forward()
     else:
-        light = np.asarray(light_dir, dtype=np.float64)
+        try:
+            light = np.asarray(light_dir, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"light_dir must be 3 numbers, got {light_dir!r}") from None
         if light.shape != (3,) or not np.all(np.isfinite(light)):
             raise ValueError(f"light_dir must be 3 finite numbers, got {light_dir!r}")
-        norm = np.linalg.norm(light)
+        light, norm = _unit(light)
         if norm == 0.0:
             raise ValueError("light_dir must not be the zero vector")
-        light = light / norm
     for name, value in (("ambient", ambient), ("diffuse", diffuse)):
         if not isinstance(value, (int, float, np.floating, np.integer)) or not (
             np.isfinite(value) and value >= 0.0
