@@ -236,3 +236,20 @@ def test_lengths_that_overflow_or_underflow_a_plain_norm_still_work():
                              light_dir=(-scale, -scale, -scale))
         lit[scale] = res.image[res.mask].tolist()
     assert lit[1e200] == lit[1.0] == lit[1e-200]
+
+
+def test_odd_inputs_get_clear_messages(tmp_path):
+    with pytest.raises(TypeError, match="cull_backfaces must be a bool"):
+        zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, cull_backfaces="no")
+    with pytest.raises(TypeError, match="cull_backfaces must be a bool"):
+        zbuffer.reference.render((TRI, [[0, 1, 2]]), width=8, height=8, cull_backfaces=1)
+    with pytest.raises(ValueError, match="ambient must be a finite number"):
+        zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, ambient=True)
+    with pytest.raises(ValueError, match="faces must be a rectangular array"):
+        zbuffer.Mesh(TRI, [[0, 1, 2], [0, 1]])
+    with pytest.raises(ValueError, match="is not a mesh file"):
+        zbuffer.load(tmp_path)
+    obj = tmp_path / "bom.obj"  # an OBJ file starting with a byte order mark
+    obj.write_bytes("\ufeffv 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n".encode("utf-8"))
+    mesh = zbuffer.load(bytes(obj))
+    np.testing.assert_array_equal(mesh.vertices[mesh.faces[0]], TRI)

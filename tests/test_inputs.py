@@ -41,6 +41,19 @@ def test_pyvista_polydata_is_triangulated():
     assert not zbuffer.render(pts, width=8, height=8, shading="none").mask.any()
 
 
+def test_other_pyvista_datasets_render_their_outer_surface():
+    pv = pytest.importorskip("pyvista")
+    sphere = pv.Sphere(theta_resolution=16, phi_resolution=12)
+    grid = sphere.cast_to_unstructured_grid()
+    cam = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0))
+    a = zbuffer.render(sphere, camera=cam, width=48, height=40, shading="none")
+    b = zbuffer.render(grid, camera=cam, width=48, height=40, shading="none")
+    np.testing.assert_array_equal(a.depth, b.depth)
+    box = zbuffer.render(pv.ImageData(dimensions=(3, 3, 3)), camera=cam, width=48, height=40,
+                         shading="none")
+    assert box.mask.any()
+
+
 def test_scene_is_concatenated_with_colours():
     a = trimesh.creation.box()
     a.visual.face_colors = [255, 0, 0, 255]

@@ -195,8 +195,9 @@ def test_tiny_leaves_on_the_fixed_point_grid(tris):
 
 def test_bad_arguments():
     mesh = scenes.default_scene()
-    with pytest.raises(ValueError, match="leaf_size must be >= 1"):
-        zbuffer.Scene(mesh, leaf_size=0)
+    for leaf in (0, 2**31):  # (the core takes an int32)
+        with pytest.raises(ValueError, match=r"leaf_size must be in \[1, 2147483647\]"):
+            zbuffer.Scene(mesh, leaf_size=leaf)
     with pytest.raises(TypeError, match="leaf_size must be an int"):
         zbuffer.Scene(mesh, leaf_size=2.5)
     with pytest.raises(ValueError, match="max_depth must be in 1 .. 10"):
@@ -210,6 +211,8 @@ def test_bad_arguments():
         scene.render(algo="hiz", temporal=True)
     with pytest.raises(TypeError, match="temporal must be a bool"):
         scene.render(temporal="yes")
+    with pytest.raises(TypeError, match="cull_backfaces must be a bool"):
+        scene.render(cull_backfaces="no")
     with pytest.raises(ValueError, match="'zbuffer' has no tree"):
         scene.nodes("zbuffer")
     with pytest.raises(ValueError, match="width and height must be positive"):

@@ -110,7 +110,8 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     start = time.perf_counter()
     check_algorithm(algo)
     mesh, camera, mvp, width, height, params = prepare(
-        mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
+        mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background,
+        cull_backfaces)
     out = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
                             check_record_culls(record_culls))
     return finish(mesh, camera, mvp, params, algo, *out, start=start)

@@ -13,6 +13,14 @@ __all__ = ["Mesh", "load", "as_mesh"]
 _INT32_MAX = np.iinfo(np.int32).max
 
 
+def _array(value, name: str) -> np.ndarray:
+    """np.asarray, with a message naming the argument for ragged lists."""
+    try:
+        return np.asarray(value)
+    except ValueError as err:
+        raise ValueError(f"{name} must be a rectangular array: {err}") from None
+
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     view = a.view()
     view.flags.writeable = False
@@ -134,8 +142,8 @@ class Mesh:
 
     def __init__(self, vertices, faces, vertex_colors=None, face_colors=None,
                  name: Optional[str] = None, face_polygon=None, polygons=None):
-        v = np.asarray(vertices)
-        f = np.asarray(faces)
+        v = _array(vertices, "vertices")
+        f = _array(faces, "faces")
         if v.dtype == object or not (np.issubdtype(v.dtype, np.floating)
                                      or np.issubdtype(v.dtype, np.integer)):
             raise TypeError(f"vertices must be numbers, got dtype {v.dtype}")
@@ -282,6 +290,8 @@ class Mesh:
             from .camera import Camera
 
             camera = Camera.fit(self, aspect=aspect).resolve(self)
+            if len(cache) >= 64:
+                cache.clear()
             cache[aspect] = camera
         return camera
 
@@ -384,9 +394,11 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     """
     import trimesh
 
-    path = os.fspath(path)
-    if not os.path.isfile(path):
+    path = os.fsdecode(os.fspath(path))
+    if not os.path.exists(path):
         raise FileNotFoundError(f"no such mesh file: {path!r}")
+    if not os.path.isfile(path):
+        raise ValueError(f"{path!r} is not a mesh file (a directory or device)")
     if path.lower().endswith(".obj"):
         return _load_obj(path).prepare()
     try:
@@ -437,7 +449,8 @@ def as_mesh(obj) -> Mesh:
     """Turn anything :func:`zbuffer.render` accepts into a :class:`Mesh`.
 
     Accepted: a :class:`Mesh`; a ``trimesh.Trimesh``; a ``trimesh.Scene``
-    (concatenated); a ``pyvista.PolyData`` (triangulated); a
+    (concatenated); a ``pyvista.PolyData`` (triangulated), or any other
+    pyvista dataset (its outer surface, triangulated); a
     ``(vertices, faces)`` pair of arrays; a file path.
     """
     if isinstance(obj, Mesh):
@@ -452,7 +465,12 @@ def as_mesh(obj) -> Mesh:
             obj = obj.to_mesh()
         if isinstance(obj, trimesh.Trimesh):
             return Mesh.from_trimesh(obj)
-    if module.startswith("pyvista") and hasattr(obj, "triangulate"):
+    if module.startswith("pyvista") and hasattr(obj, "extract_surface"):
+        if not hasattr(obj, "regular_faces"):  # a volume or grid: its outer surface
+            try:  # (newer pyvista warns unless the algorithm is named)
+                obj = obj.extract_surface(algorithm="dataset_surface")
+            except TypeError:
+                obj = obj.extract_surface()
         poly = obj.triangulate()  # quads, polygons and strips to triangles
         if poly.faces.size:
             faces = np.asarray(poly.regular_faces)

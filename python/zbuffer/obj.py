@@ -58,6 +58,7 @@ def read_obj(path: str) -> ObjData:
     """
     with open(path, "rb") as fh:
         text = fh.read().decode("utf-8", errors="replace")
+    text = text.removeprefix("\ufeff")  # a byte order mark is not part of the first record
 
     coords: List[str] = []        # the numbers of the v records, as text
     coord_count: List[int] = []   # how many numbers each v record has

@@ -33,12 +33,21 @@ def check_size(width, height) -> Tuple[int, int]:
     return width, height
 
 
+def check_flag(name: str, value) -> bool:
+    """``value`` as a bool; TypeError unless it is one (a string such as
+    "no" would otherwise count as True)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {value!r}")
+    return bool(value)
+
+
 def prepare(mesh, camera: Optional[Camera], width, height, shading, light_dir,
-            ambient, diffuse, color, background
+            ambient, diffuse, color, background, cull_backfaces=False
             ) -> Tuple[Mesh, Camera, np.ndarray, int, int, ShadingParams]:
     """Check and resolve everything render() and reference.render() share."""
     width, height = check_size(width, height)
     mesh = as_mesh(mesh)
+    check_flag("cull_backfaces", cull_backfaces)
     if camera is None:
         camera = mesh.auto_camera(width / height)
     elif not isinstance(camera, Camera):

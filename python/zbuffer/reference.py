@@ -549,7 +549,8 @@ def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
     """
     start = time.perf_counter()
     mesh, camera, mvp, width, height, params = prepare(
-        mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background)
+        mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background,
+        cull_backfaces)
     if polygons and mesh.polygon_sizes is not None:
         depth, triangle_id, stats = render_polygons(
             mesh.vertices, mesh.faces, mesh.polygon_sizes, mesh.polygon_indices, mvp,

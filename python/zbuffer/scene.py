@@ -31,9 +31,12 @@ OCTREE_RULES = ("smallest", "greene")
 def _positive_int(name: str, value) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an int, got {value!r}")
-    if value < 1:
-        raise ValueError(f"{name} must be >= 1, got {value}")
+    if not 1 <= value <= _INT32_MAX:
+        raise ValueError(f"{name} must be in [1, {_INT32_MAX}], got {value}")
     return int(value)
+
+
+_INT32_MAX = 2**31 - 1
 
 
 class Scene:
@@ -172,7 +175,7 @@ class Scene:
                              f"({', '.join(map(repr, TREE_ALGORITHMS))}), got {algo!r}")
         mesh, camera, mvp, width, height, params = prepare(
             self.mesh, camera, width, height, shading, light_dir, ambient, diffuse, color,
-            background)
+            background, cull_backfaces)
         record_culls = check_record_culls(record_culls)
         if algo not in TREE_ALGORITHMS:
             out = render_visibility(mesh, algo, mvp, width, height, cull_backfaces, record_culls)

@@ -77,7 +77,8 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
         if norm == 0.0:
             raise ValueError("light_dir must not be the zero vector")
     for name, value in (("ambient", ambient), ("diffuse", diffuse)):
-        if not isinstance(value, (int, float, np.floating, np.integer)) or not (
+        if isinstance(value, (bool, np.bool_)) or \
+                not isinstance(value, (int, float, np.floating, np.integer)) or not (
             np.isfinite(value) and value >= 0.0
         ):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
