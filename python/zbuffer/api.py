@@ -56,7 +56,8 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     Parameters
     ----------
     mesh : Mesh, trimesh.Trimesh, trimesh.Scene, pyvista.PolyData, (vertices, faces) or path
-        What to draw. Scenes are concatenated, PolyData is triangulated, a path
+        What to draw. Scenes are concatenated, PolyData is triangulated (other
+        pyvista datasets: their outer surface), a path
         is read with :func:`zbuffer.load`.
     algo : str
         A name from :func:`zbuffer.algorithms`. Every algorithm gives the same
