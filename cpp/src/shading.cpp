@@ -213,8 +213,9 @@ namespace {
 //
 // 16 (AVX-512) or 8 (AVX2) pixels of a row per step, in float32 (shading
 // need not be bit-exact; it agrees with the scalar pass and the numpy twin
-// within one level). Per-face data sits in structure-of-arrays form: the
-// AVX2 pass gathers it, the AVX-512 pass broadcasts it face by face.
+// within one level). Per-face data sits in a table of rows (a colour each,
+// and 16 floats for interpolation): the AVX2 pass gathers it, the AVX-512
+// pass broadcasts it face by face.
 
 // Design decision: the per-face table is prepared before the pixel pass,
 // for the faces that show up, in face order -- not lazily, face by face as
@@ -244,24 +245,16 @@ struct FaceTable {
       stride = n;
       rgb.clear();  // (emptied first: nothing copied into the new arrays)
       rgb.resize(n);
-      bary.clear();
-      normal.clear();
-      side.clear();
+      rows.clear();
     }
-    if (need_bary && side.size() < stride) {
-      bary.resize(9 * stride);
-      normal.resize(3 * stride);
-      side.resize(stride);
-    }
+    if (need_bary && rows.size() < kRow * stride) rows.resize(kRow * stride);
   }
   // After a pass: give back the memory of arrays too large to keep.
   void trim() {
-    if (stride > kKeptRows || (stride > kKeptRowsInterpolated && !side.empty())) {
+    if (stride > kKeptRows || (stride > kKeptRowsInterpolated && !rows.empty())) {
       stride = 0;
       Buffer<int32_t>().swap(rgb);
-      Buffer<float>().swap(bary);
-      Buffer<float>().swap(normal);
-      Buffer<float>().swap(side);
+      Buffer<float>().swap(rows);
     }
     if (slot.size() > kKeptSlots) Buffer<int32_t>().swap(slot);
     if (found.capacity() > kKeptSlots) std::vector<int32_t>().swap(found);
@@ -273,26 +266,55 @@ struct FaceTable {
   std::vector<int32_t> found;   // by_slot: the faces found, in face order (row r: found[r])
   std::vector<uint64_t> seen;   // by_slot: a bit per face, set where found
   int32_t row(int32_t f) const { return by_slot ? slot[size_t(f)] : f; }
-  // Structure of arrays: field c of row r at c * stride + r.
-  size_t stride = 0;
-  Buffer<float> bary;    // 9 fields: coefficient c of row k is field 3 k + c
-  Buffer<float> normal;  // 3 fields: the flat normal, facing the viewer
-  Buffer<float> side;
-  Buffer<int32_t> rgb;   // flat colour, 0x00BBGGRR
-  const float* bary_field(int c) const { return bary.data() + size_t(c) * stride; }
-  const float* normal_field(int c) const { return normal.data() + size_t(c) * stride; }
+  size_t stride = 0;     // rows allocated
+  Buffer<int32_t> rgb;   // flat colour of row r, 0x00BBGGRR
+  // What interpolation reads, kRow floats a row (at kRow r): one cache line
+  // a face, so that a pass that meets a face loads one line, not one per
+  // field (the pixels meet faces in image order, not in row order).
+  static constexpr int kRow = 16;
+  enum Field {
+    kBary = 0,    // 9: coefficient c of barycentric k at 3 k + c
+    kNormal = 9,  // 3: the flat normal, facing the viewer
+    kSide = 12,   // +1 or -1 (13-15: unused)
+  };
+  Buffer<float> rows;
+  const float* row_fields(size_t r) const { return rows.data() + kRow * r; }
 };
 
 void store_row(FaceTable& table, size_t r, const FaceShade& s, bool need_bary) {
-  const size_t n = table.stride;
   table.rgb[r] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
   if (!need_bary) return;
-  for (int c = 0; c < 9; ++c) table.bary[c * n + r] = float(s.bary[c]);
-  table.normal[0 * n + r] = float(s.normal.x);
-  table.normal[1 * n + r] = float(s.normal.y);
-  table.normal[2 * n + r] = float(s.normal.z);
-  table.side[r] = float(s.side);
+  float* row = table.rows.data() + FaceTable::kRow * r;
+  for (int c = 0; c < 9; ++c) row[FaceTable::kBary + c] = float(s.bary[c]);
+  row[FaceTable::kNormal + 0] = float(s.normal.x);
+  row[FaceTable::kNormal + 1] = float(s.normal.y);
+  row[FaceTable::kNormal + 2] = float(s.normal.z);
+  row[FaceTable::kSide] = float(s.side);
+  for (int c = FaceTable::kSide + 1; c < FaceTable::kRow; ++c) row[c] = 0.0f;
 }
+
+#ifdef ZBUFFER_AVX512
+// Transposes 8 x 8 floats held as 8 rows: afterwards r[j] holds what was
+// column j.
+inline void transpose8(__m256* r) {
+  const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+  const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+  const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+  const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+  const __m256 s0 = _mm256_shuffle_ps(t0, t2, 0x44), s1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+  const __m256 s2 = _mm256_shuffle_ps(t1, t3, 0x44), s3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+  const __m256 s4 = _mm256_shuffle_ps(t4, t6, 0x44), s5 = _mm256_shuffle_ps(t4, t6, 0xEE);
+  const __m256 s6 = _mm256_shuffle_ps(t5, t7, 0x44), s7 = _mm256_shuffle_ps(t5, t7, 0xEE);
+  r[0] = _mm256_permute2f128_ps(s0, s4, 0x20);
+  r[1] = _mm256_permute2f128_ps(s1, s5, 0x20);
+  r[2] = _mm256_permute2f128_ps(s2, s6, 0x20);
+  r[3] = _mm256_permute2f128_ps(s3, s7, 0x20);
+  r[4] = _mm256_permute2f128_ps(s0, s4, 0x31);
+  r[5] = _mm256_permute2f128_ps(s1, s5, 0x31);
+  r[6] = _mm256_permute2f128_ps(s2, s6, 0x31);
+  r[7] = _mm256_permute2f128_ps(s3, s7, 0x31);
+}
+#endif
 
 #ifdef ZBUFFER_AVX512
 // prepare_face for the 8 faces f (lanes `live`), in double: the same
@@ -386,14 +408,23 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
     for (int c = 0; c < 9; ++c) bary[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
   }
 
-  // Into the table's rows, by masked stores. Flat shading needs only the colour.
-  const size_t n = table.stride;
-  auto put = [&](float* field, __m256 v) { _mm256_mask_storeu_ps(field + first, live, v); };
+  // Into the table's rows: the colours by a masked store (flat shading
+  // needs nothing else), the interpolated fields as 8 rows of 16 floats
+  // (fields by lane, transposed 8 x 8 at a time).
   _mm256_mask_storeu_epi32(table.rgb.data() + first, live, _mm512_cvtepi64_epi32(rgb));
-  if (need_bary) {
-    for (int c = 0; c < 9; ++c) put(table.bary.data() + c * n, _mm512_cvtpd_ps(bary[c]));
-    for (int c = 0; c < 3; ++c) put(table.normal.data() + c * n, _mm512_cvtpd_ps(normal[c]));
-    put(table.side.data(), _mm512_cvtpd_ps(side));
+  if (!need_bary) return;
+  __m256 field[FaceTable::kRow];
+  for (auto& v : field) v = _mm256_setzero_ps();
+  for (int c = 0; c < 9; ++c) field[FaceTable::kBary + c] = _mm512_cvtpd_ps(bary[c]);
+  for (int c = 0; c < 3; ++c) field[FaceTable::kNormal + c] = _mm512_cvtpd_ps(normal[c]);
+  field[FaceTable::kSide] = _mm512_cvtpd_ps(side);
+  float* rows = table.rows.data() + FaceTable::kRow * first;
+  for (int g = 0; g < FaceTable::kRow; g += 8) {
+    transpose8(field + g);
+    for (unsigned lanes = live; lanes; lanes &= lanes - 1) {
+      const int j = __builtin_ctz(lanes);
+      _mm256_storeu_ps(rows + FaceTable::kRow * j + g, field[g + j]);
+    }
   }
 }
 #endif
@@ -576,9 +607,10 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
           left &= ~unsigned(same);
           auto put = [&](__m512& reg, float v) { reg = _mm512_mask_mov_ps(reg, same, _mm512_set1_ps(v)); };
           const size_t r = size_t(table.row(face));
-          for (int c = 0; c < 9; ++c) put(coef[c], table.bary_field(c)[r]);
-          for (int c = 0; c < 3; ++c) put(n[c], table.normal_field(c)[r]);
-          put(side, table.side[r]);
+          const float* row = table.row_fields(r);
+          for (int c = 0; c < 9; ++c) put(coef[c], row[FaceTable::kBary + c]);
+          for (int c = 0; c < 3; ++c) put(n[c], row[FaceTable::kNormal + c]);
+          put(side, row[FaceTable::kSide]);
           const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
           // The corners' normals (smooth) and colours (per vertex).
           for (int k = 0; k < 3; ++k)
@@ -657,7 +689,8 @@ inline __m256i to_bytes8(__m256 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
 
 // The AVX-512 pass above, 8 pixels per step; lane masks are vectors.
 void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
-  // The gathers index faces' corners and colours with int32 (3 f + c).
+  // The gathers index faces' corners and colours with int32 (3 f + c), and
+  // the table's rows too (16 r + c; at most one row per pixel, < 2^27).
   if (in.mesh.n_faces > int64_t(std::numeric_limits<int32_t>::max()) / 3) {
     shade_scalar(in, triangle_id, image);
     return;
@@ -713,6 +746,11 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
         auto gather = [&](const float* base, __m256i index, __m256 fallback) {
           return _mm256_mask_i32gather_ps(fallback, base, index, drawn_f, 4);
         };
+        // Field c of each lane's row (int32 indices: see the guard above).
+        const __m256i row16 = _mm256_slli_epi32(r, 4);  // kRow = 16 floats a row
+        auto field = [&](int c, __m256 fallback) {
+          return gather(table.rows.data(), _mm256_add_epi32(row16, _mm256_set1_epi32(c)), fallback);
+        };
         // Barycentrics at the pixel centres, normalised and clamped.
         const __m256 xn = _mm256_sub_ps(
             _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_set1_ps(float(i)), lanes_f),
@@ -721,7 +759,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
             one);
         __m256 b[3];
         for (int k = 0; k < 3; ++k) {
-          auto coef = [&](int c) { return gather(table.bary_field(3 * k + c), r, zero_f); };
+          auto coef = [&](int c) { return field(FaceTable::kBary + 3 * k + c, zero_f); };
           b[k] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(coef(0), xn), _mm256_mul_ps(coef(1), yn)),
                                coef(2));
         }
@@ -746,7 +784,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
         // Normal: flat, or interpolated and normalised.
         __m256 n[3];
         for (int c = 0; c < 3; ++c)
-          n[c] = gather(table.normal_field(c), r, zero_f);
+          n[c] = field(FaceTable::kNormal + c, zero_f);
         if (smooth) {
           __m256 ns[3];
           for (int c = 0; c < 3; ++c) {
@@ -759,7 +797,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
               _mm256_add_ps(_mm256_mul_ps(ns[0], ns[0]), _mm256_mul_ps(ns[1], ns[1])),
               _mm256_mul_ps(ns[2], ns[2]));
           const __m256 usable = _mm256_cmp_ps(len2, zero_f, _CMP_GT_OQ);
-          const __m256 side = gather(table.side.data(), r, one);
+          const __m256 side = field(FaceTable::kSide, one);
           const __m256 scale = _mm256_div_ps(side, _mm256_sqrt_ps(len2));
           for (int c = 0; c < 3; ++c) n[c] = _mm256_blendv_ps(n[c], _mm256_mul_ps(ns[c], scale), usable);
         }
