@@ -155,3 +155,56 @@ def test_mesh_whose_bounds_round_short_equals_reference(algo):
                                    shading="none")
     assert ref.mask.sum() > 1000
     assert_same_visibility(res, ref)
+
+
+def _equal_everywhere(mesh, cam, width, height):
+    """Every algorithm, per frame and in a Scene (both octree rules, and a
+    temporal frame after one from another camera), against the reference."""
+    ref = zbuffer.reference.render(mesh, camera=cam, width=width, height=height, shading="none")
+    assert ref.mask.any()
+    for algo in ALGORITHMS:
+        res = zbuffer.render(mesh, algo=algo, camera=cam, width=width, height=height,
+                             shading="none")
+        assert_same_visibility(res, ref)
+    for rule in ("smallest", "greene"):
+        scene = zbuffer.Scene(mesh, leaf_size=1, octree_rule=rule)
+        for algo in ("hiz_octree", "hiz_bvh"):
+            for temporal in (False, True):
+                res = scene.render(cam, algo=algo, width=width, height=height, shading="none",
+                                   temporal=temporal)
+                assert_same_visibility(res, ref)
+
+
+@pytest.mark.parametrize("case", ["extent overflows", "extent underflows"])
+def test_meshes_without_a_usable_vertex_grid_equal_reference(case):
+    # The per-frame trees' vertex grid has no cells to speak of when the
+    # vertices' extent overflows (far unused vertices) or 1024 / extent does:
+    # its boxes must then be unbounded, not collapsed onto a corner.
+    if case == "extent overflows":
+        vertices = [[-1, -1, 0], [1, -1, 0], [0, 1, 0], [-9e307, 0, 0], [9e307, 0, 0]]
+        cam = zbuffer.Camera.look_at((0, 0, 5), (0, 0, 0), near=0.1, far=100)
+    else:
+        s = 1e-306
+        vertices = [[-3 * s, -3 * s, 0], [s, -s, 0], [0, s, 0]]
+        cam = zbuffer.Camera.look_at((0, 0, 5), (0, 0, 0), near=0.1, far=100,
+                                     projection="orthographic", ortho_height=2 * s)
+    mesh = zbuffer.Mesh(np.array(vertices, float), np.array([[0, 1, 2]]))
+    _equal_everywhere(mesh, cam, 64, 48)
+
+
+def test_large_world_coordinates_seen_from_close_by_equal_reference():
+    # At 1e8 from the origin, seen from 0.013 away, the transform's rounding
+    # (its translation cancels most of the products) exceeds a fixed depth
+    # margin: a tree node's box computed farther than a vertex inside it, and
+    # was culled behind a coplanar square the triangle wins on its id.
+    o, d, near = 1e8, 0.01289504628799809, 0.0006078342736311142
+    direction = np.array([7.448270749902667e-06, 1.3239481828362716e-06, -1.0])
+    eye = np.array([o, o, o + d])
+    cam = zbuffer.Camera.look_at(tuple(eye), tuple(eye + direction * d), near=near, far=d * 10)
+    tri = [[100000000.0012949, 99999999.99870346, o], [100000000.0040879, 99999999.99831153, o],
+           [100000000.0029279, 99999999.99943565, o]]
+    r = 0.13
+    square = [[o - r, o - r, o], [o + r, o - r, o], [o + r, o + r, o], [o - r, o + r, o]]
+    faces = [[0, 1, 2]] + [[3, 4, 5], [3, 5, 6]] * 130  # enough to flush a batch
+    mesh = zbuffer.Mesh(np.array(tri + square), np.array(faces))
+    _equal_everywhere(mesh, cam, 32, 32)

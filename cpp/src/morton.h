@@ -81,9 +81,16 @@ struct VertexGrid {
   double cell_size = 1.0;        // its side / 1024
 
   // A world-space box that contains every point of the cells lo .. hi
-  // (inclusive) of axis a, with a cell of margin for rounding.
-  double world_lo(uint32_t lo, int a) const { return origin[a] + (double(lo) - 1.0) * cell_size; }
-  double world_hi(uint32_t hi, int a) const { return origin[a] + (double(hi) + 2.0) * cell_size; }
+  // (inclusive) of axis a, with a cell of margin for rounding; unbounded
+  // where the grid has no usable cells (see set_cube).
+  double world_lo(uint32_t lo, int a) const {
+    return unbounded_ ? -std::numeric_limits<double>::infinity()
+                      : origin[a] + (double(lo) - 1.0) * cell_size;
+  }
+  double world_hi(uint32_t hi, int a) const {
+    return unbounded_ ? std::numeric_limits<double>::infinity()
+                      : origin[a] + (double(hi) + 2.0) * cell_size;
+  }
 
   // `vector`: the AVX-512 loops, 8 vertices per step (same bits; false
   // only for tests holding them to the scalar ones).
@@ -220,10 +227,15 @@ struct VertexGrid {
     return inside;
   }
 
-  // The grid's cube from the vertices' bounds.
+  // The grid's cube from the vertices' bounds. Where the vertices' extent
+  // is 0, overflows, or is so small that 1024 / extent overflows, there are
+  // no cells to speak of: every vertex is in cell 0 and every box is
+  // unbounded (a tree over such a mesh culls no node, and stays exact).
   void set_cube(const double* lo, const double* hi, int64_t n) {
     const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-    scale_ = side > 0.0 && std::isfinite(side) ? double(kMask + 1) / side : 0.0;
+    const double scale = double(kMask + 1) / side;
+    unbounded_ = !(side > 0.0 && std::isfinite(side) && std::isfinite(scale));
+    scale_ = unbounded_ ? 0.0 : scale;
     for (int a = 0; a < 3; ++a) {
       origin[a] = n > 0 ? lo[a] : 0.0;
       known_lo_[a] = lo[a];
@@ -239,7 +251,8 @@ struct VertexGrid {
     return true;
   }
 
-  double scale_ = 0.0;  // 1024 / side (0: a flat or empty mesh, every vertex in cell 0)
+  double scale_ = 0.0;  // 1024 / side (0: no usable cells, every vertex in cell 0)
+  bool unbounded_ = false;
   double side_ = 0.0;
   double known_lo_[3] = {}, known_hi_[3] = {};
   const double* known_positions_ = nullptr;  // the positions the grid was last built for

@@ -204,11 +204,20 @@ struct ProjectedNode {
   bool testable;  // false: the box reaches the near plane, never cull it
 };
 
-// Margin on a box's nearest window depth for rounding. A triangle's depth
-// comes from the same double formulas as the box corners' (transform_point,
-// to_screen) at points inside the box; the two differ by rounding only,
-// orders of magnitude below this for any scene whose coordinates stay within
-// 1e8 of the eye in units of the near distance.
+// Margins for rounding. A triangle's vertices are transformed by the same
+// double formulas as the box corners (transform_point, to_screen), so the
+// two differ from the exact values by rounding only. Each clip coordinate
+// is a sum of four products, within 4u (u = 2^-53) times the sum of their
+// magnitudes S of the exact value; a coordinate divided by w is then within
+// about 4u (S_c + |c / w| S_w) / w, for a corner and for a vertex alike.
+// kRoundingScale (2^-49 = 16u) covers both with room for the divide and
+// the viewport's operations; it is applied with the largest magnitudes and
+// smallest w over the box. Large world coordinates seen from close by make
+// S / w large (the matrix's translation cancels most of the products):
+// such a scene needs more than a fixed margin. kDepthMargin adds what the
+// depth of a pixel loses to float32 (its clamp to the triangle's nearest
+// vertex depth rounded to float).
+constexpr double kRoundingScale = 1.0 / double(int64_t(1) << 49);
 constexpr double kDepthMargin = 1e-7;
 
 // The largest float <= v.
@@ -225,6 +234,10 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
   bool near = false;
   double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo;
   double y_lo = x_lo, y_hi = -x_lo, z_lo = x_lo;
+  // For the rounding margins: per clip row the largest sum of the products'
+  // magnitudes over the corners, the smallest w, the largest |x/w|, |y/w|,
+  // |z/w|.
+  double mag[4] = {0, 0, 0, 0}, w_min = x_lo, ndc_max[3] = {0, 0, 0};
 #ifdef ZBUFFER_AVX512
   // The 8 corners in the 8 lanes: lane k takes hi on axis a where bit a of k
   // is set. The same formulas as below, one instruction per operation.
@@ -248,17 +261,31 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
   if (!near) {
     const __m512d one = _mm512_set1_pd(1.0);
     const __m512d inv_w = _mm512_div_pd(one, cw);
-    const __m512d xw = _mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(cx, inv_w), one),
-                                     _mm512_set1_pd(vp.half_w));
-    const __m512d yw = _mm512_mul_pd(_mm512_sub_pd(one, _mm512_mul_pd(cy, inv_w)),
-                                     _mm512_set1_pd(vp.half_h));
-    const __m512d zw = _mm512_add_pd(_mm512_mul_pd(_mm512_mul_pd(cz, inv_w), _mm512_set1_pd(0.5)),
-                                     _mm512_set1_pd(0.5));
+    const __m512d xn = _mm512_mul_pd(cx, inv_w), yn = _mm512_mul_pd(cy, inv_w),
+                  zn = _mm512_mul_pd(cz, inv_w);
+    const __m512d xw = _mm512_mul_pd(_mm512_add_pd(xn, one), _mm512_set1_pd(vp.half_w));
+    const __m512d yw = _mm512_mul_pd(_mm512_sub_pd(one, yn), _mm512_set1_pd(vp.half_h));
+    const __m512d zw = _mm512_add_pd(_mm512_mul_pd(zn, _mm512_set1_pd(0.5)), _mm512_set1_pd(0.5));
     x_lo = _mm512_reduce_min_pd(xw);
     x_hi = _mm512_reduce_max_pd(xw);
     y_lo = _mm512_reduce_min_pd(yw);
     y_hi = _mm512_reduce_max_pd(yw);
     z_lo = _mm512_reduce_min_pd(zw);
+    // Magnitudes of each row's products, for the rounding margins.
+    const __m512d ax = _mm512_abs_pd(x), ay = _mm512_abs_pd(y), az = _mm512_abs_pd(z);
+    auto magnitude = [&](int r) {
+      const double* m = mvp + 4 * r;
+      return _mm512_reduce_max_pd(_mm512_add_pd(
+          _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(std::abs(m[0])), ax),
+                                      _mm512_mul_pd(_mm512_set1_pd(std::abs(m[1])), ay)),
+                        _mm512_mul_pd(_mm512_set1_pd(std::abs(m[2])), az)),
+          _mm512_set1_pd(std::abs(m[3]))));
+    };
+    for (int r = 0; r < 4; ++r) mag[r] = magnitude(r);
+    w_min = _mm512_reduce_min_pd(cw);
+    ndc_max[0] = _mm512_reduce_max_pd(_mm512_abs_pd(xn));
+    ndc_max[1] = _mm512_reduce_max_pd(_mm512_abs_pd(yn));
+    ndc_max[2] = _mm512_reduce_max_pd(_mm512_abs_pd(zn));
   }
 #else
   uint32_t all_out = ~0u;
@@ -283,9 +310,29 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
     y_lo = std::min(y_lo, yw);
     y_hi = std::max(y_hi, yw);
     z_lo = std::min(z_lo, zw);
+    for (int r = 0; r < 4; ++r) {
+      const double* m = mvp + 4 * r;
+      mag[r] = std::max(mag[r], std::abs(m[0]) * std::abs(p[0]) + std::abs(m[1]) * std::abs(p[1]) +
+                                    std::abs(m[2]) * std::abs(p[2]) + std::abs(m[3]));
+    }
+    w_min = std::min(w_min, c.w);
+    ndc_max[0] = std::max(ndc_max[0], std::abs(c.x * inv_w));
+    ndc_max[1] = std::max(ndc_max[1], std::abs(c.y * inv_w));
+    ndc_max[2] = std::max(ndc_max[2], std::abs(c.z * inv_w));
   }
   if (all_out & kOutView) return false;
 #endif
+  // The rounding margins (see kRoundingScale), in NDC; w is at least what
+  // the corners' computed w says less its own error.
+  double err[3] = {0, 0, 0};
+  if (!near) {
+    const double w_low = w_min - kRoundingScale * mag[3];
+    if (w_low > 0.0 && std::isfinite(mag[0] + mag[1] + mag[2] + mag[3])) {
+      for (int a = 0; a < 3; ++a) err[a] = kRoundingScale * (mag[a] + ndc_max[a] * mag[3]) / w_low;
+    } else {
+      near = true;  // too close to the eye to bound: never culled
+    }
+  }
   out.node = i;
   if (near) {  // the projection of the box is unbounded: keep it whole
     out.x0 = 0;
@@ -303,12 +350,13 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
   auto pixel = [](double v, double limit) {
     return int(std::floor(std::max(-1.0, std::min(limit, v))));
   };
-  out.x0 = std::max(0, pixel(x_lo - 1.0, vp.width));
-  out.x1 = std::min(vp.width - 1, pixel(x_hi + 1.0, vp.width));
-  out.y0 = std::max(0, pixel(y_lo - 1.0, vp.height));
-  out.y1 = std::min(vp.height - 1, pixel(y_hi + 1.0, vp.height));
+  const double x_pad = 1.0 + err[0] * vp.half_w, y_pad = 1.0 + err[1] * vp.half_h;
+  out.x0 = std::max(0, pixel(x_lo - x_pad, vp.width));
+  out.x1 = std::min(vp.width - 1, pixel(x_hi + x_pad, vp.width));
+  out.y0 = std::max(0, pixel(y_lo - y_pad, vp.height));
+  out.y1 = std::min(vp.height - 1, pixel(y_hi + y_pad, vp.height));
   if (out.x0 > out.x1 || out.y0 > out.y1) return false;  // off the image
-  out.z_near = float_at_or_below(z_lo - kDepthMargin);
+  out.z_near = float_at_or_below(z_lo - kDepthMargin - 0.5 * err[2]);
   out.testable = true;
   return true;
 }
