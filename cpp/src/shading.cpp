@@ -56,10 +56,22 @@ struct FaceShade {
   Vec3 normal;   // flat: the unit face normal, facing the viewer
   double side;   // +1 or -1: which way the face turns towards the viewer
   uint8_t rgb[3];  // flat shading with a per-face colour: the final colour
+  // Smooth shading in the vector passes: the interpolated normal before its
+  // normalisation, as a linear map of (x_ndc, y_ndc, 1) (row c: component
+  // c). With barycentrics b_k = (adj(M) p)_k / sum, the interpolated normal
+  // sum_k b_k N_k is (sum_k N_k adj(M)_k) p / sum, and sum = det(M) / w has
+  // det's sign wherever w > 0: the map is sign(det) sum_k N_k adj(M)_k,
+  // turned to the viewer's side and scaled to a largest entry of 1 (only
+  // the direction counts). A pixel then costs 6 multiply-adds, no division
+  // and no corner normals. Barycentrics are not clamped into [0, 1] here:
+  // a snapped pixel centre a hair outside the triangle extrapolates by that
+  // hair. A face without usable barycentrics (det 0 or not finite) maps
+  // every pixel to its corners' mean normal, as the scalar pass does.
+  double normal_map[9];
 };
 
 // Everything about one face that the pass needs, computed once.
-FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary) {
+FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary, bool need_map = false) {
   FaceShade s;
   const double* m = in.mvp;
   const Vec3 viewer = load3(in.viewer);
@@ -88,9 +100,34 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary) {
     // evaluates them in float32, whose range the raw products can exceed.
     double big = 0.0;
     for (double b : s.bary) big = std::max(big, std::abs(b));
-    if (big > 0.0 && std::isfinite(big)) {
+    const bool scaled = big > 0.0 && std::isfinite(big);
+    if (scaled) {
       const double scale = 1.0 / big;
       for (double& b : s.bary) b *= scale;
+    }
+    if (need_map) {
+      double vn[3][3];  // corner k, component c
+      for (int k = 0; k < 3; ++k)
+        for (int c = 0; c < 3; ++c) vn[k][c] = in.vertex_normals[3 * int64_t(idx[k]) + c];
+      const double det = s.bary[0] * cx[0] + s.bary[1] * cy[0] + s.bary[2] * cw[0];
+      if (scaled && det != 0.0 && std::isfinite(det)) {
+        const double sign = (det < 0.0) == (s.side < 0.0) ? 1.0 : -1.0;
+        for (int c = 0; c < 3; ++c)
+          for (int j = 0; j < 3; ++j)
+            s.normal_map[3 * c + j] = sign * (vn[0][c] * s.bary[j] + vn[1][c] * s.bary[3 + j] +
+                                              vn[2][c] * s.bary[6 + j]);
+      } else {
+        for (int c = 0; c < 3; ++c) {
+          s.normal_map[3 * c + 0] = s.normal_map[3 * c + 1] = 0.0;
+          s.normal_map[3 * c + 2] = s.side * (vn[0][c] + vn[1][c] + vn[2][c]);
+        }
+      }
+      double largest = 0.0;
+      for (double v : s.normal_map) largest = std::max(largest, std::abs(v));
+      if (largest > 0.0 && std::isfinite(largest)) {
+        const double scale = 1.0 / largest;
+        for (double& v : s.normal_map) v *= scale;
+      }
     }
   }
   const Vec3 to_light = -1.0 * load3(in.light_dir);
@@ -214,83 +251,96 @@ namespace {
 // 16 (AVX-512) or 8 (AVX2) pixels of a row per step, in float32 (shading
 // need not be bit-exact; it agrees with the scalar pass and the numpy twin
 // within one level). Per-face data sits in a table of rows (a colour each,
-// and 16 floats for interpolation): the AVX2 pass gathers it, the AVX-512
-// pass broadcasts it face by face.
+// and 16 or 32 floats for interpolation): the AVX2 pass gathers it, the
+// AVX-512 pass broadcasts it face by face.
 
 // Design decision: the per-face table is prepared before the pixel pass,
-// for the faces that show up, in face order -- not lazily, face by face as
-// the pixels meet them. Good: the faces' corners are read in the mesh's own
-// order (a prepared mesh keeps neighbours together), AVX-512 builds prepare
-// 8 faces per instruction, and the pixel pass has no "seen yet?" test.
-// Bad: where the mesh has more faces than a quarter of the pixels (1/64
-// for interpolated shading, whose rows cost more), finding
+// for the faces that show up -- not lazily, face by face as the pixels
+// meet them. Good: AVX-512 builds prepare 8 faces per instruction (and
+// prefetch the corners of the faces to come), and the pixel pass has no
+// "seen yet?" test. Bad: where the mesh has more faces than a quarter of the
+// pixels (1/64 for interpolated shading, whose rows cost more), finding
 // the faces that show up takes a pass over the ids of its own, and their
 // rows are then numbered apart from the faces (a slot per face found, so
 // that the table stays as small as the image's faces: a mesh of millions
 // of faces would otherwise scatter its few visible rows over hundreds of
-// megabytes of fresh pages). With fewer faces every face is prepared, which
-// costs less than finding out, and row = face. The tables live on from
-// frame to frame (one per thread, the rows up to kKeptRows), so that they
-// are not allocated and faulted in anew each time.
+// megabytes of fresh pages). Found faces get rows in the order the image
+// first shows them, so that the pixel pass reads the table almost in
+// order (in face order it waited on a cache miss for most faces: 1.6x as
+// long on bunny_69k at 1024 x 1024, smooth). With fewer faces every face
+// is prepared, which costs less than finding out, and row = face. The
+// tables live on from frame to frame (one per thread, up to kKeptRows
+// rows), so that they are not allocated and faulted in anew each time.
 struct FaceTable {
-  // What a thread keeps after a pass: 4 MB of flat rows or 16 MB of
+  // What a thread keeps after a pass: 4 MB of flat rows, 16 MB of
   // interpolation rows, 16 MB of slot numbers and of the faces found.
   static constexpr size_t kKeptRows = size_t(1) << 20;
-  static constexpr size_t kKeptRowsInterpolated = size_t(1) << 18;
+  static constexpr size_t kKeptRowFloats = size_t(1) << 22;
   static constexpr size_t kKeptSlots = size_t(1) << 22;
-  // Room for n rows, with the fields the interpolated passes read if
-  // need_bary. Not zeroed (Buffer): the passes read only the rows prepared.
-  void resize(size_t n, bool need_bary) {
+  // Room for n rows, with the fields the interpolated passes read (the
+  // barycentrics' coefficients if bary, the normal map if map). Not zeroed
+  // (Buffer): the passes read only the rows prepared.
+  void resize(size_t n, bool bary, bool map) {
     if (stride < n) {
       stride = n;
       rgb.clear();  // (emptied first: nothing copied into the new arrays)
       rgb.resize(n);
       rows.clear();
     }
-    if (need_bary && rows.size() < kRow * stride) rows.resize(kRow * stride);
+    row_floats = row_floats_for(bary, map);
+    map_at = map_at_for(bary);
+    const size_t floats = size_t(row_floats) * stride;
+    if ((bary || map) && rows.size() < floats) rows.resize(floats);
   }
   // After a pass: give back the memory of arrays too large to keep.
   void trim() {
-    if (stride > kKeptRows || (stride > kKeptRowsInterpolated && !rows.empty())) {
+    if (stride > kKeptRows || rows.size() > kKeptRowFloats) {
       stride = 0;
       Buffer<int32_t>().swap(rgb);
       Buffer<float>().swap(rows);
     }
     if (slot.size() > kKeptSlots) Buffer<int32_t>().swap(slot);
-    if (found.capacity() > kKeptSlots) std::vector<int32_t>().swap(found);
+    if (found.capacity() > kKeptSlots) Buffer<int32_t>().swap(found);
     if (seen.capacity() > kKeptSlots) std::vector<uint64_t>().swap(seen);
   }
   // Row of face f: f itself, or slot[f] when by_slot.
   bool by_slot = false;
   Buffer<int32_t> slot;         // by_slot: the row of each face found (others unset)
-  std::vector<int32_t> found;   // by_slot: the faces found, in face order (row r: found[r])
+  Buffer<int32_t> found;        // by_slot: the faces found, in image order (row r: found[r])
   std::vector<uint64_t> seen;   // by_slot: a bit per face, set where found
   int32_t row(int32_t f) const { return by_slot ? slot[size_t(f)] : f; }
   size_t stride = 0;     // rows allocated
   Buffer<int32_t> rgb;   // flat colour of row r, 0x00BBGGRR
-  // What interpolation reads, kRow floats a row (at kRow r): one cache line
-  // a face, so that a pass that meets a face loads one line, not one per
+  // What interpolation reads, row_floats floats a row (at row_floats r):
+  // one cache line a face (two for smooth shading with per-vertex
+  // colours), so that a pass that meets a face loads one line, not one per
   // field (the pixels meet faces in image order, not in row order).
-  static constexpr int kRow = 16;
+  static constexpr int kLine = 16;
   enum Field {
-    kBary = 0,    // 9: coefficient c of barycentric k at 3 k + c
-    kNormal = 9,  // 3: the flat normal, facing the viewer
-    kSide = 12,   // +1 or -1 (13-15: unused)
+    kBary = 0,    // 9: coefficient c of barycentric k at 3 k + c (per-vertex colours)
+    kNormal = 9,  // 3: the flat normal, facing the viewer (12-15: unused)
   };
+  static constexpr int row_floats_for(bool bary, bool map) {
+    return bary && map ? 2 * kLine : kLine;
+  }
+  static constexpr int map_at_for(bool bary) { return bary ? kLine : 0; }
+  int row_floats = kLine;
+  int map_at = 0;  // smooth: FaceShade::normal_map from here (after the barycentrics if kept)
   Buffer<float> rows;
-  const float* row_fields(size_t r) const { return rows.data() + kRow * r; }
 };
 
-void store_row(FaceTable& table, size_t r, const FaceShade& s, bool need_bary) {
+void store_row(FaceTable& table, size_t r, const FaceShade& s, bool bary, bool map) {
   table.rgb[r] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
-  if (!need_bary) return;
-  float* row = table.rows.data() + FaceTable::kRow * r;
-  for (int c = 0; c < 9; ++c) row[FaceTable::kBary + c] = float(s.bary[c]);
+  if (!bary && !map) return;
+  float* row = table.rows.data() + size_t(table.row_floats) * r;
+  std::fill(row, row + table.row_floats, 0.0f);
+  if (bary)
+    for (int c = 0; c < 9; ++c) row[FaceTable::kBary + c] = float(s.bary[c]);
+  if (map)
+    for (int c = 0; c < 9; ++c) row[table.map_at + c] = float(s.normal_map[c]);
   row[FaceTable::kNormal + 0] = float(s.normal.x);
   row[FaceTable::kNormal + 1] = float(s.normal.y);
   row[FaceTable::kNormal + 2] = float(s.normal.z);
-  row[FaceTable::kSide] = float(s.side);
-  for (int c = FaceTable::kSide + 1; c < FaceTable::kRow; ++c) row[c] = 0.0f;
 }
 
 #ifdef ZBUFFER_AVX512
@@ -321,17 +371,18 @@ inline void transpose8(__m256* r) {
 // operations in the same order, so the same bits; into rows first ..
 // first + 7.
 void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask8 live,
-                    bool need_bary, size_t first) {
+                    bool bary, bool map, size_t first) {
   const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
   const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
   __m512d p[3][3];  // corner k, coordinate c
+  __m256i v3[3];    // 3 x corner k's vertex
   for (int k = 0; k < 3; ++k) {
     const __m256i v = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live,
                                                    _mm256_add_epi32(f3, _mm256_set1_epi32(k)),
                                                    in.mesh.faces, 4);
-    const __m256i v3 = _mm256_mullo_epi32(v, _mm256_set1_epi32(3));
+    v3[k] = _mm256_mullo_epi32(v, _mm256_set1_epi32(3));
     for (int c = 0; c < 3; ++c)
-      p[k][c] = _mm512_mask_i32gather_pd(zero, live, _mm256_add_epi32(v3, _mm256_set1_epi32(c)),
+      p[k][c] = _mm512_mask_i32gather_pd(zero, live, _mm256_add_epi32(v3[k], _mm256_set1_epi32(c)),
                                          in.mesh.positions, 8);
   }
   auto dot = [](const __m512d* a, const __m512d* b) {
@@ -377,8 +428,8 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
     rgb = _mm512_or_si512(rgb, _mm512_slli_epi64(_mm512_cvtpd_epi64(byte), 8 * c));
   }
 
-  __m512d bary[9];
-  if (need_bary) {
+  __m512d coef[9], normal_map[9];
+  if (bary || map) {
     const double* m = in.mvp;
     __m512d cx[3], cy[3], cw[3];
     auto row = [&](const double* r, int k) {
@@ -405,25 +456,60 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
     const __mmask8 scale = _mm512_cmp_pd_mask(big, zero, _CMP_GT_OQ) &
                            ~_mm512_fpclass_pd_mask(big, kNanOrInf);
     const __m512d inv_big = _mm512_div_pd(one, big);
-    for (int c = 0; c < 9; ++c) bary[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
+    for (int c = 0; c < 9; ++c) coef[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
+    if (map) {
+      __m512d vn[3][3];  // corner k, component c
+      for (int k = 0; k < 3; ++k)
+        for (int c = 0; c < 3; ++c)
+          vn[k][c] = _mm512_mask_i32gather_pd(
+              zero, live, _mm256_add_epi32(v3[k], _mm256_set1_epi32(c)), in.vertex_normals, 8);
+      const __m512d det = _mm512_add_pd(
+          _mm512_add_pd(_mm512_mul_pd(coef[0], cx[0]), _mm512_mul_pd(coef[1], cy[0])),
+          _mm512_mul_pd(coef[2], cw[0]));
+      const __mmask8 usable = scale & _mm512_cmp_pd_mask(det, zero, _CMP_NEQ_OQ) &
+                              ~_mm512_fpclass_pd_mask(det, kNanOrInf);
+      // +1 where det and side have one sign
+      const __mmask8 negative = _mm512_cmp_pd_mask(det, zero, _CMP_LT_OQ);
+      const __m512d sign =
+          _mm512_mask_blend_pd(__mmask8(negative ^ back), one, _mm512_set1_pd(-1.0));
+      __m512d largest = zero;
+      for (int c = 0; c < 3; ++c) {
+        for (int j = 0; j < 3; ++j) {
+          const __m512d m = _mm512_add_pd(
+              _mm512_add_pd(_mm512_mul_pd(vn[0][c], coef[j]), _mm512_mul_pd(vn[1][c], coef[3 + j])),
+              _mm512_mul_pd(vn[2][c], coef[6 + j]));
+          const __m512d corners = _mm512_add_pd(_mm512_add_pd(vn[0][c], vn[1][c]), vn[2][c]);
+          const __m512d mean = j < 2 ? zero : _mm512_mul_pd(side, corners);
+          normal_map[3 * c + j] = _mm512_mask_blend_pd(usable, mean, _mm512_mul_pd(sign, m));
+          largest = _mm512_max_pd(_mm512_abs_pd(normal_map[3 * c + j]), largest);
+        }
+      }
+      const __mmask8 normalise = _mm512_cmp_pd_mask(largest, zero, _CMP_GT_OQ) &
+                                 ~_mm512_fpclass_pd_mask(largest, kNanOrInf);
+      const __m512d inv_largest = _mm512_div_pd(one, largest);
+      for (auto& m : normal_map) m = _mm512_mask_mul_pd(m, normalise, m, inv_largest);
+    }
   }
 
   // Into the table's rows: the colours by a masked store (flat shading
   // needs nothing else), the interpolated fields as 8 rows of 16 floats
   // (fields by lane, transposed 8 x 8 at a time).
   _mm256_mask_storeu_epi32(table.rgb.data() + first, live, _mm512_cvtepi64_epi32(rgb));
-  if (!need_bary) return;
-  __m256 field[FaceTable::kRow];
+  if (!bary && !map) return;
+  __m256 field[2 * FaceTable::kLine];
   for (auto& v : field) v = _mm256_setzero_ps();
-  for (int c = 0; c < 9; ++c) field[FaceTable::kBary + c] = _mm512_cvtpd_ps(bary[c]);
+  if (bary)
+    for (int c = 0; c < 9; ++c) field[FaceTable::kBary + c] = _mm512_cvtpd_ps(coef[c]);
+  if (map)
+    for (int c = 0; c < 9; ++c) field[table.map_at + c] = _mm512_cvtpd_ps(normal_map[c]);
   for (int c = 0; c < 3; ++c) field[FaceTable::kNormal + c] = _mm512_cvtpd_ps(normal[c]);
-  field[FaceTable::kSide] = _mm512_cvtpd_ps(side);
-  float* rows = table.rows.data() + FaceTable::kRow * first;
-  for (int g = 0; g < FaceTable::kRow; g += 8) {
+  const int n = table.row_floats;
+  float* rows = table.rows.data() + size_t(n) * first;
+  for (int g = 0; g < n; g += 8) {
     transpose8(field + g);
     for (unsigned lanes = live; lanes; lanes &= lanes - 1) {
       const int j = __builtin_ctz(lanes);
-      _mm256_storeu_ps(rows + FaceTable::kRow * j + g, field[g + j]);
+      _mm256_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
     }
   }
 }
@@ -431,17 +517,30 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
 
 // Prepares the table for every face that shows up in triangle_id (maybe
 // more): all faces when there are few, else those found by a pass over the
-// ids (each run of one id looked up once), in face order, a slot each.
+// ids (each run of one id looked up once), a slot each in the order of
+// their first pixels.
 void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable& table,
-                   bool need_bary) {
+                   bool bary, bool map) {
   const size_t n_faces = size_t(in.mesh.n_faces);
   const size_t n_pixels = size_t(in.width) * size_t(in.height);
-  std::vector<int32_t>& list = table.found;
+  Buffer<int32_t>& list = table.found;
   std::vector<uint64_t>& seen = table.seen;
   // (Interpolated shading prepares 4x more per face: finding the faces pays sooner.)
-  table.by_slot = n_faces > n_pixels / (need_bary ? 64 : 4);
+  table.by_slot = n_faces > n_pixels / (bary || map ? 64 : 4);
   if (table.by_slot) {
     seen.assign((n_faces + 63) / 64, 0);
+    list.resize(n_faces + 1);  // (room for every face and one more write; cut below)
+    size_t found = 0;
+    // A face seen for the first time is the next row: list[found] is
+    // written for every run of one id, and kept (found advances) only on
+    // the face's first sight -- no branch on it.
+    auto sight = [&](int32_t face) {
+      uint64_t& word = seen[size_t(face) >> 6];
+      const uint64_t bit = uint64_t(1) << (face & 63);
+      list[found] = face;
+      found += (word & bit) == 0;
+      word |= bit;
+    };
     size_t p = 0;
     int32_t previous = -1;
 #ifdef ZBUFFER_AVX512
@@ -452,31 +551,25 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
       const __m512i shifted = _mm512_alignr_epi32(f, before, 15);  // lane k: pixel p + k - 1
       unsigned starts = _mm512_cmpneq_epi32_mask(f, shifted) &
                         _mm512_cmpge_epi32_mask(f, _mm512_setzero_si512());
-      for (; starts; starts &= starts - 1) {
-        const int32_t face = triangle_id[p + __builtin_ctz(starts)];
-        seen[size_t(face) >> 6] |= uint64_t(1) << (face & 63);
-      }
+      for (; starts; starts &= starts - 1) sight(triangle_id[p + __builtin_ctz(starts)]);
       before = f;
     }
     if (p > 0) previous = triangle_id[p - 1];
 #endif
     for (; p < n_pixels; ++p) {
       const int32_t f = triangle_id[p];
-      if (f != previous && f >= 0) seen[size_t(f) >> 6] |= uint64_t(1) << (f & 63);
+      if (f != previous && f >= 0) sight(f);
       previous = f;
     }
-    list.clear();
-    for (size_t w = 0; w < seen.size(); ++w)
-      for (uint64_t bits = seen[w]; bits; bits &= bits - 1)
-        list.push_back(int32_t(64 * w + size_t(__builtin_ctzll(bits))));
+    list.resize(found);
     if (table.slot.size() < n_faces) {
       table.slot.clear();
       table.slot.resize(n_faces);
     }
-    for (size_t i = 0; i < list.size(); ++i) table.slot[size_t(list[i])] = int32_t(i);
+    for (size_t i = 0; i < found; ++i) table.slot[size_t(list[i])] = int32_t(i);
   }
   const size_t count = table.by_slot ? list.size() : n_faces;
-  table.resize(count, need_bary);
+  table.resize(count, bary, map);
   auto face_at = [&](size_t i) { return table.by_slot ? list[i] : int32_t(i); };
   size_t i = 0;
 #ifdef ZBUFFER_AVX512
@@ -488,19 +581,33 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
       const __mmask8 live = __mmask8(_bzhi_u32(0xFF, uint32_t(std::min<size_t>(count - i, 8))));
       const __m256i f = table.by_slot ? _mm256_maskz_loadu_epi32(live, list.data() + i)
                                       : _mm256_add_epi32(_mm256_set1_epi32(int32_t(i)), lane);
-      prepare_faces8(in, table, f, live, need_bary, i);
+      // The gathers wait on memory (found faces come in image order, their
+      // corners from anywhere): the corners of the faces two steps on are
+      // fetched now, and the found faces' indices four steps on.
+      auto prefetch = [](const void* p) { _mm_prefetch(static_cast<const char*>(p), _MM_HINT_T0); };
+      if (table.by_slot && i + 40 <= count)
+        for (size_t a = i + 32; a < i + 40; ++a) prefetch(in.mesh.faces + 3 * size_t(list[a]));
+      if (i + 24 <= count)
+        for (size_t a = i + 16; a < i + 24; ++a)
+          for (int k = 0; k < 3; ++k) {
+            const size_t v = size_t(in.mesh.faces[3 * size_t(face_at(a)) + size_t(k)]);
+            prefetch(in.mesh.positions + 3 * v);
+            if (map) prefetch(in.vertex_normals + 3 * v);
+          }
+      prepare_faces8(in, table, f, live, bary, map, i);
     }
   }
 #endif
-  for (; i < count; ++i) store_row(table, i, prepare_face(in, face_at(i), need_bary), need_bary);
+  for (; i < count; ++i)
+    store_row(table, i, prepare_face(in, face_at(i), bary || map, map), bary, map);
 }
 
 // The calling thread's table, prepared for one pass and trimmed after it.
 struct PreparedTable {
   FaceTable& table;
-  PreparedTable(const ShadingInput& in, const int32_t* triangle_id, bool need_bary)
+  PreparedTable(const ShadingInput& in, const int32_t* triangle_id, bool bary, bool map)
       : table(local()) {
-    prepare_table(in, triangle_id, table, need_bary);
+    prepare_table(in, triangle_id, table, bary, map);
   }
   ~PreparedTable() { table.trim(); }
   PreparedTable(const PreparedTable&) = delete;
@@ -514,14 +621,8 @@ struct PreparedTable {
 #endif
 
 #ifdef ZBUFFER_AVX2
-// Vertex normals or colours as float32 structure of arrays (component c of
-// vertex v at c * n + v), for the AVX2 pass's gathers.
-std::vector<float> components(const double* values, size_t n) {
-  std::vector<float> out(3 * n);
-  for (size_t v = 0; v < n; ++v)
-    for (int c = 0; c < 3; ++c) out[c * n + v] = float(values[3 * v + c]);
-  return out;
-}
+// Vertex colours as float32 structure of arrays (component c of vertex v
+// at c * n + v), for the AVX2 pass's gathers.
 std::vector<float> components(const float* values, size_t n) {
   std::vector<float> out(3 * n);
   for (size_t v = 0; v < n; ++v)
@@ -553,11 +654,14 @@ inline __m512i to_bytes(__m512 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
       _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
 }
 
-void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
-  const bool smooth = in.vertex_normals != nullptr;
-  const bool per_vertex = in.color_source == ColorSource::kPerVertex;
-  const bool need_bary = smooth || per_vertex;
-  const PreparedTable prepared(in, triangle_id, need_bary);
+// One pass per kind of shading (smooth normals, per-vertex colours), so
+// that each keeps in registers only the fields it reads.
+template <bool smooth, bool per_vertex>
+void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+  constexpr bool interpolated = smooth || per_vertex;
+  constexpr int kRowFloats = FaceTable::row_floats_for(per_vertex, smooth);
+  constexpr int kMapAt = FaceTable::map_at_for(per_vertex);
+  const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   const FaceTable& table = prepared.table;
 
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
@@ -574,6 +678,10 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
   const __m512 ambient = _mm512_set1_ps(float(in.ambient));
   const __m512 diffuse = _mm512_set1_ps(float(in.diffuse));
   const __m512 one = _mm512_set1_ps(1.0f), third = _mm512_set1_ps(1.0f / 3.0f);
+  // a x + b y + c, each lane with its own coefficients
+  auto affine = [](const __m512* abc, __m512 x, __m512 y) {
+    return _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(abc[0], x), _mm512_mul_ps(abc[1], y)), abc[2]);
+  };
 
   for (int j = 0; j < in.height; ++j) {
     const int32_t* ids = triangle_id + size_t(j) * size_t(in.width);
@@ -585,20 +693,27 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
       const __m512i f = _mm512_maskz_loadu_epi32(valid, ids + i);
       const __mmask16 drawn = _mm512_mask_cmpge_epi32_mask(valid, f, zero);
       __m512i rgba = background;
-      if (drawn && !need_bary) {
-        const __m512i row =
-            table.by_slot ? _mm512_mask_i32gather_epi32(zero, drawn, f, table.slot.data(), 4) : f;
-        rgba = _mm512_mask_i32gather_epi32(background, drawn, row, table.rgb.data(), 4);
+      if constexpr (!interpolated) {
+        if (drawn) {
+          const __m512i row =
+              table.by_slot ? _mm512_mask_i32gather_epi32(zero, drawn, f, table.slot.data(), 4) : f;
+          rgba = _mm512_mask_i32gather_epi32(background, drawn, row, table.rgb.data(), 4);
+        }
       } else if (drawn) {
         // Each lane's face data, face by face: 16 neighbouring pixels show
         // few faces (a triangle covers runs of pixels), and a masked
         // broadcast per face and field costs far less than a gather per
         // field (about one element a cycle on Zen 4).
-        __m512 coef[9], n[3], side = one, corner_n[3][3], corner_c[3][3], albedo[3];
-        for (auto& v : coef) v = _mm512_setzero_ps();
-        for (auto& v : n) v = _mm512_setzero_ps();
-        for (int k = 0; k < 3; ++k)
-          for (int c = 0; c < 3; ++c) corner_n[k][c] = corner_c[k][c] = _mm512_setzero_ps();
+        __m512 coef[9], normal_map[9], n[3], corner_c[3][3], albedo[3];
+        auto zeros = [](auto& regs) {
+          for (__m512& v : regs) v = _mm512_setzero_ps();
+        };
+        zeros(n);
+        if constexpr (per_vertex) {
+          zeros(coef);
+          for (auto& corner : corner_c) zeros(corner);
+        }
+        if constexpr (smooth) zeros(normal_map);
         for (int c = 0; c < 3; ++c) albedo[c] = _mm512_set1_ps(in.uniform_color[c]);
         for (unsigned left = drawn; left;) {
           const int32_t face = ids[i + __builtin_ctz(left)];
@@ -606,67 +721,59 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
               _mm512_mask_cmpeq_epi32_mask(__mmask16(left), f, _mm512_set1_epi32(face));
           left &= ~unsigned(same);
           auto put = [&](__m512& reg, float v) { reg = _mm512_mask_mov_ps(reg, same, _mm512_set1_ps(v)); };
-          const size_t r = size_t(table.row(face));
-          const float* row = table.row_fields(r);
-          for (int c = 0; c < 9; ++c) put(coef[c], row[FaceTable::kBary + c]);
-          for (int c = 0; c < 3; ++c) put(n[c], row[FaceTable::kNormal + c]);
-          put(side, row[FaceTable::kSide]);
-          const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
-          // The corners' normals (smooth) and colours (per vertex).
-          for (int k = 0; k < 3; ++k)
-            for (int c = 0; c < 3; ++c) {
-              const size_t at = 3 * size_t(idx[k]) + size_t(c);
-              if (smooth) put(corner_n[k][c], float(in.vertex_normals[at]));
-              if (per_vertex) put(corner_c[k][c], in.colors[at]);
-            }
+          const float* fields = table.rows.data() + kRowFloats * size_t(table.row(face));
+          for (int c = 0; c < 3; ++c) put(n[c], fields[FaceTable::kNormal + c]);
+          if constexpr (smooth)
+            for (int c = 0; c < 9; ++c) put(normal_map[c], fields[kMapAt + c]);
+          if constexpr (per_vertex) {
+            for (int c = 0; c < 9; ++c) put(coef[c], fields[FaceTable::kBary + c]);
+            const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
+            for (int k = 0; k < 3; ++k)
+              for (int c = 0; c < 3; ++c)
+                put(corner_c[k][c], in.colors[3 * size_t(idx[k]) + size_t(c)]);
+          }
           if (in.color_source == ColorSource::kPerFace)
             for (int c = 0; c < 3; ++c) put(albedo[c], in.colors[3 * int64_t(face) + c]);
         }
-
-        // Barycentrics at the pixel centres, normalised and clamped.
         const __m512 xn = _mm512_loadu_ps(xn_row.data() + i);
-        __m512 b[3];
-        for (int k = 0; k < 3; ++k)
-          b[k] = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(coef[3 * k], xn),
-                                             _mm512_mul_ps(coef[3 * k + 1], yn)),
-                               coef[3 * k + 2]);
-        const __m512 sum = _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]);
-        constexpr int kNanOrInfOrZero = 0x01 | 0x80 | 0x08 | 0x10 | 0x02 | 0x04;
-        const __mmask16 bad = _mm512_fpclass_ps_mask(sum, kNanOrInfOrZero);
-        const __m512 inv = _mm512_div_ps(one, sum);
-        for (auto& bk : b)
-          bk = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(bk, inv), _mm512_setzero_ps()), one);
-        const __m512 inv_total = _mm512_div_ps(one, _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]));
-        for (auto& bk : b) bk = _mm512_mask_mov_ps(_mm512_mul_ps(bk, inv_total), bad, third);
 
-        // Normal: flat, or interpolated and normalised.
-        if (smooth) {
+        // Normal: flat, or interpolated (FaceShade::normal_map) and normalised.
+        if constexpr (smooth) {
           __m512 ns[3];
-          for (int c = 0; c < 3; ++c) {
-            ns[c] = _mm512_setzero_ps();
-            for (int k = 0; k < 3; ++k) ns[c] = _mm512_add_ps(ns[c], _mm512_mul_ps(b[k], corner_n[k][c]));
-          }
+          for (int c = 0; c < 3; ++c) ns[c] = affine(normal_map + 3 * c, xn, yn);
           const __m512 len2 = _mm512_add_ps(
               _mm512_add_ps(_mm512_mul_ps(ns[0], ns[0]), _mm512_mul_ps(ns[1], ns[1])),
               _mm512_mul_ps(ns[2], ns[2]));
           const __mmask16 usable = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);
-          const __m512 scale = _mm512_div_ps(side, _mm512_sqrt_ps(len2));
+          const __m512 scale = _mm512_div_ps(one, _mm512_sqrt_ps(len2));
           for (int c = 0; c < 3; ++c) n[c] = _mm512_mask_mov_ps(n[c], usable, _mm512_mul_ps(ns[c], scale));
         }
         const __m512 ndotl = _mm512_add_ps(
             _mm512_add_ps(_mm512_mul_ps(n[0], lx), _mm512_mul_ps(n[1], ly)), _mm512_mul_ps(n[2], lz));
         const __m512 intensity =
             _mm512_add_ps(ambient, _mm512_mul_ps(diffuse, _mm512_max_ps(ndotl, _mm512_setzero_ps())));
-        // Albedo.
-        __m512i channel[3];
-        for (int c = 0; c < 3; ++c) {
-          if (per_vertex) {
+
+        // Albedo: per-vertex colours by the barycentrics at the pixel
+        // centres, normalised and clamped.
+        if constexpr (per_vertex) {
+          __m512 b[3];
+          for (int k = 0; k < 3; ++k) b[k] = affine(coef + 3 * k, xn, yn);
+          const __m512 sum = _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]);
+          constexpr int kNanOrInfOrZero = 0x01 | 0x80 | 0x08 | 0x10 | 0x02 | 0x04;
+          const __mmask16 bad = _mm512_fpclass_ps_mask(sum, kNanOrInfOrZero);
+          const __m512 inv = _mm512_div_ps(one, sum);
+          for (auto& bk : b)
+            bk = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(bk, inv), _mm512_setzero_ps()), one);
+          const __m512 inv_total = _mm512_div_ps(one, _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]));
+          for (auto& bk : b) bk = _mm512_mask_mov_ps(_mm512_mul_ps(bk, inv_total), bad, third);
+          for (int c = 0; c < 3; ++c) {
             albedo[c] = _mm512_setzero_ps();
             for (int k = 0; k < 3; ++k)
               albedo[c] = _mm512_add_ps(albedo[c], _mm512_mul_ps(b[k], corner_c[k][c]));
           }
-          channel[c] = to_bytes(_mm512_mul_ps(albedo[c], intensity));
         }
+        __m512i channel[3];
+        for (int c = 0; c < 3; ++c) channel[c] = to_bytes(_mm512_mul_ps(albedo[c], intensity));
         const __m512i colour = _mm512_or_si512(
             channel[0], _mm512_or_si512(_mm512_slli_epi32(channel[1], 8),
                                         _mm512_slli_epi32(channel[2], 16)));
@@ -675,6 +782,14 @@ void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
       store_rgb16(row + 3 * size_t(i), rgba, valid);
     }
   }
+}
+
+void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+  const bool smooth = in.vertex_normals != nullptr;
+  const auto pass = in.color_source == ColorSource::kPerVertex
+                        ? (smooth ? shade_pass_avx512<true, true> : shade_pass_avx512<false, true>)
+                        : (smooth ? shade_pass_avx512<true, false> : shade_pass_avx512<false, false>);
+  pass(in, triangle_id, image);
 }
 
 #endif
@@ -690,18 +805,21 @@ inline __m256i to_bytes8(__m256 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
 // The AVX-512 pass above, 8 pixels per step; lane masks are vectors.
 void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
   // The gathers index faces' corners and colours with int32 (3 f + c), and
-  // the table's rows too (16 r + c; at most one row per pixel, < 2^27).
-  if (in.mesh.n_faces > int64_t(std::numeric_limits<int32_t>::max()) / 3) {
+  // the table's rows too (16 r + c, or 32 r + c; rows: at most one per
+  // face and one per pixel, < 2^27).
+  const bool smooth = in.vertex_normals != nullptr;
+  const bool per_vertex = in.color_source == ColorSource::kPerVertex;
+  const bool interpolated = smooth || per_vertex;
+  const int64_t most_rows = std::min(in.mesh.n_faces, int64_t(in.width) * in.height);
+  const int64_t row_floats = smooth && per_vertex ? 2 * FaceTable::kLine : FaceTable::kLine;
+  constexpr int64_t kMaxIndex = std::numeric_limits<int32_t>::max();
+  if (in.mesh.n_faces > kMaxIndex / 3 || most_rows > kMaxIndex / row_floats) {
     shade_scalar(in, triangle_id, image);
     return;
   }
-  const bool smooth = in.vertex_normals != nullptr;
-  const bool per_vertex = in.color_source == ColorSource::kPerVertex;
-  const bool need_bary = smooth || per_vertex;
-  const PreparedTable prepared(in, triangle_id, need_bary);
+  const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   const FaceTable& table = prepared.table;
   const size_t nv = size_t(in.mesh.n_vertices);
-  const std::vector<float> vn = smooth ? components(in.vertex_normals, nv) : std::vector<float>();
   const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
 
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
@@ -740,72 +858,68 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
                             ? _mm256_mask_i32gather_epi32(zero, table.slot.data(), f, drawn, 4)
                             : f;
       __m256i rgba = background;
-      if (!_mm256_testz_si256(drawn, drawn) && !need_bary) {
+      if (!_mm256_testz_si256(drawn, drawn) && !interpolated) {
         rgba = _mm256_mask_i32gather_epi32(background, table.rgb.data(), r, drawn, 4);
       } else if (!_mm256_testz_si256(drawn, drawn)) {
         auto gather = [&](const float* base, __m256i index, __m256 fallback) {
           return _mm256_mask_i32gather_ps(fallback, base, index, drawn_f, 4);
         };
         // Field c of each lane's row (int32 indices: see the guard above).
-        const __m256i row16 = _mm256_slli_epi32(r, 4);  // kRow = 16 floats a row
+        const __m256i row_at = _mm256_mullo_epi32(r, _mm256_set1_epi32(table.row_floats));
         auto field = [&](int c, __m256 fallback) {
-          return gather(table.rows.data(), _mm256_add_epi32(row16, _mm256_set1_epi32(c)), fallback);
+          return gather(table.rows.data(), _mm256_add_epi32(row_at, _mm256_set1_epi32(c)), fallback);
         };
-        // Barycentrics at the pixel centres, normalised and clamped.
         const __m256 xn = _mm256_sub_ps(
             _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_set1_ps(float(i)), lanes_f),
                                         _mm256_set1_ps(0.5f)),
                           _mm256_set1_ps(half_w)),
             one);
-        __m256 b[3];
-        for (int k = 0; k < 3; ++k) {
-          auto coef = [&](int c) { return field(FaceTable::kBary + 3 * k + c, zero_f); };
-          b[k] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(coef(0), xn), _mm256_mul_ps(coef(1), yn)),
-                               coef(2));
-        }
-        const __m256 sum = _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]);
-        const __m256 bad = _mm256_or_ps(
-            _mm256_or_ps(_mm256_cmp_ps(sum, sum, _CMP_UNORD_Q),  // NaN
-                         _mm256_cmp_ps(_mm256_and_ps(sum, abs_mask), inf, _CMP_EQ_OQ)),
-            _mm256_cmp_ps(sum, zero_f, _CMP_EQ_OQ));
-        const __m256 inv = _mm256_div_ps(one, sum);
-        for (auto& bk : b)
-          bk = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(bk, inv), zero_f), one);
-        const __m256 inv_total = _mm256_div_ps(one, _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]));
-        for (auto& bk : b) bk = _mm256_blendv_ps(_mm256_mul_ps(bk, inv_total), third, bad);
+        // a x + b y + c from the fields at `at`
+        auto affine = [&](int at) {
+          return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(field(at, zero_f), xn),
+                                             _mm256_mul_ps(field(at + 1, zero_f), yn)),
+                               field(at + 2, zero_f));
+        };
 
-        // Vertex indices of each lane's face.
-        const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
-        __m256i vid[3];
-        if (smooth || per_vertex)
-          for (int k = 0; k < 3; ++k)
-            vid[k] = _mm256_mask_i32gather_epi32(zero, in.mesh.faces,
-                                                 _mm256_add_epi32(f3, _mm256_set1_epi32(k)), drawn, 4);
-        // Normal: flat, or interpolated and normalised.
+        // Normal: flat, or interpolated (FaceShade::normal_map) and normalised.
         __m256 n[3];
-        for (int c = 0; c < 3; ++c)
-          n[c] = field(FaceTable::kNormal + c, zero_f);
+        for (int c = 0; c < 3; ++c) n[c] = field(FaceTable::kNormal + c, zero_f);
         if (smooth) {
           __m256 ns[3];
-          for (int c = 0; c < 3; ++c) {
-            const float* comp = vn.data() + size_t(c) * nv;
-            ns[c] = zero_f;
-            for (int k = 0; k < 3; ++k)
-              ns[c] = _mm256_add_ps(ns[c], _mm256_mul_ps(b[k], gather(comp, vid[k], zero_f)));
-          }
+          for (int c = 0; c < 3; ++c) ns[c] = affine(table.map_at + 3 * c);
           const __m256 len2 = _mm256_add_ps(
               _mm256_add_ps(_mm256_mul_ps(ns[0], ns[0]), _mm256_mul_ps(ns[1], ns[1])),
               _mm256_mul_ps(ns[2], ns[2]));
           const __m256 usable = _mm256_cmp_ps(len2, zero_f, _CMP_GT_OQ);
-          const __m256 side = field(FaceTable::kSide, one);
-          const __m256 scale = _mm256_div_ps(side, _mm256_sqrt_ps(len2));
+          const __m256 scale = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
           for (int c = 0; c < 3; ++c) n[c] = _mm256_blendv_ps(n[c], _mm256_mul_ps(ns[c], scale), usable);
         }
         const __m256 ndotl = _mm256_add_ps(
             _mm256_add_ps(_mm256_mul_ps(n[0], lx), _mm256_mul_ps(n[1], ly)), _mm256_mul_ps(n[2], lz));
         const __m256 intensity =
             _mm256_add_ps(ambient, _mm256_mul_ps(diffuse, _mm256_max_ps(ndotl, zero_f)));
-        // Albedo.
+
+        // Albedo: per-vertex colours by the barycentrics at the pixel
+        // centres, normalised and clamped.
+        __m256 b[3];
+        __m256i vid[3];  // each lane's corners
+        const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
+        if (per_vertex) {
+          for (int k = 0; k < 3; ++k) b[k] = affine(FaceTable::kBary + 3 * k);
+          const __m256 sum = _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]);
+          const __m256 bad = _mm256_or_ps(
+              _mm256_or_ps(_mm256_cmp_ps(sum, sum, _CMP_UNORD_Q),  // NaN
+                           _mm256_cmp_ps(_mm256_and_ps(sum, abs_mask), inf, _CMP_EQ_OQ)),
+              _mm256_cmp_ps(sum, zero_f, _CMP_EQ_OQ));
+          const __m256 inv = _mm256_div_ps(one, sum);
+          for (auto& bk : b)
+            bk = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(bk, inv), zero_f), one);
+          const __m256 inv_total = _mm256_div_ps(one, _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]));
+          for (auto& bk : b) bk = _mm256_blendv_ps(_mm256_mul_ps(bk, inv_total), third, bad);
+          for (int k = 0; k < 3; ++k)
+            vid[k] = _mm256_mask_i32gather_epi32(zero, in.mesh.faces,
+                                                 _mm256_add_epi32(f3, _mm256_set1_epi32(k)), drawn, 4);
+        }
         __m256i channel[3];
         for (int c = 0; c < 3; ++c) {
           __m256 albedo;

@@ -32,22 +32,27 @@ void sphere(int rings, int sectors, std::vector<double>& pos, std::vector<int32_
     }
 }
 
+struct Eye {
+  double x, y, z, near, far;
+};
+
 // The vector pass prepares every face of a mesh with few faces for its
 // image (at most a quarter of the pixels, 1/64 for interpolated shading),
 // else only the faces it finds in the image: the sphere's 2,304 faces at
 // 77 x 61 (found, either shading), 160 x 121 (all for flat, found for
 // interpolated) and 400 x 400 (all). Flat colours from uniform or per-face
 // colours are the same bytes; interpolated ones within one level.
-void test_vector_pass_matches_scalar_pass(int w, int h) {
+void test_vector_pass_matches_scalar_pass(int w, int h, Eye eye = {0, 0, 3, 1, 6}) {
   std::vector<double> pos, normals;
   std::vector<int32_t> faces;
   sphere(24, 48, pos, faces, normals);
   const int n_faces = int(faces.size() / 3), n_vertices = int(pos.size() / 3);
-  // Perspective camera at (0.3, 0.4, 3) looking at the origin (precomputed).
-  const double f = 1.0 / std::tan(M_PI / 8), n = 1.0, fa = 6.0;
-  const double ez = 3.0;
-  const double mvp[16] = {f, 0, 0, 0, 0, f, 0, 0, 0, 0, -(fa + n) / (fa - n),
-                          -2 * fa * n / (fa - n) + (fa + n) / (fa - n) * ez, 0, 0, -1, ez};
+  // Perspective camera at the eye looking down -z, 45 degrees, square
+  // pixels in NDC: the projection times a translation by -eye.
+  const double f = 1.0 / std::tan(M_PI / 8), n = eye.near, fa = eye.far;
+  const double a = -(fa + n) / (fa - n), b = -2 * fa * n / (fa - n);
+  const double mvp[16] = {f, 0, 0, -f * eye.x, 0, f, 0, -f * eye.y,
+                          0, 0, a, b - a * eye.z, 0, 0, -1, eye.z};
   RenderInput input;
   input.mesh = {pos.data(), n_vertices, faces.data(), n_faces};
   for (int k = 0; k < 16; ++k) input.mvp[k] = mvp[k];
@@ -68,9 +73,9 @@ void test_vector_pass_matches_scalar_pass(int w, int h) {
       in.width = w;
       in.height = h;
       for (int k = 0; k < 16; ++k) in.mvp[k] = mvp[k];
-      in.viewer[0] = 0;
-      in.viewer[1] = 0;
-      in.viewer[2] = ez;
+      in.viewer[0] = eye.x;
+      in.viewer[1] = eye.y;
+      in.viewer[2] = eye.z;
       in.viewer[3] = 1;
       const double l[3] = {0.3, -0.5, -0.8};
       const double len = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
@@ -94,5 +99,9 @@ int main() {
   test_vector_pass_matches_scalar_pass(160, 121);
   test_vector_pass_matches_scalar_pass(400, 400);
   test_vector_pass_matches_scalar_pass(77, 61);  // tables kept from the frames before
+  // From inside the sphere: every face seen from behind, and faces reaching
+  // behind the camera (corners with w < 0), near and far.
+  test_vector_pass_matches_scalar_pass(160, 121, {0.1, 0.2, 0.3, 0.05, 3.0});
+  test_vector_pass_matches_scalar_pass(400, 400, {-0.2, 0.1, 0.0, 0.01, 3.0});
   return check_report("test_shading");
 }
