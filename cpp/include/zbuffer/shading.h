@@ -6,7 +6,11 @@
 // per face. Interpolation is perspective-correct: the barycentric coordinates
 // of a pixel centre are adj(M) (x_ndc, y_ndc, 1), normalised to sum 1, where
 // M holds the clip-space (x, y, w) of the triangle's corners as columns --
-// exact for any triangle, even one reaching behind the camera.
+// exact for any triangle, even one reaching behind the camera -- and
+// clamped into [0, 1] (a snapped pixel centre may lie a hair outside the
+// triangle). The vector passes interpolate smooth normals by an equivalent
+// per-face linear map without that clamp (shading.cpp, FaceShade): within
+// one level all the same.
 #pragma once
 
 #include <cstdint>
