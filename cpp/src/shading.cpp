@@ -544,15 +544,25 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
     size_t p = 0;
     int32_t previous = -1;
 #ifdef ZBUFFER_AVX512
-    // The first pixel of each run of one id, 16 pixels per instruction.
+    // The id of each run of one id, 16 pixels per instruction, packed
+    // into a short list, then sighted (a loop over each 16 pixels' runs
+    // would mispredict its trip count).
+    constexpr size_t kChunk = 2048;
+    alignas(64) int32_t runs[kChunk + 16];
     __m512i before = _mm512_set1_epi32(-1);
-    for (; p + 16 <= n_pixels; p += 16) {
-      const __m512i f = _mm512_loadu_si512(triangle_id + p);
-      const __m512i shifted = _mm512_alignr_epi32(f, before, 15);  // lane k: pixel p + k - 1
-      unsigned starts = _mm512_cmpneq_epi32_mask(f, shifted) &
-                        _mm512_cmpge_epi32_mask(f, _mm512_setzero_si512());
-      for (; starts; starts &= starts - 1) sight(triangle_id[p + __builtin_ctz(starts)]);
-      before = f;
+    while (p + 16 <= n_pixels) {
+      const size_t chunk_end = std::min(n_pixels - n_pixels % 16, p + kChunk);
+      size_t n = 0;
+      for (; p < chunk_end; p += 16) {
+        const __m512i f = _mm512_loadu_si512(triangle_id + p);
+        const __m512i shifted = _mm512_alignr_epi32(f, before, 15);  // lane k: pixel p + k - 1
+        const __mmask16 start = _mm512_cmpneq_epi32_mask(f, shifted) &
+                                _mm512_cmpge_epi32_mask(f, _mm512_setzero_si512());
+        _mm512_storeu_si512(runs + n, _mm512_maskz_compress_epi32(start, f));
+        n += size_t(__builtin_popcount(start));
+        before = f;
+      }
+      for (size_t k = 0; k < n; ++k) sight(runs[k]);
     }
     if (p > 0) previous = triangle_id[p - 1];
 #endif
@@ -715,11 +725,15 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
         }
         if constexpr (smooth) zeros(normal_map);
         for (int c = 0; c < 3; ++c) albedo[c] = _mm512_set1_ps(in.uniform_color[c]);
-        for (unsigned left = drawn; left;) {
-          const int32_t face = ids[i + __builtin_ctz(left)];
-          const __mmask16 same =
-              _mm512_mask_cmpeq_epi32_mask(__mmask16(left), f, _mm512_set1_epi32(face));
-          left &= ~unsigned(same);
+        // Run by run (a run: neighbouring lanes of one id), its lanes
+        // known from the bits alone -- no compare waits on the last face.
+        const unsigned change =
+            unsigned(_mm512_cmpneq_epi32_mask(f, _mm512_alignr_epi32(f, f, 15))) | 0x10001u;
+        for (unsigned starts = change & drawn; starts; starts &= starts - 1) {
+          const unsigned s = unsigned(__builtin_ctz(starts));
+          const unsigned after = change & ~((2u << s) - 1);  // the next run's start, or bit 16
+          const __mmask16 same = __mmask16(((after & (0u - after)) - (1u << s)) & drawn);
+          const int32_t face = ids[i + s];
           auto put = [&](__m512& reg, float v) { reg = _mm512_mask_mov_ps(reg, same, _mm512_set1_ps(v)); };
           const float* fields = table.rows.data() + kRowFloats * size_t(table.row(face));
           for (int c = 0; c < 3; ++c) put(n[c], fields[FaceTable::kNormal + c]);
