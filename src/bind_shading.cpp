@@ -35,13 +35,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   // Every id must name a face and every face index a vertex: the pass reads
   // them without further checks.
   const int32_t* id = ids.data();
-  const py::ssize_t n_pixels = ids.size();
-  int32_t lo = -1, hi = -1;
-  for (py::ssize_t p = 0; p < n_pixels; ++p) {
-    lo = id[p] < lo ? id[p] : lo;
-    hi = id[p] > hi ? id[p] : hi;
-  }
-  if (lo < -1 || hi >= in.mesh.n_faces)
+  if (zbuffer::find_bad_triangle_id(id, ids.size(), in.mesh.n_faces) >= 0)
     throw py::value_error("triangle_id holds ids outside [-1, " +
                           std::to_string(in.mesh.n_faces) + ")");
   if (zbuffer::find_bad_face_index(in.mesh) >= 0)

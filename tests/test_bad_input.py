@@ -71,10 +71,19 @@ def test_compiled_core_checks_on_its_own():
         _core.render(V, faces, mvp, 16, 16, "hiz", cell_start=start, cell_centre=np.zeros((3, 3)))
     with pytest.raises(ValueError, match="cell_centre must be finite"):
         _core.render(V, faces, mvp, 16, 16, "hiz", cell_start=start, cell_centre=centre + np.nan)
-    ids = np.full((4, 4), len(F), np.int32)  # one past the last face
-    with pytest.raises(ValueError, match="ids outside"):
-        _core.shade(ids, V, F.astype(np.int32), np.eye(4), np.zeros(4), np.zeros(3),
-                    0.2, 0.8, np.zeros(3, np.uint8), np.zeros(3, np.float32))
+    shade = lambda ids: _core.shade(ids, V, F.astype(np.int32), np.eye(4), np.zeros(4),
+                                    np.zeros(3), 0.2, 0.8, np.zeros(3, np.uint8),
+                                    np.zeros(3, np.float32))
+    # One bad id anywhere among good ones: one past the last face, below -1,
+    # and the int32 extremes.
+    for bad in [len(F), -2, np.iinfo(np.int32).min, np.iinfo(np.int32).max]:
+        ids = np.full((5, 7), -1, np.int32)
+        ids[1:3, 2:5] = len(F) - 1
+        ids[4, 6] = bad
+        with pytest.raises(ValueError, match="ids outside"):
+            shade(ids)
+    ids[4, 6] = 0
+    assert shade(ids).shape == (5, 7, 3)
 
 
 @pytest.mark.parametrize("width, height, error, match", [

@@ -29,6 +29,17 @@ int64_t find_bad_face_index(const MeshView& mesh) {
   return -1;
 }
 
+int64_t find_bad_triangle_id(const int32_t* ids, int64_t n, int64_t n_faces) {
+  // As above: id + 1 read as unsigned is at most n_faces exactly for the
+  // ids in [-1, n_faces) (wrapping in uint32: -1 -> 0, INT32_MIN -> 2^31 + 1).
+  uint32_t largest = 0;
+  for (int64_t i = 0; i < n; ++i) largest = std::max(largest, uint32_t(ids[i]) + 1u);
+  if (int64_t(largest) <= n_faces) return -1;
+  for (int64_t i = 0; i < n; ++i)
+    if (int64_t(uint32_t(ids[i]) + 1u) > n_faces) return i;
+  return -1;
+}
+
 int64_t find_nonfinite_vertex(const MeshView& mesh) {
   const int64_t n = mesh.n_vertices * 3;
   // Inf and NaN have all exponent bits set: an integer test on the bits

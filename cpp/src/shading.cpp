@@ -515,6 +515,154 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
 }
 #endif
 
+#if defined(ZBUFFER_AVX2) && !defined(ZBUFFER_AVX512)
+// prepare_faces8 for AVX2: the 4 faces f (lanes `live`, all bits set or
+// clear), in double, the same operations in the same order as
+// prepare_face; into rows first .. first + 3.
+void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i live,
+                    bool bary, bool map, size_t first) {
+  const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+  const __m256d live_d = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(live));
+  const __m256d inf = _mm256_set1_pd(std::numeric_limits<double>::infinity());
+  const __m256d sign_bit = _mm256_set1_pd(-0.0);
+  auto abs = [&](__m256d v) { return _mm256_andnot_pd(sign_bit, v); };
+  auto positive_finite = [&](__m256d v) {  // 0 < v < inf (no NaN)
+    return _mm256_and_pd(_mm256_cmp_pd(v, zero, _CMP_GT_OQ), _mm256_cmp_pd(v, inf, _CMP_LT_OQ));
+  };
+  const __m128i f3 = _mm_mullo_epi32(f, _mm_set1_epi32(3));
+  __m256d p[3][3];  // corner k, coordinate c
+  __m128i v3[3];    // 3 x corner k's vertex
+  for (int k = 0; k < 3; ++k) {
+    const __m128i v = _mm_mask_i32gather_epi32(_mm_setzero_si128(), in.mesh.faces,
+                                               _mm_add_epi32(f3, _mm_set1_epi32(k)), live, 4);
+    v3[k] = _mm_mullo_epi32(v, _mm_set1_epi32(3));
+    for (int c = 0; c < 3; ++c)
+      p[k][c] = _mm256_mask_i32gather_pd(zero, in.mesh.positions,
+                                         _mm_add_epi32(v3[k], _mm_set1_epi32(c)), live_d, 8);
+  }
+  auto dot = [](const __m256d* a, const __m256d* b) {
+    return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a[0], b[0]), _mm256_mul_pd(a[1], b[1])),
+                         _mm256_mul_pd(a[2], b[2]));
+  };
+  __m256d e1[3], e2[3], ng[3], to_viewer[3];
+  for (int c = 0; c < 3; ++c) {
+    e1[c] = _mm256_sub_pd(p[1][c], p[0][c]);
+    e2[c] = _mm256_sub_pd(p[2][c], p[0][c]);
+  }
+  for (int c = 0; c < 3; ++c) {
+    const int a = (c + 1) % 3, b = (c + 2) % 3;
+    ng[c] = _mm256_sub_pd(_mm256_mul_pd(e1[a], e2[b]), _mm256_mul_pd(e1[b], e2[a]));
+    to_viewer[c] = _mm256_sub_pd(_mm256_set1_pd(in.viewer[c]),
+                                 _mm256_mul_pd(_mm256_set1_pd(in.viewer[3]), p[0][c]));
+  }
+  const __m256d back = _mm256_cmp_pd(dot(ng, to_viewer), zero, _CMP_LT_OQ);
+  const __m256d side = _mm256_blendv_pd(one, _mm256_set1_pd(-1.0), back);
+  const __m256d len = _mm256_sqrt_pd(dot(ng, ng));
+  const __m256d nonzero = _mm256_cmp_pd(len, zero, _CMP_GT_OQ);
+  const __m256d inv = _mm256_div_pd(one, len);
+  __m256d normal[3];
+  for (int c = 0; c < 3; ++c)
+    normal[c] = _mm256_mul_pd(side, _mm256_and_pd(nonzero, _mm256_mul_pd(inv, ng[c])));
+  __m256d to_light[3];
+  for (int c = 0; c < 3; ++c) to_light[c] = _mm256_set1_pd(-1.0 * in.light_dir[c]);
+  const __m256d light = _mm256_add_pd(
+      _mm256_set1_pd(in.ambient),
+      _mm256_mul_pd(_mm256_set1_pd(in.diffuse), _mm256_max_pd(dot(normal, to_light), zero)));
+  __m128i rgb = _mm_setzero_si128();
+  for (int c = 0; c < 3; ++c) {
+    const __m256d albedo =
+        in.color_source == ColorSource::kPerFace
+            ? _mm256_cvtps_pd(_mm_mask_i32gather_ps(_mm_setzero_ps(), in.colors,
+                                                    _mm_add_epi32(f3, _mm_set1_epi32(c)),
+                                                    _mm_castsi128_ps(live), 4))
+            : _mm256_set1_pd(double(in.uniform_color[c]));
+    const __m256d v = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(albedo, light), zero), one);
+    const __m256d byte =
+        _mm256_floor_pd(_mm256_add_pd(_mm256_mul_pd(v, _mm256_set1_pd(255.0)), _mm256_set1_pd(0.5)));
+    rgb = _mm_or_si128(rgb, _mm_slli_epi32(_mm256_cvtpd_epi32(byte), 8 * c));
+  }
+
+  __m256d coef[9], normal_map[9];
+  if (bary || map) {
+    const double* m = in.mvp;
+    __m256d cx[3], cy[3], cw[3];
+    auto row = [&](const double* r, int k) {
+      return _mm256_add_pd(
+          _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r[0]), p[k][0]),
+                                      _mm256_mul_pd(_mm256_set1_pd(r[1]), p[k][1])),
+                        _mm256_mul_pd(_mm256_set1_pd(r[2]), p[k][2])),
+          _mm256_set1_pd(r[3]));
+    };
+    for (int k = 0; k < 3; ++k) {
+      cx[k] = row(m, k);
+      cy[k] = row(m + 4, k);
+      cw[k] = row(m + 12, k);
+    }
+    __m256d b[9], big = zero;
+    for (int k = 0; k < 3; ++k) {
+      const int a = (k + 1) % 3, c = (k + 2) % 3;
+      b[3 * k + 0] = _mm256_sub_pd(_mm256_mul_pd(cy[a], cw[c]), _mm256_mul_pd(cy[c], cw[a]));
+      b[3 * k + 1] = _mm256_sub_pd(_mm256_mul_pd(cw[a], cx[c]), _mm256_mul_pd(cw[c], cx[a]));
+      b[3 * k + 2] = _mm256_sub_pd(_mm256_mul_pd(cx[a], cy[c]), _mm256_mul_pd(cx[c], cy[a]));
+    }
+    for (const __m256d& v : b) big = _mm256_max_pd(abs(v), big);
+    const __m256d scale = positive_finite(big);
+    const __m256d inv_big = _mm256_div_pd(one, big);
+    for (int c = 0; c < 9; ++c) coef[c] = _mm256_blendv_pd(b[c], _mm256_mul_pd(b[c], inv_big), scale);
+    if (map) {
+      __m256d vn[3][3];  // corner k, component c
+      for (int k = 0; k < 3; ++k)
+        for (int c = 0; c < 3; ++c)
+          vn[k][c] = _mm256_mask_i32gather_pd(zero, in.vertex_normals,
+                                              _mm_add_epi32(v3[k], _mm_set1_epi32(c)), live_d, 8);
+      const __m256d det = _mm256_add_pd(
+          _mm256_add_pd(_mm256_mul_pd(coef[0], cx[0]), _mm256_mul_pd(coef[1], cy[0])),
+          _mm256_mul_pd(coef[2], cw[0]));
+      // det != 0 and finite: |det| in (0, inf)
+      const __m256d usable = _mm256_and_pd(scale, positive_finite(abs(det)));
+      // +1 where det and side have one sign
+      const __m256d negative = _mm256_cmp_pd(det, zero, _CMP_LT_OQ);
+      const __m256d sign = _mm256_blendv_pd(one, _mm256_set1_pd(-1.0), _mm256_xor_pd(negative, back));
+      __m256d largest = zero;
+      for (int c = 0; c < 3; ++c) {
+        for (int j = 0; j < 3; ++j) {
+          const __m256d mm = _mm256_add_pd(
+              _mm256_add_pd(_mm256_mul_pd(vn[0][c], coef[j]), _mm256_mul_pd(vn[1][c], coef[3 + j])),
+              _mm256_mul_pd(vn[2][c], coef[6 + j]));
+          const __m256d corners = _mm256_add_pd(_mm256_add_pd(vn[0][c], vn[1][c]), vn[2][c]);
+          const __m256d mean = j < 2 ? zero : _mm256_mul_pd(side, corners);
+          normal_map[3 * c + j] = _mm256_blendv_pd(mean, _mm256_mul_pd(sign, mm), usable);
+          largest = _mm256_max_pd(abs(normal_map[3 * c + j]), largest);
+        }
+      }
+      const __m256d normalise = positive_finite(largest);
+      const __m256d inv_largest = _mm256_div_pd(one, largest);
+      for (auto& v : normal_map) v = _mm256_blendv_pd(v, _mm256_mul_pd(v, inv_largest), normalise);
+    }
+  }
+
+  // Into the table's rows: the colours by a masked store, the interpolated
+  // fields as 4 rows (fields by lane, transposed 4 x 4 at a time).
+  _mm_maskstore_epi32(table.rgb.data() + first, live, rgb);
+  if (!bary && !map) return;
+  __m128 field[2 * FaceTable::kLine];
+  for (auto& v : field) v = _mm_setzero_ps();
+  if (bary)
+    for (int c = 0; c < 9; ++c) field[FaceTable::kBary + c] = _mm256_cvtpd_ps(coef[c]);
+  if (map)
+    for (int c = 0; c < 9; ++c) field[table.map_at + c] = _mm256_cvtpd_ps(normal_map[c]);
+  for (int c = 0; c < 3; ++c) field[FaceTable::kNormal + c] = _mm256_cvtpd_ps(normal[c]);
+  const int n = table.row_floats;
+  const int lanes = _mm_movemask_ps(_mm_castsi128_ps(live));
+  float* rows = table.rows.data() + size_t(n) * first;
+  for (int g = 0; g < n; g += 4) {
+    _MM_TRANSPOSE4_PS(field[g], field[g + 1], field[g + 2], field[g + 3]);
+    for (int j = 0; j < 4; ++j)
+      if (lanes & (1 << j)) _mm_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
+  }
+}
+#endif
+
 // Prepares the table for every face that shows up in triangle_id (maybe
 // more): all faces when there are few, else those found by a pass over the
 // ids (each run of one id looked up once), a slot each in the order of
@@ -605,6 +753,30 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
       prepare_faces8(in, table, f, live, bary, map, i);
+    }
+  }
+#elif defined(ZBUFFER_AVX2)
+  constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
+  if (in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed) {
+    const __m128i lane = _mm_setr_epi32(0, 1, 2, 3);
+    for (; i < count; i += 4) {
+      const __m128i live =
+          _mm_cmpgt_epi32(_mm_set1_epi32(int32_t(std::min<size_t>(count - i, 4))), lane);
+      const __m128i f = table.by_slot ? _mm_maskload_epi32(list.data() + i, live)
+                                      : _mm_add_epi32(_mm_set1_epi32(int32_t(i)), lane);
+      // (as above: the corners of the faces two steps on, and the found
+      // faces' indices four steps on)
+      auto prefetch = [](const void* p) { _mm_prefetch(static_cast<const char*>(p), _MM_HINT_T0); };
+      if (table.by_slot && i + 20 <= count)
+        for (size_t a = i + 16; a < i + 20; ++a) prefetch(in.mesh.faces + 3 * size_t(list[a]));
+      if (i + 12 <= count)
+        for (size_t a = i + 8; a < i + 12; ++a)
+          for (int k = 0; k < 3; ++k) {
+            const size_t v = size_t(in.mesh.faces[3 * size_t(face_at(a)) + size_t(k)]);
+            prefetch(in.mesh.positions + 3 * v);
+            if (map) prefetch(in.vertex_normals + 3 * v);
+          }
+      prepare_faces4(in, table, f, live, bary, map, i);
     }
   }
 #endif
@@ -818,16 +990,11 @@ inline __m256i to_bytes8(__m256 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
 
 // The AVX-512 pass above, 8 pixels per step; lane masks are vectors.
 void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
-  // The gathers index faces' corners and colours with int32 (3 f + c), and
-  // the table's rows too (16 r + c, or 32 r + c; rows: at most one per
-  // face and one per pixel, < 2^27).
+  // The gathers index faces' corners and colours with int32 (3 f + c).
   const bool smooth = in.vertex_normals != nullptr;
   const bool per_vertex = in.color_source == ColorSource::kPerVertex;
   const bool interpolated = smooth || per_vertex;
-  const int64_t most_rows = std::min(in.mesh.n_faces, int64_t(in.width) * in.height);
-  const int64_t row_floats = smooth && per_vertex ? 2 * FaceTable::kLine : FaceTable::kLine;
-  constexpr int64_t kMaxIndex = std::numeric_limits<int32_t>::max();
-  if (in.mesh.n_faces > kMaxIndex / 3 || most_rows > kMaxIndex / row_floats) {
+  if (in.mesh.n_faces > std::numeric_limits<int32_t>::max() / 3) {
     shade_scalar(in, triangle_id, image);
     return;
   }
@@ -867,22 +1034,49 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
       const __m256i f = _mm256_maskload_epi32(ids + i, valid);
       const __m256i drawn = _mm256_and_si256(valid, _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
       const __m256 drawn_f = _mm256_castsi256_ps(drawn);
-      // Each lane's row of the table.
-      const __m256i r = table.by_slot
-                            ? _mm256_mask_i32gather_epi32(zero, table.slot.data(), f, drawn, 4)
-                            : f;
       __m256i rgba = background;
       if (!_mm256_testz_si256(drawn, drawn) && !interpolated) {
+        // Each lane's row of the table, and its colour.
+        const __m256i r = table.by_slot
+                              ? _mm256_mask_i32gather_epi32(zero, table.slot.data(), f, drawn, 4)
+                              : f;
         rgba = _mm256_mask_i32gather_epi32(background, table.rgb.data(), r, drawn, 4);
       } else if (!_mm256_testz_si256(drawn, drawn)) {
         auto gather = [&](const float* base, __m256i index, __m256 fallback) {
           return _mm256_mask_i32gather_ps(fallback, base, index, drawn_f, 4);
         };
-        // Field c of each lane's row (int32 indices: see the guard above).
-        const __m256i row_at = _mm256_mullo_epi32(r, _mm256_set1_epi32(table.row_floats));
-        auto field = [&](int c, __m256 fallback) {
-          return gather(table.rows.data(), _mm256_add_epi32(row_at, _mm256_set1_epi32(c)), fallback);
-        };
+        // Each lane's row, run by run (neighbouring lanes of one id; as in
+        // the AVX-512 pass): the fields broadcast and blended into the
+        // run's lanes, where a gather per field costs more (and far more
+        // on Zen and on Intel cores with the gather data sampling fix).
+        // Fields 0-11, and 16-24 when a row holds both the barycentrics
+        // and the normal map.
+        __m256 fields[2 * FaceTable::kLine];
+        const int n_low = 12, high = table.row_floats > FaceTable::kLine ? FaceTable::kLine : 0;
+        for (int c = 0; c < n_low; ++c) fields[c] = zero_f;
+        for (int c = 0; c < 9 && high; ++c) fields[high + c] = zero_f;
+        {
+          const __m256i before = _mm256_permutevar8x32_epi32(f, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
+          const unsigned same_as_before =
+              unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(f, before))));
+          const unsigned change = (~same_as_before & 0xFFu) | 0x101u;
+          const unsigned drawn_bits = unsigned(_mm256_movemask_ps(drawn_f));
+          const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+          for (unsigned starts = change & drawn_bits; starts; starts &= starts - 1) {
+            const unsigned s = unsigned(__builtin_ctz(starts));
+            const unsigned after = change & ~((2u << s) - 1);  // the next run's start, or bit 8
+            const unsigned run = ((after & (0u - after)) - (1u << s)) & drawn_bits;
+            const __m256 in_run = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+                _mm256_and_si256(_mm256_set1_epi32(int32_t(run)), lane_bit), lane_bit));
+            const float* row_of_face =
+                table.rows.data() + size_t(table.row_floats) * size_t(table.row(ids[i + s]));
+            for (int c = 0; c < n_low; ++c)
+              fields[c] = _mm256_blendv_ps(fields[c], _mm256_set1_ps(row_of_face[c]), in_run);
+            for (int c = 0; c < 9 && high; ++c)
+              fields[high + c] =
+                  _mm256_blendv_ps(fields[high + c], _mm256_set1_ps(row_of_face[high + c]), in_run);
+          }
+        }
         const __m256 xn = _mm256_sub_ps(
             _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_set1_ps(float(i)), lanes_f),
                                         _mm256_set1_ps(0.5f)),
@@ -890,14 +1084,14 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
             one);
         // a x + b y + c from the fields at `at`
         auto affine = [&](int at) {
-          return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(field(at, zero_f), xn),
-                                             _mm256_mul_ps(field(at + 1, zero_f), yn)),
-                               field(at + 2, zero_f));
+          return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fields[at], xn),
+                                             _mm256_mul_ps(fields[at + 1], yn)),
+                               fields[at + 2]);
         };
 
         // Normal: flat, or interpolated (FaceShade::normal_map) and normalised.
         __m256 n[3];
-        for (int c = 0; c < 3; ++c) n[c] = field(FaceTable::kNormal + c, zero_f);
+        for (int c = 0; c < 3; ++c) n[c] = fields[FaceTable::kNormal + c];
         if (smooth) {
           __m256 ns[3];
           for (int c = 0; c < 3; ++c) ns[c] = affine(table.map_at + 3 * c);

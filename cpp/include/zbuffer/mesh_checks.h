@@ -19,4 +19,8 @@ int64_t find_negative_id(const MeshView& mesh);
 // Index of the first vertex with a NaN or infinite coordinate, or -1.
 int64_t find_nonfinite_vertex(const MeshView& mesh);
 
+// Index of the first of the n ids outside [-1, n_faces) (a triangle_id
+// image: -1 where nothing was drawn), or -1.
+int64_t find_bad_triangle_id(const int32_t* ids, int64_t n, int64_t n_faces);
+
 }  // namespace zbuffer
