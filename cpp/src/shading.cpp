@@ -8,6 +8,7 @@
 #include "zbuffer/buffer.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -713,6 +714,36 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
       for (size_t k = 0; k < n; ++k) sight(runs[k]);
     }
     if (p > 0) previous = triangle_id[p - 1];
+#elif defined(ZBUFFER_AVX2)
+    // The same, 8 pixels per instruction, packed by a permutation per mask
+    // (AVX2 has no compress).
+    static const auto kPack = [] {
+      std::array<std::array<int32_t, 8>, 256> t{};
+      for (int m = 0; m < 256; ++m)
+        for (int b = 0, k = 0; b < 8; ++b)
+          if (m >> b & 1) t[size_t(m)][size_t(k++)] = b;
+      return t;
+    }();
+    constexpr size_t kChunk = 2048;
+    alignas(32) int32_t runs[kChunk + 8];
+    if (n_pixels > 0 && triangle_id[0] >= 0) sight(triangle_id[0]);
+    p = 1;
+    while (p + 8 <= n_pixels) {
+      const size_t chunk_end = p + std::min((n_pixels - p) / 8 * 8, kChunk);
+      size_t n = 0;
+      for (; p < chunk_end; p += 8) {
+        const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(triangle_id + p));
+        const __m256i before = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(triangle_id + p - 1));
+        const __m256i start = _mm256_andnot_si256(_mm256_cmpeq_epi32(f, before),
+                                                  _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
+        const unsigned bits = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(start)));
+        const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(kPack[bits].data()));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(runs + n), _mm256_permutevar8x32_epi32(f, to));
+        n += size_t(__builtin_popcount(bits));
+      }
+      for (size_t k = 0; k < n; ++k) sight(runs[k]);
+    }
+    if (n_pixels > 0) previous = triangle_id[p - 1];
 #endif
     for (; p < n_pixels; ++p) {
       const int32_t f = triangle_id[p];
