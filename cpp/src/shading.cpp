@@ -891,6 +891,9 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   const __m512 ambient = _mm512_set1_ps(float(in.ambient));
   const __m512 diffuse = _mm512_set1_ps(float(in.diffuse));
   const __m512 one = _mm512_set1_ps(1.0f), third = _mm512_set1_ps(1.0f / 3.0f);
+  auto fields_of = [&](int32_t face) {
+    return table.rows.data() + size_t(kRowFloats) * size_t(table.row(face));
+  };
   // a x + b y + c, each lane with its own coefficients
   auto affine = [](const __m512* abc, __m512 x, __m512 y) {
     return _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(abc[0], x), _mm512_mul_ps(abc[1], y)), abc[2]);
@@ -938,10 +941,13 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
           const __mmask16 same = __mmask16(((after & (0u - after)) - (1u << s)) & drawn);
           const int32_t face = ids[i + s];
           auto put = [&](__m512& reg, float v) { reg = _mm512_mask_mov_ps(reg, same, _mm512_set1_ps(v)); };
-          const float* fields = table.rows.data() + kRowFloats * size_t(table.row(face));
-          for (int c = 0; c < 3; ++c) put(n[c], fields[FaceTable::kNormal + c]);
+          const float* fields = fields_of(face);
+          // (Smooth shading looks the flat normal up below, for the rare
+          // pixel whose interpolated normal vanishes.)
           if constexpr (smooth)
             for (int c = 0; c < 9; ++c) put(normal_map[c], fields[kMapAt + c]);
+          else
+            for (int c = 0; c < 3; ++c) put(n[c], fields[FaceTable::kNormal + c]);
           if constexpr (per_vertex) {
             for (int c = 0; c < 9; ++c) put(coef[c], fields[FaceTable::kBary + c]);
             const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
@@ -963,7 +969,13 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
               _mm512_mul_ps(ns[2], ns[2]));
           const __mmask16 usable = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);
           const __m512 scale = _mm512_div_ps(one, _mm512_sqrt_ps(len2));
-          for (int c = 0; c < 3; ++c) n[c] = _mm512_mask_mov_ps(n[c], usable, _mm512_mul_ps(ns[c], scale));
+          for (int c = 0; c < 3; ++c) n[c] = _mm512_mul_ps(ns[c], scale);
+          for (unsigned l = drawn & ~usable; l; l &= l - 1) {  // the flat normal there
+            const int k = __builtin_ctz(l);
+            const float* fields = fields_of(ids[i + k]);
+            for (int c = 0; c < 3; ++c)
+              n[c] = _mm512_mask_mov_ps(n[c], __mmask16(1u << k), _mm512_set1_ps(fields[FaceTable::kNormal + c]));
+          }
         }
         const __m512 ndotl = _mm512_add_ps(
             _mm512_add_ps(_mm512_mul_ps(n[0], lx), _mm512_mul_ps(n[1], ly)), _mm512_mul_ps(n[2], lz));
@@ -1019,16 +1031,14 @@ inline __m256i to_bytes8(__m256 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
       _mm256_add_ps(_mm256_mul_ps(v, _mm256_set1_ps(255.0f)), _mm256_set1_ps(0.5f))));
 }
 
-// The AVX-512 pass above, 8 pixels per step; lane masks are vectors.
-void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
-  // The gathers index faces' corners and colours with int32 (3 f + c).
-  const bool smooth = in.vertex_normals != nullptr;
-  const bool per_vertex = in.color_source == ColorSource::kPerVertex;
-  const bool interpolated = smooth || per_vertex;
-  if (in.mesh.n_faces > std::numeric_limits<int32_t>::max() / 3) {
-    shade_scalar(in, triangle_id, image);
-    return;
-  }
+// The AVX-512 pass above, 8 pixels per step; lane masks are vectors. One
+// pass per kind of shading, so that each keeps in registers only the
+// fields it reads (AVX2 has 16 of them).
+template <bool smooth, bool per_vertex>
+void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+  constexpr bool interpolated = smooth || per_vertex;
+  constexpr int kRowFloats = FaceTable::row_floats_for(per_vertex, smooth);
+  constexpr int kMapAt = FaceTable::map_at_for(per_vertex);
   const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   const FaceTable& table = prepared.table;
   const size_t nv = size_t(in.mesh.n_vertices);
@@ -1037,6 +1047,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256 lanes_f = _mm256_cvtepi32_ps(lane);
+  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
   const __m256i zero = _mm256_setzero_si256();
   const __m256 zero_f = _mm256_setzero_ps();
   const int32_t bg = int32_t(in.background[0]) | (int32_t(in.background[1]) << 8) |
@@ -1054,6 +1065,9 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
   // 128-bit half, then both halves through a small buffer.
   const __m256i rgb_bytes = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1,
                                              0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1);
+  auto fields_of = [&](int32_t face) {
+    return table.rows.data() + size_t(kRowFloats) * size_t(table.row(face));
+  };
 
   for (int j = 0; j < in.height; ++j) {
     const int32_t* ids = triangle_id + size_t(j) * size_t(in.width);
@@ -1065,47 +1079,53 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
       const __m256i f = _mm256_maskload_epi32(ids + i, valid);
       const __m256i drawn = _mm256_and_si256(valid, _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
       const __m256 drawn_f = _mm256_castsi256_ps(drawn);
+      const unsigned drawn_bits = unsigned(_mm256_movemask_ps(drawn_f));
       __m256i rgba = background;
-      if (!_mm256_testz_si256(drawn, drawn) && !interpolated) {
-        // Each lane's row of the table, and its colour.
-        const __m256i r = table.by_slot
-                              ? _mm256_mask_i32gather_epi32(zero, table.slot.data(), f, drawn, 4)
-                              : f;
-        rgba = _mm256_mask_i32gather_epi32(background, table.rgb.data(), r, drawn, 4);
-      } else if (!_mm256_testz_si256(drawn, drawn)) {
+      if constexpr (!interpolated) {
+        if (drawn_bits) {
+          // Each lane's row of the table, and its colour.
+          const __m256i r = table.by_slot
+                                ? _mm256_mask_i32gather_epi32(zero, table.slot.data(), f, drawn, 4)
+                                : f;
+          rgba = _mm256_mask_i32gather_epi32(background, table.rgb.data(), r, drawn, 4);
+        }
+      } else if (drawn_bits) {
         auto gather = [&](const float* base, __m256i index, __m256 fallback) {
           return _mm256_mask_i32gather_ps(fallback, base, index, drawn_f, 4);
         };
-        // Each lane's row, run by run (neighbouring lanes of one id; as in
-        // the AVX-512 pass): the fields broadcast and blended into the
-        // run's lanes, where a gather per field costs more (and far more
-        // on Zen and on Intel cores with the gather data sampling fix).
-        // Fields 0-11, and 16-24 when a row holds both the barycentrics
-        // and the normal map.
-        __m256 fields[2 * FaceTable::kLine];
-        const int n_low = 12, high = table.row_floats > FaceTable::kLine ? FaceTable::kLine : 0;
-        for (int c = 0; c < n_low; ++c) fields[c] = zero_f;
-        for (int c = 0; c < 9 && high; ++c) fields[high + c] = zero_f;
+        // Each lane's fields, run by run (neighbouring lanes of one id; as
+        // in the AVX-512 pass): broadcast and blended into the run's lanes,
+        // where a gather per field costs more (far more on Zen, and on
+        // Intel cores with the gather data sampling fix). Smooth shading
+        // leaves out the flat normal: it is looked up below for the rare
+        // pixel whose interpolated normal vanishes.
+        __m256 coef[9], normal_map[9], flat[3];
+        if constexpr (per_vertex)
+          for (auto& v : coef) v = zero_f;
+        if constexpr (smooth)
+          for (auto& v : normal_map) v = zero_f;
+        else
+          for (auto& v : flat) v = zero_f;
         {
-          const __m256i before = _mm256_permutevar8x32_epi32(f, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
+          const __m256i before =
+              _mm256_permutevar8x32_epi32(f, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
           const unsigned same_as_before =
               unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(f, before))));
           const unsigned change = (~same_as_before & 0xFFu) | 0x101u;
-          const unsigned drawn_bits = unsigned(_mm256_movemask_ps(drawn_f));
-          const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
           for (unsigned starts = change & drawn_bits; starts; starts &= starts - 1) {
             const unsigned s = unsigned(__builtin_ctz(starts));
             const unsigned after = change & ~((2u << s) - 1);  // the next run's start, or bit 8
             const unsigned run = ((after & (0u - after)) - (1u << s)) & drawn_bits;
             const __m256 in_run = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
                 _mm256_and_si256(_mm256_set1_epi32(int32_t(run)), lane_bit), lane_bit));
-            const float* row_of_face =
-                table.rows.data() + size_t(table.row_floats) * size_t(table.row(ids[i + s]));
-            for (int c = 0; c < n_low; ++c)
-              fields[c] = _mm256_blendv_ps(fields[c], _mm256_set1_ps(row_of_face[c]), in_run);
-            for (int c = 0; c < 9 && high; ++c)
-              fields[high + c] =
-                  _mm256_blendv_ps(fields[high + c], _mm256_set1_ps(row_of_face[high + c]), in_run);
+            const float* fields = fields_of(ids[i + s]);
+            auto put = [&](__m256& reg, float v) { reg = _mm256_blendv_ps(reg, _mm256_set1_ps(v), in_run); };
+            if constexpr (per_vertex)
+              for (int c = 0; c < 9; ++c) put(coef[c], fields[FaceTable::kBary + c]);
+            if constexpr (smooth)
+              for (int c = 0; c < 9; ++c) put(normal_map[c], fields[kMapAt + c]);
+            else
+              for (int c = 0; c < 3; ++c) put(flat[c], fields[FaceTable::kNormal + c]);
           }
         }
         const __m256 xn = _mm256_sub_ps(
@@ -1113,25 +1133,35 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
                                         _mm256_set1_ps(0.5f)),
                           _mm256_set1_ps(half_w)),
             one);
-        // a x + b y + c from the fields at `at`
-        auto affine = [&](int at) {
-          return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fields[at], xn),
-                                             _mm256_mul_ps(fields[at + 1], yn)),
-                               fields[at + 2]);
+        // a x + b y + c, each lane with its own coefficients
+        auto affine = [&](const __m256* abc) {
+          return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(abc[0], xn), _mm256_mul_ps(abc[1], yn)),
+                               abc[2]);
         };
 
         // Normal: flat, or interpolated (FaceShade::normal_map) and normalised.
         __m256 n[3];
-        for (int c = 0; c < 3; ++c) n[c] = fields[FaceTable::kNormal + c];
-        if (smooth) {
+        if constexpr (smooth) {
           __m256 ns[3];
-          for (int c = 0; c < 3; ++c) ns[c] = affine(table.map_at + 3 * c);
+          for (int c = 0; c < 3; ++c) ns[c] = affine(normal_map + 3 * c);
           const __m256 len2 = _mm256_add_ps(
               _mm256_add_ps(_mm256_mul_ps(ns[0], ns[0]), _mm256_mul_ps(ns[1], ns[1])),
               _mm256_mul_ps(ns[2], ns[2]));
           const __m256 usable = _mm256_cmp_ps(len2, zero_f, _CMP_GT_OQ);
           const __m256 scale = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
-          for (int c = 0; c < 3; ++c) n[c] = _mm256_blendv_ps(n[c], _mm256_mul_ps(ns[c], scale), usable);
+          for (int c = 0; c < 3; ++c) n[c] = _mm256_mul_ps(ns[c], scale);
+          const unsigned flat_lanes = unsigned(_mm256_movemask_ps(_mm256_andnot_ps(usable, drawn_f)));
+          if (flat_lanes) {  // the flat normal where the interpolated one vanishes
+            alignas(32) float lanes[3][8];
+            for (int c = 0; c < 3; ++c) _mm256_store_ps(lanes[c], n[c]);
+            for (unsigned l = flat_lanes; l; l &= l - 1) {
+              const int k = __builtin_ctz(l);
+              for (int c = 0; c < 3; ++c) lanes[c][k] = fields_of(ids[i + k])[FaceTable::kNormal + c];
+            }
+            for (int c = 0; c < 3; ++c) n[c] = _mm256_load_ps(lanes[c]);
+          }
+        } else {
+          for (int c = 0; c < 3; ++c) n[c] = flat[c];
         }
         const __m256 ndotl = _mm256_add_ps(
             _mm256_add_ps(_mm256_mul_ps(n[0], lx), _mm256_mul_ps(n[1], ly)), _mm256_mul_ps(n[2], lz));
@@ -1143,8 +1173,8 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
         __m256 b[3];
         __m256i vid[3];  // each lane's corners
         const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
-        if (per_vertex) {
-          for (int k = 0; k < 3; ++k) b[k] = affine(FaceTable::kBary + 3 * k);
+        if constexpr (per_vertex) {
+          for (int k = 0; k < 3; ++k) b[k] = affine(coef + 3 * k);
           const __m256 sum = _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]);
           const __m256 bad = _mm256_or_ps(
               _mm256_or_ps(_mm256_cmp_ps(sum, sum, _CMP_UNORD_Q),  // NaN
@@ -1162,7 +1192,7 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
         __m256i channel[3];
         for (int c = 0; c < 3; ++c) {
           __m256 albedo;
-          if (per_vertex) {
+          if constexpr (per_vertex) {
             const float* comp = vc.data() + size_t(c) * nv;
             albedo = zero_f;
             for (int k = 0; k < 3; ++k)
@@ -1187,6 +1217,19 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
       if (count > 4) std::memcpy(out + 12, packed + 16, 3 * size_t(count - 4));
     }
   }
+}
+
+void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+  // The gathers index faces' corners and colours with int32 (3 f + c).
+  if (in.mesh.n_faces > std::numeric_limits<int32_t>::max() / 3) {
+    shade_scalar(in, triangle_id, image);
+    return;
+  }
+  const bool smooth = in.vertex_normals != nullptr;
+  const auto pass = in.color_source == ColorSource::kPerVertex
+                        ? (smooth ? shade_pass_avx2<true, true> : shade_pass_avx2<false, true>)
+                        : (smooth ? shade_pass_avx2<true, false> : shade_pass_avx2<false, false>);
+  pass(in, triangle_id, image);
 }
 
 #endif

@@ -1,4 +1,5 @@
 // The shading pass: the vector pass agrees with the scalar one.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <vector>
@@ -42,10 +43,15 @@ struct Eye {
 // 77 x 61 (found, either shading), 160 x 121 (all for flat, found for
 // interpolated) and 400 x 400 (all). Flat colours from uniform or per-face
 // colours are the same bytes; interpolated ones within one level.
-void test_vector_pass_matches_scalar_pass(int w, int h, Eye eye = {0, 0, 3, 1, 6}) {
+// With zero_band, the vertex normals of rings 10-12 are zero (as where the
+// faces around a vertex cancel out): smooth shading falls back to the flat
+// normal on the faces between them.
+void test_vector_pass_matches_scalar_pass(int w, int h, Eye eye = {0, 0, 3, 1, 6},
+                                          bool zero_band = false) {
   std::vector<double> pos, normals;
   std::vector<int32_t> faces;
   sphere(24, 48, pos, faces, normals);
+  if (zero_band) std::fill(normals.begin() + 10 * 48 * 3, normals.begin() + 13 * 48 * 3, 0.0);
   const int n_faces = int(faces.size() / 3), n_vertices = int(pos.size() / 3);
   // Perspective camera at the eye looking down -z, 45 degrees, square
   // pixels in NDC: the projection times a translation by -eye.
@@ -103,5 +109,7 @@ int main() {
   // behind the camera (corners with w < 0), near and far.
   test_vector_pass_matches_scalar_pass(160, 121, {0.1, 0.2, 0.3, 0.05, 3.0});
   test_vector_pass_matches_scalar_pass(400, 400, {-0.2, 0.1, 0.0, 0.01, 3.0});
+  test_vector_pass_matches_scalar_pass(77, 61, {0, 0, 3, 1, 6}, true);
+  test_vector_pass_matches_scalar_pass(400, 400, {0, 0, 3, 1, 6}, true);
   return check_report("test_shading");
 }
