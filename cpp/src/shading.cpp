@@ -252,16 +252,21 @@ namespace {
 // 16 (AVX-512) or 8 (AVX2) pixels of a row per step, in float32 (shading
 // need not be bit-exact; it agrees with the scalar pass and the numpy twin
 // within one level). Per-face data sits in a table of rows (a colour each,
-// and 16 or 32 floats for interpolation): the AVX2 pass gathers it, the
-// AVX-512 pass broadcasts it face by face.
+// and 16 or 32 floats for interpolation). Flat shading gathers each
+// pixel's colour; interpolated shading broadcasts a row's fields into the
+// lanes of each run of one id among the step's pixels (16 neighbouring
+// pixels show a few faces, and a gather per field costs about an element a
+// cycle on Zen, as on Intel cores with the gather data sampling fix).
 
 // Design decision: the per-face table is prepared before the pixel pass,
 // for the faces that show up -- not lazily, face by face as the pixels
-// meet them. Good: AVX-512 builds prepare 8 faces per instruction (and
-// prefetch the corners of the faces to come), and the pixel pass has no
-// "seen yet?" test. Bad: where the mesh has more faces than a quarter of the
+// meet them. Good: AVX-512 builds prepare 8 faces per instruction, AVX2
+// builds 4 (and both prefetch the corners of the faces to come), and the
+// pixel pass has no "seen yet?" test. Bad: where the mesh has more faces than a quarter of the
 // pixels (1/64 for interpolated shading, whose rows cost more), finding
-// the faces that show up takes a pass over the ids of its own, and their
+// the faces that show up takes a pass over the ids of its own (8 or 16 ids
+// compared with their left neighbours per instruction, the ids that start
+// a run packed into a short list, then looked up), and their
 // rows are then numbered apart from the faces (a slot per face found, so
 // that the table stays as small as the image's faces: a mesh of millions
 // of faces would otherwise scatter its few visible rows over hundreds of
@@ -916,9 +921,9 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
           rgba = _mm512_mask_i32gather_epi32(background, drawn, row, table.rgb.data(), 4);
         }
       } else if (drawn) {
-        // Each lane's face data, face by face: 16 neighbouring pixels show
+        // Each lane's face data, run by run: 16 neighbouring pixels show
         // few faces (a triangle covers runs of pixels), and a masked
-        // broadcast per face and field costs far less than a gather per
+        // broadcast per run and field costs far less than a gather per
         // field (about one element a cycle on Zen 4).
         __m512 coef[9], normal_map[9], n[3], corner_c[3][3], albedo[3];
         auto zeros = [](auto& regs) {
