@@ -69,7 +69,77 @@ struct FaceShade {
   // hair. A face without usable barycentrics (det 0 or not finite) maps
   // every pixel to its corners' mean normal, as the scalar pass does.
   double normal_map[9];
+  // Smooth shading in the vector passes: true where the map could stray
+  // from the scalar pass by about a level, and the pass shades the face's
+  // pixels again afterwards with clamped barycentrics (finish_exact16/8).
+  // A covered pixel centre lies within 2^-9 px (the snapping) of the
+  // triangle in each axis, so up to 0.0028 px outside an edge: the map
+  // then extrapolates the normal by 0.0028 x spread / h (h: the altitude
+  // onto that edge, in pixels; spread: the largest difference of two
+  // corners' normals), where the clamp would not -- with spread <= h, at
+  // most 0.0028 x 255 x diffuse (0.8) = 0.56 of a level for a white face
+  // (twice that only within 0.003 px of a corner, outside both its edges).
+  // The map is also evaluated in float32, which fails where it nearly
+  // vanishes at a corner, and a face degenerate to within rounding has a
+  // map of rounding noise (det a sign of noise), its entries before the
+  // scaling far below the barycentrics' coefficients (scaled to 1). Hence:
+  // a corner at or behind the camera plane, spread > h, the map's length
+  // at a corner under 1e-3 of its largest entry, or that entry under 1e-9
+  // before the scaling. (Found by a fuzzing helper: up to 73 levels off on
+  // slivers of 1e-4 px^2 and faces collinear within rounding.) A stricter
+  // spread <= h / 2 costs 25-75% more smooth-shading time on armadillo_86k
+  // and lucy_20k at 1024 x 1024 (8-21% of their faces flagged).
+  bool exact = false;
 };
+
+// The bounds FaceShade::exact holds the map to.
+constexpr double kSpreadPerPixel = 1.0;
+constexpr double kLeastCornerLength = 1e-3;
+constexpr double kLeastMapEntry = 1e-9;
+
+// Whether FaceShade::exact may be false: the corners in front of the
+// camera, the normals' spread within the smallest altitude (squared:
+// spread^2 lmax^2 <= kSpreadPerPixel^2 (2 area)^2, in pixels), and the map's
+// length at each corner at least kLeastCornerLength, its largest entry
+// before the scaling (`largest`) at least kLeastMapEntry. The vector
+// preparations compute the same, in the same order.
+bool map_is_close(const ShadingInput& in, const double cx[3], const double cy[3],
+                  const double cw[3], const double vn[3][3], const double map[9],
+                  double largest) {
+  if (!(cw[0] > 0.0 && cw[1] > 0.0 && cw[2] > 0.0 && largest >= kLeastMapEntry)) return false;
+  // Without divisions, in homogeneous pixels (x, y, w): the map's length at
+  // corner k is |map (x_k, y_k, w_k)| / w_k, twice the area in pixels
+  // area / (w_0 w_1 w_2) (area: the determinant of the corners), and an edge from a to k is the length of
+  // (x_a w_k - x_k w_a, y_a w_k - y_k w_a) over w_a w_k; both sides of the
+  // bounds are multiplied out.
+  constexpr double kLeast2 = kLeastCornerLength * kLeastCornerLength;
+  constexpr double kSpread2 = kSpreadPerPixel * kSpreadPerPixel;
+  const double half_w = 0.5 * in.width, half_h = 0.5 * in.height;
+  double x[3], y[3];
+  bool close = true;
+  for (int k = 0; k < 3; ++k) {
+    x[k] = cx[k] * half_w;
+    y[k] = cy[k] * half_h;
+    double len2 = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const double v = map[3 * c] * cx[k] + map[3 * c + 1] * cy[k] + map[3 * c + 2] * cw[k];
+      len2 = len2 + v * v;
+    }
+    close = close && len2 >= kLeast2 * (cw[k] * cw[k]);
+  }
+  const double area = x[0] * (y[1] * cw[2] - y[2] * cw[1]) - x[1] * (y[0] * cw[2] - y[2] * cw[0]) +
+                      x[2] * (y[0] * cw[1] - y[1] * cw[0]);
+  double edge2 = 0.0, spread2 = 0.0;  // edge2: times the third corner's w^2
+  for (int k = 0; k < 3; ++k) {
+    const int a = (k + 1) % 3, m = (k + 2) % 3;
+    const double ex = x[a] * cw[k] - x[k] * cw[a], ey = y[a] * cw[k] - y[k] * cw[a];
+    edge2 = std::max(edge2, (ex * ex + ey * ey) * (cw[m] * cw[m]));
+    double d2 = 0.0;
+    for (int c = 0; c < 3; ++c) d2 = d2 + (vn[a][c] - vn[k][c]) * (vn[a][c] - vn[k][c]);
+    spread2 = std::max(spread2, d2);
+  }
+  return close && spread2 * edge2 <= kSpread2 * (area * area);
+}
 
 // Everything about one face that the pass needs, computed once.
 FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary, bool need_map = false) {
@@ -129,6 +199,7 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary, bool n
         const double scale = 1.0 / largest;
         for (double& v : s.normal_map) v *= scale;
       }
+      s.exact = !map_is_close(in, cx, cy, cw, vn, s.normal_map, largest);
     }
   }
   const Vec3 to_light = -1.0 * load3(in.light_dir);
@@ -141,6 +212,31 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary, bool n
   }
   return s;
 }
+
+// The pixel centre's barycentrics (at NDC xn, yn), clamped into the
+// triangle -- a snapped pixel centre may lie a hair outside it -- and
+// normalised, or a third each where they cannot be had.
+void clamped_barycentrics(const FaceShade& s, double xn, double yn, double b[3]) {
+  for (int k = 0; k < 3; ++k) b[k] = s.bary[3 * k] * xn + s.bary[3 * k + 1] * yn + s.bary[3 * k + 2];
+  const double sum = b[0] + b[1] + b[2];
+  if (sum != 0.0 && std::isfinite(sum)) {
+    for (int k = 0; k < 3; ++k) b[k] = std::min(1.0, std::max(0.0, b[k] / sum));
+    const double total = b[0] + b[1] + b[2];
+    for (int k = 0; k < 3; ++k) b[k] /= total;
+  } else {
+    b[0] = b[1] = b[2] = 1.0 / 3.0;
+  }
+}
+
+// Smooth shading's normal at barycentrics b of the face with corners idx:
+// the corners' normals interpolated, normalised and turned to the viewer,
+// or the flat normal where they cancel.
+Vec3 smooth_normal(const ShadingInput& in, const FaceShade& s, const int32_t* idx, const double b[3]) {
+  Vec3 ns{0, 0, 0};
+  for (int k = 0; k < 3; ++k) ns = ns + b[k] * load3(in.vertex_normals + 3 * int64_t(idx[k]));
+  return dot(ns, ns) > 0.0 ? s.side * normalized(ns) : s.normal;
+}
+
 
 #if defined(ZBUFFER_AVX512)
 void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image);
@@ -203,29 +299,10 @@ void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
         continue;
       }
 
-      // Barycentrics at the pixel centre, clamped into the triangle: a
-      // snapped pixel centre may lie a hair outside it.
-      const double xn = (i + 0.5) / half_w - 1.0;
       double b[3];
-      for (int k = 0; k < 3; ++k)
-        b[k] = s.bary[3 * k] * xn + s.bary[3 * k + 1] * yn + s.bary[3 * k + 2];
-      const double sum = b[0] + b[1] + b[2];
-      if (sum != 0.0 && std::isfinite(sum)) {
-        for (double& v : b) v = std::min(1.0, std::max(0.0, v / sum));
-        const double total = b[0] + b[1] + b[2];
-        for (double& v : b) v /= total;
-      } else {
-        b[0] = b[1] = b[2] = 1.0 / 3.0;
-      }
-
+      clamped_barycentrics(s, (i + 0.5) / half_w - 1.0, yn, b);
       const int32_t* idx = in.mesh.faces + 3 * int64_t(f);
-      Vec3 n = s.normal;
-      if (smooth) {
-        Vec3 ns{0, 0, 0};
-        for (int k = 0; k < 3; ++k)
-          ns = ns + b[k] * load3(in.vertex_normals + 3 * int64_t(idx[k]));
-        if (dot(ns, ns) > 0.0) n = s.side * normalized(ns);
-      }
+      const Vec3 n = smooth ? smooth_normal(in, s, idx, b) : s.normal;
       double albedo[3] = {0.0, 0.0, 0.0};
       for (int c = 0; c < 3; ++c) {
         switch (in.color_source) {
@@ -300,6 +377,8 @@ struct FaceTable {
   }
   // After a pass: give back the memory of arrays too large to keep.
   void trim() {
+    if (exact.size() > kKeptRowFloats / 4) Buffer<float>().swap(exact);
+    if (exact_steps.size() > kKeptSlots) Buffer<uint32_t>().swap(exact_steps);
     if (stride > kKeptRows || rows.size() > kKeptRowFloats) {
       stride = 0;
       Buffer<int32_t>().swap(rgb);
@@ -324,7 +403,8 @@ struct FaceTable {
   static constexpr int kLine = 16;
   enum Field {
     kBary = 0,    // 9: coefficient c of barycentric k at 3 k + c (per-vertex colours)
-    kNormal = 9,  // 3: the flat normal, facing the viewer (12-15: unused)
+    kNormal = 9,  // 3: the flat normal, facing the viewer
+    kExact = 12,  // smooth: int32 1 + index into `exact`, or 0 (13-15: unused)
   };
   static constexpr int row_floats_for(bool bary, bool map) {
     return bary && map ? 2 * kLine : kLine;
@@ -333,9 +413,40 @@ struct FaceTable {
   int row_floats = kLine;
   int map_at = 0;  // smooth: FaceShade::normal_map from here (after the barycentrics if kept)
   Buffer<float> rows;
+  // Smooth shading: what the scalar pass's way needs of the faces whose
+  // map is not close enough (FaceShade::exact), kExactFloats a face: the
+  // barycentrics' coefficients (as kBary), the corners' normals (corner k,
+  // component c at kCorners + 3 k + c), the side and the flat normal. Row
+  // field kExact holds 1 + the face's index here (int32 bits), else 0.
+  enum ExactField { kCorners = 9, kSide = 18, kFlat = 19, kExactFloats = 24 };
+  Buffer<float> exact;
+  size_t n_exact = 0;
+  // The steps of a pass with lanes of such faces (y, x, lane bits), shaded
+  // again after the pass (finish_exact): in the pass's loop they would
+  // crowd its registers (an inlined or called helper: 1.4-1.5x as slow).
+  Buffer<uint32_t> exact_steps;
+  const float* exact_face(const float* row) const {
+    int32_t at;
+    std::memcpy(&at, row + kExact, sizeof at);
+    return at ? exact.data() + kExactFloats * (size_t(at) - 1) : nullptr;
+  }
+  // A new exact row for row r (after r's fields are written), zeroed.
+  float* add_exact(size_t r) {
+    if (exact.size() < kExactFloats * (n_exact + 1)) {
+      Buffer<float> more(std::max<size_t>(kExactFloats * 64, 2 * exact.size()));
+      std::copy(exact.begin(), exact.begin() + kExactFloats * n_exact, more.begin());
+      exact.swap(more);
+    }
+    float* e = exact.data() + kExactFloats * n_exact++;
+    std::fill(e, e + kExactFloats, 0.0f);
+    const int32_t at = int32_t(n_exact);
+    std::memcpy(rows.data() + size_t(row_floats) * r + kExact, &at, sizeof at);
+    return e;
+  }
 };
 
-void store_row(FaceTable& table, size_t r, const FaceShade& s, bool bary, bool map) {
+void store_row(const ShadingInput& in, FaceTable& table, size_t r, int32_t face, const FaceShade& s,
+               bool bary, bool map) {
   table.rgb[r] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
   if (!bary && !map) return;
   float* row = table.rows.data() + size_t(table.row_floats) * r;
@@ -347,6 +458,41 @@ void store_row(FaceTable& table, size_t r, const FaceShade& s, bool bary, bool m
   row[FaceTable::kNormal + 0] = float(s.normal.x);
   row[FaceTable::kNormal + 1] = float(s.normal.y);
   row[FaceTable::kNormal + 2] = float(s.normal.z);
+  if (map && s.exact) {
+    float* e = table.add_exact(r);
+    const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
+    for (int c = 0; c < 9; ++c) e[FaceTable::kBary + c] = float(s.bary[c]);
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 3; ++c)
+        e[FaceTable::kCorners + 3 * k + c] = float(in.vertex_normals[3 * int64_t(idx[k]) + c]);
+    e[FaceTable::kSide] = float(s.side);
+    e[FaceTable::kFlat + 0] = float(s.normal.x);
+    e[FaceTable::kFlat + 1] = float(s.normal.y);
+    e[FaceTable::kFlat + 2] = float(s.normal.z);
+  }
+}
+
+
+// A vector pass's colour of a pixel of `face` from its unit normal n and
+// barycentrics b (for per-vertex colours), in float as the passes light
+// it, into out[0..2]: for the pixels finish_exact shades again.
+void finish_pixel(const ShadingInput& in, int32_t face, const float n[3], const float b[3],
+                  uint8_t* out) {
+  const float ndotl = n[0] * float(-in.light_dir[0]) + n[1] * float(-in.light_dir[1]) +
+                      n[2] * float(-in.light_dir[2]);
+  const float light = float(in.ambient) + float(in.diffuse) * std::max(ndotl, 0.0f);
+  const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
+  for (int c = 0; c < 3; ++c) {
+    float albedo = in.uniform_color[c];
+    if (in.color_source == ColorSource::kPerFace) {
+      albedo = in.colors[3 * int64_t(face) + c];
+    } else if (in.color_source == ColorSource::kPerVertex) {
+      albedo = 0.0f;
+      for (int k = 0; k < 3; ++k) albedo = albedo + b[k] * in.colors[3 * int64_t(idx[k]) + c];
+    }
+    const float v = std::min(std::max(albedo * light, 0.0f), 1.0f);
+    out[c] = uint8_t(std::floor(v * 255.0f + 0.5f));
+  }
 }
 
 #ifdef ZBUFFER_AVX512
@@ -435,6 +581,8 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
   }
 
   __m512d coef[9], normal_map[9];
+  __mmask8 exact = 0;  // FaceShade::exact
+  alignas(64) double exact_fields[FaceTable::kFlat + 3][8];  // the exact rows' fields, if any
   if (bary || map) {
     const double* m = in.mvp;
     __m512d cx[3], cy[3], cw[3];
@@ -494,6 +642,55 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
                                  ~_mm512_fpclass_pd_mask(largest, kNanOrInf);
       const __m512d inv_largest = _mm512_div_pd(one, largest);
       for (auto& m : normal_map) m = _mm512_mask_mul_pd(m, normalise, m, inv_largest);
+
+      // FaceShade::exact, as map_is_close computes it.
+      const __m512d half_w = _mm512_set1_pd(0.5 * in.width), half_h = _mm512_set1_pd(0.5 * in.height);
+      const __m512d least2 = _mm512_set1_pd(kLeastCornerLength * kLeastCornerLength);
+      __mmask8 close = _mm512_cmp_pd_mask(cw[0], zero, _CMP_GT_OQ) &
+                       _mm512_cmp_pd_mask(cw[1], zero, _CMP_GT_OQ) &
+                       _mm512_cmp_pd_mask(cw[2], zero, _CMP_GT_OQ) &
+                       _mm512_cmp_pd_mask(largest, _mm512_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
+      __m512d x[3], y[3];
+      for (int k = 0; k < 3; ++k) {
+        x[k] = _mm512_mul_pd(cx[k], half_w);
+        y[k] = _mm512_mul_pd(cy[k], half_h);
+        __m512d len2 = zero;
+        for (int c = 0; c < 3; ++c) {
+          const __m512d v = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(normal_map[3 * c], cx[k]),
+                                                        _mm512_mul_pd(normal_map[3 * c + 1], cy[k])),
+                                          _mm512_mul_pd(normal_map[3 * c + 2], cw[k]));
+          len2 = _mm512_add_pd(len2, _mm512_mul_pd(v, v));
+        }
+        close &= _mm512_cmp_pd_mask(len2, _mm512_mul_pd(least2, _mm512_mul_pd(cw[k], cw[k])), _CMP_GE_OQ);
+      }
+      auto minor = [&](int a, int b) {  // y_a w_b - y_b w_a
+        return _mm512_sub_pd(_mm512_mul_pd(y[a], cw[b]), _mm512_mul_pd(y[b], cw[a]));
+      };
+      const __m512d area = _mm512_add_pd(
+          _mm512_sub_pd(_mm512_mul_pd(x[0], minor(1, 2)), _mm512_mul_pd(x[1], minor(0, 2))),
+          _mm512_mul_pd(x[2], minor(0, 1)));
+      __m512d edge2 = zero, spread2 = zero;
+      for (int k = 0; k < 3; ++k) {
+        const int a = (k + 1) % 3, m = (k + 2) % 3;
+        const __m512d ex = _mm512_sub_pd(_mm512_mul_pd(x[a], cw[k]), _mm512_mul_pd(x[k], cw[a]));
+        const __m512d ey = _mm512_sub_pd(_mm512_mul_pd(y[a], cw[k]), _mm512_mul_pd(y[k], cw[a]));
+        edge2 = _mm512_max_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(ex, ex), _mm512_mul_pd(ey, ey)),
+                                            _mm512_mul_pd(cw[m], cw[m])),
+                              edge2);
+        __m512d d2 = zero;
+        for (int c = 0; c < 3; ++c) {
+          const __m512d d = _mm512_sub_pd(vn[a][c], vn[k][c]);
+          d2 = _mm512_add_pd(d2, _mm512_mul_pd(d, d));
+        }
+        spread2 = _mm512_max_pd(d2, spread2);
+      }
+      const __m512d spread_bound = _mm512_mul_pd(_mm512_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
+                                                 _mm512_mul_pd(area, area));
+      close &= _mm512_cmp_pd_mask(_mm512_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ);
+      exact = __mmask8(~close) & live;
+      if (exact)  // (their corners' normals: only here)
+        for (int k = 0; k < 3; ++k)
+          for (int c = 0; c < 3; ++c) _mm512_store_pd(exact_fields[FaceTable::kCorners + 3 * k + c], vn[k][c]);
     }
   }
 
@@ -516,6 +713,16 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
     for (unsigned lanes = live; lanes; lanes &= lanes - 1) {
       const int j = __builtin_ctz(lanes);
       _mm256_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
+    }
+  }
+  if (exact) {
+    for (int c = 0; c < 9; ++c) _mm512_store_pd(exact_fields[FaceTable::kBary + c], coef[c]);
+    _mm512_store_pd(exact_fields[FaceTable::kSide], side);
+    for (int c = 0; c < 3; ++c) _mm512_store_pd(exact_fields[FaceTable::kFlat + c], normal[c]);
+    for (unsigned lanes = exact; lanes; lanes &= lanes - 1) {
+      const int j = __builtin_ctz(lanes);
+      float* e = table.add_exact(first + size_t(j));
+      for (int c = 0; c < FaceTable::kFlat + 3; ++c) e[c] = float(exact_fields[c][j]);
     }
   }
 }
@@ -589,6 +796,8 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
   }
 
   __m256d coef[9], normal_map[9];
+  __m256d exact = zero;  // FaceShade::exact (all bits set)
+  alignas(32) double exact_fields[FaceTable::kFlat + 3][4];  // the exact rows' fields, if any
   if (bary || map) {
     const double* m = in.mvp;
     __m256d cx[3], cy[3], cw[3];
@@ -644,6 +853,57 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
       const __m256d normalise = positive_finite(largest);
       const __m256d inv_largest = _mm256_div_pd(one, largest);
       for (auto& v : normal_map) v = _mm256_blendv_pd(v, _mm256_mul_pd(v, inv_largest), normalise);
+
+      // FaceShade::exact, as map_is_close computes it.
+      const __m256d half_w = _mm256_set1_pd(0.5 * in.width), half_h = _mm256_set1_pd(0.5 * in.height);
+      const __m256d least2 = _mm256_set1_pd(kLeastCornerLength * kLeastCornerLength);
+      __m256d close = _mm256_and_pd(
+          _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(cw[0], zero, _CMP_GT_OQ),
+                                      _mm256_cmp_pd(cw[1], zero, _CMP_GT_OQ)),
+                        _mm256_cmp_pd(cw[2], zero, _CMP_GT_OQ)),
+          _mm256_cmp_pd(largest, _mm256_set1_pd(kLeastMapEntry), _CMP_GE_OQ));
+      __m256d x[3], y[3];
+      for (int k = 0; k < 3; ++k) {
+        x[k] = _mm256_mul_pd(cx[k], half_w);
+        y[k] = _mm256_mul_pd(cy[k], half_h);
+        __m256d len2 = zero;
+        for (int c = 0; c < 3; ++c) {
+          const __m256d v = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(normal_map[3 * c], cx[k]),
+                                                        _mm256_mul_pd(normal_map[3 * c + 1], cy[k])),
+                                          _mm256_mul_pd(normal_map[3 * c + 2], cw[k]));
+          len2 = _mm256_add_pd(len2, _mm256_mul_pd(v, v));
+        }
+        close = _mm256_and_pd(close, _mm256_cmp_pd(len2, _mm256_mul_pd(least2, _mm256_mul_pd(cw[k], cw[k])),
+                                                   _CMP_GE_OQ));
+      }
+      auto minor = [&](int a, int b) {  // y_a w_b - y_b w_a
+        return _mm256_sub_pd(_mm256_mul_pd(y[a], cw[b]), _mm256_mul_pd(y[b], cw[a]));
+      };
+      const __m256d area = _mm256_add_pd(
+          _mm256_sub_pd(_mm256_mul_pd(x[0], minor(1, 2)), _mm256_mul_pd(x[1], minor(0, 2))),
+          _mm256_mul_pd(x[2], minor(0, 1)));
+      __m256d edge2 = zero, spread2 = zero;
+      for (int k = 0; k < 3; ++k) {
+        const int a = (k + 1) % 3, m = (k + 2) % 3;
+        const __m256d ex = _mm256_sub_pd(_mm256_mul_pd(x[a], cw[k]), _mm256_mul_pd(x[k], cw[a]));
+        const __m256d ey = _mm256_sub_pd(_mm256_mul_pd(y[a], cw[k]), _mm256_mul_pd(y[k], cw[a]));
+        edge2 = _mm256_max_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey)),
+                                            _mm256_mul_pd(cw[m], cw[m])),
+                              edge2);
+        __m256d d2 = zero;
+        for (int c = 0; c < 3; ++c) {
+          const __m256d d = _mm256_sub_pd(vn[a][c], vn[k][c]);
+          d2 = _mm256_add_pd(d2, _mm256_mul_pd(d, d));
+        }
+        spread2 = _mm256_max_pd(d2, spread2);
+      }
+      const __m256d spread_bound = _mm256_mul_pd(_mm256_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
+                                                 _mm256_mul_pd(area, area));
+      close = _mm256_and_pd(close, _mm256_cmp_pd(_mm256_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ));
+      exact = _mm256_andnot_pd(close, live_d);
+      if (_mm256_movemask_pd(exact))  // (their corners' normals: only here)
+        for (int k = 0; k < 3; ++k)
+          for (int c = 0; c < 3; ++c) _mm256_store_pd(exact_fields[FaceTable::kCorners + 3 * k + c], vn[k][c]);
     }
   }
 
@@ -665,6 +925,16 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
     _MM_TRANSPOSE4_PS(field[g], field[g + 1], field[g + 2], field[g + 3]);
     for (int j = 0; j < 4; ++j)
       if (lanes & (1 << j)) _mm_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
+  }
+  if (const unsigned exact_lanes = unsigned(_mm256_movemask_pd(exact))) {
+    for (int c = 0; c < 9; ++c) _mm256_store_pd(exact_fields[FaceTable::kBary + c], coef[c]);
+    _mm256_store_pd(exact_fields[FaceTable::kSide], side);
+    for (int c = 0; c < 3; ++c) _mm256_store_pd(exact_fields[FaceTable::kFlat + c], normal[c]);
+    for (unsigned l = exact_lanes; l; l &= l - 1) {
+      const int j = __builtin_ctz(l);
+      float* e = table.add_exact(first + size_t(j));
+      for (int c = 0; c < FaceTable::kFlat + 3; ++c) e[c] = float(exact_fields[c][j]);
+    }
   }
 }
 #endif
@@ -763,6 +1033,7 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
     for (size_t i = 0; i < found; ++i) table.slot[size_t(list[i])] = int32_t(i);
   }
   const size_t count = table.by_slot ? list.size() : n_faces;
+  table.n_exact = 0;
   table.resize(count, bary, map);
   auto face_at = [&](size_t i) { return table.by_slot ? list[i] : int32_t(i); };
   size_t i = 0;
@@ -817,7 +1088,7 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
   }
 #endif
   for (; i < count; ++i)
-    store_row(table, i, prepare_face(in, face_at(i), bary || map, map), bary, map);
+    store_row(in, table, i, face_at(i), prepare_face(in, face_at(i), bary || map, map), bary, map);
 }
 
 // The calling thread's table, prepared for one pass and trimmed after it.
@@ -872,6 +1143,92 @@ inline __m512i to_bytes(__m512 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
       _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
 }
 
+// The barycentrics of 16 pixel centres (NDC xn, yn) from their faces'
+// coefficients: normalised and clamped into the triangle as the scalar
+// pass's clamped_barycentrics does, a third each where they cannot be had.
+inline void clamped_barycentrics16(const __m512* coef, __m512 xn, __m512 yn, __m512 b[3]) {
+  const __m512 one = _mm512_set1_ps(1.0f);
+  for (int k = 0; k < 3; ++k)
+    b[k] = _mm512_add_ps(
+        _mm512_add_ps(_mm512_mul_ps(coef[3 * k], xn), _mm512_mul_ps(coef[3 * k + 1], yn)),
+        coef[3 * k + 2]);
+  const __m512 sum = _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]);
+  constexpr int kNanOrInfOrZero = 0x01 | 0x80 | 0x08 | 0x10 | 0x02 | 0x04;
+  const __mmask16 bad = _mm512_fpclass_ps_mask(sum, kNanOrInfOrZero);
+  const __m512 inv = _mm512_div_ps(one, sum);
+  for (int k = 0; k < 3; ++k)
+    b[k] = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(b[k], inv), _mm512_setzero_ps()), one);
+  const __m512 inv_total = _mm512_div_ps(one, _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]));
+  for (int k = 0; k < 3; ++k)
+    b[k] = _mm512_mask_mov_ps(_mm512_mul_ps(b[k], inv_total), bad, _mm512_set1_ps(1.0f / 3.0f));
+}
+
+// Smooth shading's normal the scalar pass's way (clamped barycentrics,
+// the corners' normals by them) into the lanes `lanes` of n: for the faces
+// whose map is not close enough (FaceShade::exact), their data read face
+// by face from the table's `exact` rows, and their clamped barycentrics
+// into b. f: the 16 pixels' ids.
+inline void exact_normals16(const FaceTable& table, const int32_t* ids, __m512i f, unsigned lanes,
+                            __m512 xn, __m512 yn, __m512 n[3], __m512 b[3]) {
+  constexpr int kFields = FaceTable::kFlat + 3;
+  __m512 e[kFields];
+  for (auto& v : e) v = _mm512_setzero_ps();
+  for (unsigned left = lanes; left;) {
+    const int32_t face = ids[__builtin_ctz(left)];
+    const __mmask16 same = _mm512_mask_cmpeq_epi32_mask(__mmask16(left), f, _mm512_set1_epi32(face));
+    left &= ~unsigned(same);
+    const float* row = table.exact_face(table.rows.data() + size_t(table.row_floats) * size_t(table.row(face)));
+    for (int c = 0; c < kFields; ++c) e[c] = _mm512_mask_mov_ps(e[c], same, _mm512_set1_ps(row[c]));
+  }
+  clamped_barycentrics16(e + FaceTable::kBary, xn, yn, b);
+  __m512 ns[3];
+  for (int c = 0; c < 3; ++c) {
+    ns[c] = _mm512_setzero_ps();
+    for (int k = 0; k < 3; ++k)
+      ns[c] = _mm512_add_ps(ns[c], _mm512_mul_ps(b[k], e[FaceTable::kCorners + 3 * k + c]));
+  }
+  const __m512 len2 = _mm512_add_ps(
+      _mm512_add_ps(_mm512_mul_ps(ns[0], ns[0]), _mm512_mul_ps(ns[1], ns[1])), _mm512_mul_ps(ns[2], ns[2]));
+  const __mmask16 usable = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);
+  const __m512 scale = _mm512_mul_ps(e[FaceTable::kSide], _mm512_div_ps(_mm512_set1_ps(1.0f), _mm512_sqrt_ps(len2)));
+  for (int c = 0; c < 3; ++c)
+    n[c] = _mm512_mask_mov_ps(
+        n[c], __mmask16(lanes),
+        _mm512_mask_mov_ps(e[FaceTable::kFlat + c], usable, _mm512_mul_ps(ns[c], scale)));
+}
+
+// The pixels of the recorded steps (FaceTable::exact_steps) shaded again,
+// with their normals the scalar pass's way (exact_normals16).
+__attribute__((noinline)) void finish_exact16(const ShadingInput& in, const FaceTable& table,
+                                              const int32_t* triangle_id, uint8_t* image, size_t n_steps) {
+  const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
+  const __m512 lane = _mm512_setr_ps(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  for (size_t k = 0; k < n_steps; ++k) {
+    const int y = int(table.exact_steps[3 * k]), x = int(table.exact_steps[3 * k + 1]);
+    const unsigned lanes = table.exact_steps[3 * k + 2];
+    const int32_t* ids = triangle_id + size_t(y) * size_t(in.width) + size_t(x);
+    const __m512i f = _mm512_maskz_loadu_epi32(__mmask16(lanes), ids);
+    // (as the pass: (x + 0.5) / half_w - 1 in float)
+    const __m512 xn = _mm512_sub_ps(
+        _mm512_div_ps(_mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(float(x)), lane), _mm512_set1_ps(0.5f)),
+                      _mm512_set1_ps(half_w)),
+        _mm512_set1_ps(1.0f));
+    const __m512 yn = _mm512_set1_ps(1.0f - (float(y) + 0.5f) / half_h);
+    __m512 n[3] = {_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()}, b[3];
+    exact_normals16(table, ids, f, lanes, xn, yn, n, b);
+    alignas(64) float nl[3][16], bl[3][16];
+    for (int c = 0; c < 3; ++c) {
+      _mm512_store_ps(nl[c], n[c]);
+      _mm512_store_ps(bl[c], b[c]);
+    }
+    for (unsigned l = lanes; l; l &= l - 1) {
+      const int j = __builtin_ctz(l);
+      const float nj[3] = {nl[0][j], nl[1][j], nl[2][j]}, bj[3] = {bl[0][j], bl[1][j], bl[2][j]};
+      finish_pixel(in, ids[j], nj, bj, image + 3 * (size_t(y) * size_t(in.width) + size_t(x + j)));
+    }
+  }
+}
+
 // One pass per kind of shading (smooth normals, per-vertex colours), so
 // that each keeps in registers only the fields it reads.
 template <bool smooth, bool per_vertex>
@@ -880,7 +1237,15 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   constexpr int kRowFloats = FaceTable::row_floats_for(per_vertex, smooth);
   constexpr int kMapAt = FaceTable::map_at_for(per_vertex);
   const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
-  const FaceTable& table = prepared.table;
+  FaceTable& table = prepared.table;
+  size_t n_exact_steps = 0;
+  if (smooth && table.n_exact > 0) {
+    const size_t most = 3 * size_t(in.height) * ((size_t(in.width) + 15) / 16);
+    if (table.exact_steps.size() < most) {
+      Buffer<uint32_t>().swap(table.exact_steps);
+      table.exact_steps.resize(most);
+    }
+  }
 
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
   // x of each column's pixel centres in NDC (and 16 spare entries).
@@ -895,7 +1260,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   const __m512 lz = _mm512_set1_ps(float(-in.light_dir[2]));
   const __m512 ambient = _mm512_set1_ps(float(in.ambient));
   const __m512 diffuse = _mm512_set1_ps(float(in.diffuse));
-  const __m512 one = _mm512_set1_ps(1.0f), third = _mm512_set1_ps(1.0f / 3.0f);
+  const __m512 one = _mm512_set1_ps(1.0f);
   auto fields_of = [&](int32_t face) {
     return table.rows.data() + size_t(kRowFloats) * size_t(table.row(face));
   };
@@ -938,6 +1303,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
         for (int c = 0; c < 3; ++c) albedo[c] = _mm512_set1_ps(in.uniform_color[c]);
         // Run by run (a run: neighbouring lanes of one id), its lanes
         // known from the bits alone -- no compare waits on the last face.
+        unsigned exact_lanes = 0;  // smooth: faces without a close map (FaceShade::exact)
         const unsigned change =
             unsigned(_mm512_cmpneq_epi32_mask(f, _mm512_alignr_epi32(f, f, 15))) | 0x10001u;
         for (unsigned starts = change & drawn; starts; starts &= starts - 1) {
@@ -949,10 +1315,12 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
           const float* fields = fields_of(face);
           // (Smooth shading looks the flat normal up below, for the rare
           // pixel whose interpolated normal vanishes.)
-          if constexpr (smooth)
+          if constexpr (smooth) {
             for (int c = 0; c < 9; ++c) put(normal_map[c], fields[kMapAt + c]);
-          else
+            exact_lanes |= same & (0u - unsigned(table.exact_face(fields) != nullptr));
+          } else {
             for (int c = 0; c < 3; ++c) put(n[c], fields[FaceTable::kNormal + c]);
+          }
           if constexpr (per_vertex) {
             for (int c = 0; c < 9; ++c) put(coef[c], fields[FaceTable::kBary + c]);
             const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
@@ -981,6 +1349,12 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
             for (int c = 0; c < 3; ++c)
               n[c] = _mm512_mask_mov_ps(n[c], __mmask16(1u << k), _mm512_set1_ps(fields[FaceTable::kNormal + c]));
           }
+          if (exact_lanes) {  // shaded again after the pass
+            uint32_t* step = table.exact_steps.data() + 3 * n_exact_steps++;
+            step[0] = uint32_t(j);
+            step[1] = uint32_t(i);
+            step[2] = exact_lanes;
+          }
         }
         const __m512 ndotl = _mm512_add_ps(
             _mm512_add_ps(_mm512_mul_ps(n[0], lx), _mm512_mul_ps(n[1], ly)), _mm512_mul_ps(n[2], lz));
@@ -991,15 +1365,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
         // centres, normalised and clamped.
         if constexpr (per_vertex) {
           __m512 b[3];
-          for (int k = 0; k < 3; ++k) b[k] = affine(coef + 3 * k, xn, yn);
-          const __m512 sum = _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]);
-          constexpr int kNanOrInfOrZero = 0x01 | 0x80 | 0x08 | 0x10 | 0x02 | 0x04;
-          const __mmask16 bad = _mm512_fpclass_ps_mask(sum, kNanOrInfOrZero);
-          const __m512 inv = _mm512_div_ps(one, sum);
-          for (auto& bk : b)
-            bk = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(bk, inv), _mm512_setzero_ps()), one);
-          const __m512 inv_total = _mm512_div_ps(one, _mm512_add_ps(_mm512_add_ps(b[0], b[1]), b[2]));
-          for (auto& bk : b) bk = _mm512_mask_mov_ps(_mm512_mul_ps(bk, inv_total), bad, third);
+          clamped_barycentrics16(coef, xn, yn, b);
           for (int c = 0; c < 3; ++c) {
             albedo[c] = _mm512_setzero_ps();
             for (int k = 0; k < 3; ++k)
@@ -1016,6 +1382,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
       store_rgb16(row + 3 * size_t(i), rgba, valid);
     }
   }
+  if (n_exact_steps) finish_exact16(in, table, triangle_id, image, n_exact_steps);
 }
 
 void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
@@ -1036,6 +1403,98 @@ inline __m256i to_bytes8(__m256 c) {  // floor(clamp(c, 0, 1) * 255 + 0.5)
       _mm256_add_ps(_mm256_mul_ps(v, _mm256_set1_ps(255.0f)), _mm256_set1_ps(0.5f))));
 }
 
+// clamped_barycentrics16 for 8 pixels.
+inline void clamped_barycentrics8(const __m256* coef, __m256 xn, __m256 yn, __m256 b[3]) {
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+  for (int k = 0; k < 3; ++k)
+    b[k] = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(coef[3 * k], xn), _mm256_mul_ps(coef[3 * k + 1], yn)),
+        coef[3 * k + 2]);
+  const __m256 sum = _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]);
+  const __m256 abs_sum = _mm256_and_ps(sum, _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF)));
+  const __m256 bad = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(sum, sum, _CMP_UNORD_Q),  // NaN
+                   _mm256_cmp_ps(abs_sum, _mm256_set1_ps(std::numeric_limits<float>::infinity()),
+                                 _CMP_EQ_OQ)),
+      _mm256_cmp_ps(sum, zero, _CMP_EQ_OQ));
+  const __m256 inv = _mm256_div_ps(one, sum);
+  for (int k = 0; k < 3; ++k) b[k] = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(b[k], inv), zero), one);
+  const __m256 inv_total = _mm256_div_ps(one, _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]));
+  for (int k = 0; k < 3; ++k)
+    b[k] = _mm256_blendv_ps(_mm256_mul_ps(b[k], inv_total), _mm256_set1_ps(1.0f / 3.0f), bad);
+}
+
+// exact_normals16 for 8 pixels: lanes as bits, f the 8 pixels' ids.
+inline void exact_normals8(const FaceTable& table, const int32_t* ids, __m256i f, unsigned lanes,
+                           __m256 xn, __m256 yn, __m256 n[3], __m256 b[3]) {
+  constexpr int kFields = FaceTable::kFlat + 3;
+  __m256 e[kFields];
+  for (auto& v : e) v = _mm256_setzero_ps();
+  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  auto lanes_of = [&](unsigned bits) {
+    return _mm256_castsi256_ps(
+        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int32_t(bits)), lane_bit), lane_bit));
+  };
+  for (unsigned left = lanes; left;) {
+    const int32_t face = ids[__builtin_ctz(left)];
+    const unsigned same =
+        left & unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(f, _mm256_set1_epi32(face)))));
+    left &= ~same;
+    const __m256 in_face = lanes_of(same);
+    const float* row = table.exact_face(table.rows.data() + size_t(table.row_floats) * size_t(table.row(face)));
+    for (int c = 0; c < kFields; ++c) e[c] = _mm256_blendv_ps(e[c], _mm256_set1_ps(row[c]), in_face);
+  }
+  clamped_barycentrics8(e + FaceTable::kBary, xn, yn, b);
+  __m256 ns[3];
+  for (int c = 0; c < 3; ++c) {
+    ns[c] = _mm256_setzero_ps();
+    for (int k = 0; k < 3; ++k)
+      ns[c] = _mm256_add_ps(ns[c], _mm256_mul_ps(b[k], e[FaceTable::kCorners + 3 * k + c]));
+  }
+  const __m256 len2 = _mm256_add_ps(
+      _mm256_add_ps(_mm256_mul_ps(ns[0], ns[0]), _mm256_mul_ps(ns[1], ns[1])), _mm256_mul_ps(ns[2], ns[2]));
+  const __m256 usable = _mm256_cmp_ps(len2, _mm256_setzero_ps(), _CMP_GT_OQ);
+  const __m256 scale = _mm256_mul_ps(e[FaceTable::kSide], _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(len2)));
+  const __m256 in_lanes = lanes_of(lanes);
+  for (int c = 0; c < 3; ++c)
+    n[c] = _mm256_blendv_ps(
+        n[c], _mm256_blendv_ps(e[FaceTable::kFlat + c], _mm256_mul_ps(ns[c], scale), usable), in_lanes);
+}
+
+// finish_exact16 for the AVX2 pass's steps of 8 pixels.
+__attribute__((noinline)) void finish_exact8(const ShadingInput& in, const FaceTable& table,
+                                             const int32_t* triangle_id, uint8_t* image, size_t n_steps) {
+  const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
+  const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  for (size_t k = 0; k < n_steps; ++k) {
+    const int y = int(table.exact_steps[3 * k]), x = int(table.exact_steps[3 * k + 1]);
+    const unsigned lanes = table.exact_steps[3 * k + 2];
+    const int32_t* ids = triangle_id + size_t(y) * size_t(in.width) + size_t(x);
+    const __m256i live = _mm256_cmpeq_epi32(
+        _mm256_and_si256(_mm256_set1_epi32(int32_t(lanes)), lane_bit), lane_bit);
+    const __m256i f = _mm256_maskload_epi32(ids, live);
+    // (as the pass: (x + 0.5) / half_w - 1 in float)
+    const __m256 xn = _mm256_sub_ps(
+        _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_set1_ps(float(x)), lane), _mm256_set1_ps(0.5f)),
+                      _mm256_set1_ps(half_w)),
+        _mm256_set1_ps(1.0f));
+    const __m256 yn = _mm256_set1_ps(1.0f - (float(y) + 0.5f) / half_h);
+    __m256 n[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()}, b[3];
+    exact_normals8(table, ids, f, lanes, xn, yn, n, b);
+    alignas(32) float nl[3][8], bl[3][8];
+    for (int c = 0; c < 3; ++c) {
+      _mm256_store_ps(nl[c], n[c]);
+      _mm256_store_ps(bl[c], b[c]);
+    }
+    for (unsigned l = lanes; l; l &= l - 1) {
+      const int j = __builtin_ctz(l);
+      const float nj[3] = {nl[0][j], nl[1][j], nl[2][j]}, bj[3] = {bl[0][j], bl[1][j], bl[2][j]};
+      finish_pixel(in, ids[j], nj, bj, image + 3 * (size_t(y) * size_t(in.width) + size_t(x + j)));
+    }
+  }
+}
+
 // The AVX-512 pass above, 8 pixels per step; lane masks are vectors. One
 // pass per kind of shading, so that each keeps in registers only the
 // fields it reads (AVX2 has 16 of them).
@@ -1045,7 +1504,15 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
   constexpr int kRowFloats = FaceTable::row_floats_for(per_vertex, smooth);
   constexpr int kMapAt = FaceTable::map_at_for(per_vertex);
   const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
-  const FaceTable& table = prepared.table;
+  FaceTable& table = prepared.table;
+  size_t n_exact_steps = 0;
+  if (smooth && table.n_exact > 0) {
+    const size_t most = 3 * size_t(in.height) * ((size_t(in.width) + 7) / 8);
+    if (table.exact_steps.size() < most) {
+      Buffer<uint32_t>().swap(table.exact_steps);
+      table.exact_steps.resize(most);
+    }
+  }
   const size_t nv = size_t(in.mesh.n_vertices);
   const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
 
@@ -1063,9 +1530,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
   const __m256 lz = _mm256_set1_ps(float(-in.light_dir[2]));
   const __m256 ambient = _mm256_set1_ps(float(in.ambient));
   const __m256 diffuse = _mm256_set1_ps(float(in.diffuse));
-  const __m256 one = _mm256_set1_ps(1.0f), third = _mm256_set1_ps(1.0f / 3.0f);
-  const __m256 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
-  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+  const __m256 one = _mm256_set1_ps(1.0f);
   // Pack 8 colours 0x00BBGGRR into 24 bytes R G B R G B ...: 12 bytes per
   // 128-bit half, then both halves through a small buffer.
   const __m256i rgb_bytes = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1,
@@ -1105,6 +1570,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
         // leaves out the flat normal: it is looked up below for the rare
         // pixel whose interpolated normal vanishes.
         __m256 coef[9], normal_map[9], flat[3];
+        unsigned exact_lanes = 0;  // smooth: faces without a close map (FaceShade::exact)
         if constexpr (per_vertex)
           for (auto& v : coef) v = zero_f;
         if constexpr (smooth)
@@ -1127,10 +1593,12 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
             auto put = [&](__m256& reg, float v) { reg = _mm256_blendv_ps(reg, _mm256_set1_ps(v), in_run); };
             if constexpr (per_vertex)
               for (int c = 0; c < 9; ++c) put(coef[c], fields[FaceTable::kBary + c]);
-            if constexpr (smooth)
+            if constexpr (smooth) {
               for (int c = 0; c < 9; ++c) put(normal_map[c], fields[kMapAt + c]);
-            else
+              exact_lanes |= run & (0u - unsigned(table.exact_face(fields) != nullptr));
+            } else {
               for (int c = 0; c < 3; ++c) put(flat[c], fields[FaceTable::kNormal + c]);
+            }
           }
         }
         const __m256 xn = _mm256_sub_ps(
@@ -1165,6 +1633,12 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
             }
             for (int c = 0; c < 3; ++c) n[c] = _mm256_load_ps(lanes[c]);
           }
+          if (exact_lanes) {  // shaded again after the pass
+            uint32_t* step = table.exact_steps.data() + 3 * n_exact_steps++;
+            step[0] = uint32_t(j);
+            step[1] = uint32_t(i);
+            step[2] = exact_lanes;
+          }
         } else {
           for (int c = 0; c < 3; ++c) n[c] = flat[c];
         }
@@ -1179,17 +1653,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
         __m256i vid[3];  // each lane's corners
         const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
         if constexpr (per_vertex) {
-          for (int k = 0; k < 3; ++k) b[k] = affine(coef + 3 * k);
-          const __m256 sum = _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]);
-          const __m256 bad = _mm256_or_ps(
-              _mm256_or_ps(_mm256_cmp_ps(sum, sum, _CMP_UNORD_Q),  // NaN
-                           _mm256_cmp_ps(_mm256_and_ps(sum, abs_mask), inf, _CMP_EQ_OQ)),
-              _mm256_cmp_ps(sum, zero_f, _CMP_EQ_OQ));
-          const __m256 inv = _mm256_div_ps(one, sum);
-          for (auto& bk : b)
-            bk = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(bk, inv), zero_f), one);
-          const __m256 inv_total = _mm256_div_ps(one, _mm256_add_ps(_mm256_add_ps(b[0], b[1]), b[2]));
-          for (auto& bk : b) bk = _mm256_blendv_ps(_mm256_mul_ps(bk, inv_total), third, bad);
+          clamped_barycentrics8(coef, xn, yn, b);
           for (int k = 0; k < 3; ++k)
             vid[k] = _mm256_mask_i32gather_epi32(zero, in.mesh.faces,
                                                  _mm256_add_epi32(f3, _mm256_set1_epi32(k)), drawn, 4);
@@ -1222,6 +1686,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
       if (count > 4) std::memcpy(out + 12, packed + 16, 3 * size_t(count - 4));
     }
   }
+  if (n_exact_steps) finish_exact8(in, table, triangle_id, image, n_exact_steps);
 }
 
 void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {

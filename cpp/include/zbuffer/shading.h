@@ -9,8 +9,9 @@
 // exact for any triangle, even one reaching behind the camera -- and
 // clamped into [0, 1] (a snapped pixel centre may lie a hair outside the
 // triangle). The vector passes interpolate smooth normals by an equivalent
-// per-face linear map without that clamp (shading.cpp, FaceShade): within
-// one level all the same.
+// per-face linear map without that clamp (shading.cpp, FaceShade), and
+// shade the faces where that could stray (slivers, near-degenerate faces)
+// the clamped way after the pass: within one level of the scalar pass.
 #pragma once
 
 #include <cstdint>
