@@ -421,9 +421,10 @@ struct FaceTable {
   enum ExactField { kCorners = 9, kSide = 18, kFlat = 19, kExactFloats = 24 };
   Buffer<float> exact;
   size_t n_exact = 0;
-  // The steps of a pass with lanes of such faces (y, x, lane bits), shaded
-  // again after the pass (finish_exact): in the pass's loop they would
-  // crowd its registers (an inlined or called helper: 1.4-1.5x as slow).
+  // The steps of a row of a pass with lanes of such faces (y, x, lane
+  // bits), shaded again after the row (finish_exact16/8): in the loop over
+  // the row they would crowd its registers (an inlined or called helper
+  // there: 1.4-1.5x as slow).
   Buffer<uint32_t> exact_steps;
   const float* exact_face(const float* row) const {
     int32_t at;
@@ -1240,7 +1241,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   FaceTable& table = prepared.table;
   size_t n_exact_steps = 0;
   if (smooth && table.n_exact > 0) {
-    const size_t most = 3 * size_t(in.height) * ((size_t(in.width) + 15) / 16);
+    const size_t most = 3 * ((size_t(in.width) + 15) / 16);  // (a row's)
     if (table.exact_steps.size() < most) {
       Buffer<uint32_t>().swap(table.exact_steps);
       table.exact_steps.resize(most);
@@ -1381,8 +1382,11 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
       }
       store_rgb16(row + 3 * size_t(i), rgba, valid);
     }
+    if (n_exact_steps) {
+      finish_exact16(in, table, triangle_id, image, n_exact_steps);
+      n_exact_steps = 0;
+    }
   }
-  if (n_exact_steps) finish_exact16(in, table, triangle_id, image, n_exact_steps);
 }
 
 void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
@@ -1507,7 +1511,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
   FaceTable& table = prepared.table;
   size_t n_exact_steps = 0;
   if (smooth && table.n_exact > 0) {
-    const size_t most = 3 * size_t(in.height) * ((size_t(in.width) + 7) / 8);
+    const size_t most = 3 * ((size_t(in.width) + 7) / 8);  // (a row's)
     if (table.exact_steps.size() < most) {
       Buffer<uint32_t>().swap(table.exact_steps);
       table.exact_steps.resize(most);
@@ -1685,8 +1689,11 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
       std::memcpy(out, packed, 3 * size_t(low));
       if (count > 4) std::memcpy(out + 12, packed + 16, 3 * size_t(count - 4));
     }
+    if (n_exact_steps) {
+      finish_exact8(in, table, triangle_id, image, n_exact_steps);
+      n_exact_steps = 0;
+    }
   }
-  if (n_exact_steps) finish_exact8(in, table, triangle_id, image, n_exact_steps);
 }
 
 void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {

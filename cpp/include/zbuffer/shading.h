@@ -11,7 +11,7 @@
 // triangle). The vector passes interpolate smooth normals by an equivalent
 // per-face linear map without that clamp (shading.cpp, FaceShade), and
 // shade the faces where that could stray (slivers, near-degenerate faces)
-// the clamped way after the pass: within one level of the scalar pass.
+// the clamped way afterwards: within one level of the scalar pass.
 #pragma once
 
 #include <cstdint>
