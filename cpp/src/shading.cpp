@@ -69,26 +69,31 @@ struct FaceShade {
   // hair. A face without usable barycentrics (det 0 or not finite) maps
   // every pixel to its corners' mean normal, as the scalar pass does.
   double normal_map[9];
-  // Smooth shading in the vector passes: true where the map could stray
-  // from the scalar pass by about a level, and the pass shades the face's
-  // pixels again afterwards with clamped barycentrics (finish_exact16/8).
-  // A covered pixel centre lies within 2^-9 px (the snapping) of the
-  // triangle in each axis, so up to 0.0028 px outside an edge: the map
-  // then extrapolates the normal by 0.0028 x spread / h (h: the altitude
-  // onto that edge, in pixels; spread: the largest difference of two
-  // corners' normals), where the clamp would not -- with spread <= h, at
-  // most 0.0028 x 255 x diffuse (0.8) = 0.56 of a level for a white face
-  // (twice that only within 0.003 px of a corner, outside both its edges).
-  // The map is also evaluated in float32, which fails where it nearly
-  // vanishes at a corner, and a face degenerate to within rounding has a
-  // map of rounding noise (det a sign of noise), its entries before the
-  // scaling far below the barycentrics' coefficients (scaled to 1). Hence:
-  // a corner at or behind the camera plane, spread > h, the map's length
-  // at a corner under 1e-3 of its largest entry, or that entry under 1e-9
-  // before the scaling. (Found by a fuzzing helper: up to 73 levels off on
-  // slivers of 1e-4 px^2 and faces collinear within rounding.) A stricter
-  // spread <= h / 2 costs 25-75% more smooth-shading time on armadillo_86k
-  // and lucy_20k at 1024 x 1024 (8-21% of their faces flagged).
+  // Interpolated shading in the vector passes: true where their float32
+  // evaluation could stray from the scalar pass by about a level, and they
+  // shade the face's pixels again after each row the scalar pass's way, in
+  // double (finish_exact). First, the barycentrics: their sum at a pixel
+  // of the face is at least |det| / max w_k (det from the scaled
+  // coefficients), and float32 loses 2e-7 of the coefficients' scale (1)
+  // in each: under 1e-3 that is 5e-4 of a barycentric (0.14 of a level
+  // between corners of opposite colours). Then smooth shading's map: it
+  // does not clamp, and a covered pixel centre lies within 2^-9 px (the
+  // snapping) of the triangle in each axis, so up to 0.0028 px outside an
+  // edge, where the map extrapolates the normal by 0.0028 x spread / h (h:
+  // the altitude onto that edge, in pixels; spread: the largest difference
+  // of two corners' normals) -- with spread <= h, at most 0.0028 x 255 x
+  // diffuse (0.8) = 0.56 of a level for a white face (twice that only
+  // within 0.003 px of a corner, outside both its edges). And corners'
+  // normals more than 90 degrees apart can cancel inside the face, where
+  // float32 then fails. Hence: a corner at or behind the camera plane,
+  // |det| < 1e-3 max w_k, and for smooth shading spread > h, two corners'
+  // normals with a negative dot product, the map's length at a corner
+  // under 1e-3 of its largest entry, or that entry under 1e-9 before the
+  // scaling (a map of rounding noise). Found by fuzzing helpers: up to 73
+  // levels off on slivers of 1e-4 px^2, on faces collinear within rounding
+  // and on a prism's cap seen end-on, 3-14 on slivers at 4000 x 3000. A
+  // stricter spread <= h / 2 costs 25-75% more smooth-shading time on
+  // armadillo_86k and lucy_20k at 1024 x 1024 (8-21% of their faces).
   bool exact = false;
 };
 
@@ -96,9 +101,20 @@ struct FaceShade {
 constexpr double kSpreadPerPixel = 1.0;
 constexpr double kLeastCornerLength = 1e-3;
 constexpr double kLeastMapEntry = 1e-9;
+constexpr double kLeastSum = 1e-3;
 
-// Whether FaceShade::exact may be false: the corners in front of the
-// camera, the normals' spread within the smallest altitude (squared:
+// Whether the barycentrics may be evaluated in float32 (FaceShade::exact
+// false): every corner in front of the camera and |det| >= kLeastSum max w.
+// The vector preparations compute the same.
+bool sums_are_close(const double cw[3], double det) {
+  const double w = std::max(std::max(cw[0], cw[1]), cw[2]);
+  return cw[0] > 0.0 && cw[1] > 0.0 && cw[2] > 0.0 && std::abs(det) >= kLeastSum * w;
+}
+
+// Whether smooth shading's map may be evaluated in float32 (with
+// sums_are_close): the corners in front of the camera, no two corners'
+// normals more than 90 degrees apart, their spread within the smallest
+// altitude (squared:
 // spread^2 lmax^2 <= kSpreadPerPixel^2 (2 area)^2, in pixels), and the map's
 // length at each corner at least kLeastCornerLength, its largest entry
 // before the scaling (`largest`) at least kLeastMapEntry. The vector
@@ -134,9 +150,13 @@ bool map_is_close(const ShadingInput& in, const double cx[3], const double cy[3]
     const int a = (k + 1) % 3, m = (k + 2) % 3;
     const double ex = x[a] * cw[k] - x[k] * cw[a], ey = y[a] * cw[k] - y[k] * cw[a];
     edge2 = std::max(edge2, (ex * ex + ey * ey) * (cw[m] * cw[m]));
-    double d2 = 0.0;
-    for (int c = 0; c < 3; ++c) d2 = d2 + (vn[a][c] - vn[k][c]) * (vn[a][c] - vn[k][c]);
+    double d2 = 0.0, along = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      d2 = d2 + (vn[a][c] - vn[k][c]) * (vn[a][c] - vn[k][c]);
+      along = along + vn[a][c] * vn[k][c];
+    }
     spread2 = std::max(spread2, d2);
+    close = close && along >= 0.0;
   }
   return close && spread2 * edge2 <= kSpread2 * (area * area);
 }
@@ -176,11 +196,12 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary, bool n
       const double scale = 1.0 / big;
       for (double& b : s.bary) b *= scale;
     }
+    const double det = s.bary[0] * cx[0] + s.bary[1] * cy[0] + s.bary[2] * cw[0];
+    s.exact = !sums_are_close(cw, det);
     if (need_map) {
       double vn[3][3];  // corner k, component c
       for (int k = 0; k < 3; ++k)
         for (int c = 0; c < 3; ++c) vn[k][c] = in.vertex_normals[3 * int64_t(idx[k]) + c];
-      const double det = s.bary[0] * cx[0] + s.bary[1] * cy[0] + s.bary[2] * cw[0];
       if (scaled && det != 0.0 && std::isfinite(det)) {
         const double sign = (det < 0.0) == (s.side < 0.0) ? 1.0 : -1.0;
         for (int c = 0; c < 3; ++c)
@@ -199,7 +220,7 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary, bool n
         const double scale = 1.0 / largest;
         for (double& v : s.normal_map) v *= scale;
       }
-      s.exact = !map_is_close(in, cx, cy, cw, vn, s.normal_map, largest);
+      s.exact = s.exact || !map_is_close(in, cx, cy, cw, vn, s.normal_map, largest);
     }
   }
   const Vec3 to_light = -1.0 * load3(in.light_dir);
@@ -237,6 +258,32 @@ Vec3 smooth_normal(const ShadingInput& in, const FaceShade& s, const int32_t* id
   return dot(ns, ns) > 0.0 ? s.side * normalized(ns) : s.normal;
 }
 
+// The scalar pass's colour of pixel (i, j) of face f (prepared as s, with
+// barycentrics), into out[0..2]: for interpolated shading, smooth or with
+// per-vertex colours.
+void shade_pixel(const ShadingInput& in, const FaceShade& s, int32_t f, int i, int j, bool smooth,
+                 uint8_t* out) {
+  const double half_w = 0.5 * in.width, half_h = 0.5 * in.height;
+  double b[3];
+  clamped_barycentrics(s, (i + 0.5) / half_w - 1.0, 1.0 - (j + 0.5) / half_h, b);
+  const int32_t* idx = in.mesh.faces + 3 * int64_t(f);
+  const Vec3 n = smooth ? smooth_normal(in, s, idx, b) : s.normal;
+  double albedo[3] = {0.0, 0.0, 0.0};
+  for (int c = 0; c < 3; ++c) {
+    switch (in.color_source) {
+      case ColorSource::kUniform: albedo[c] = in.uniform_color[c]; break;
+      case ColorSource::kPerFace: albedo[c] = in.colors[3 * int64_t(f) + c]; break;
+      case ColorSource::kPerVertex:
+        albedo[c] = b[0] * in.colors[3 * int64_t(idx[0]) + c] +
+                    b[1] * in.colors[3 * int64_t(idx[1]) + c] +
+                    b[2] * in.colors[3 * int64_t(idx[2]) + c];
+        break;
+    }
+  }
+  const double light = intensity(in, n, -1.0 * load3(in.light_dir));
+  for (int c = 0; c < 3; ++c) out[c] = to_byte(albedo[c] * light);
+}
+
 
 #if defined(ZBUFFER_AVX512)
 void shade_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image);
@@ -260,16 +307,9 @@ void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
   const bool smooth = in.vertex_normals != nullptr;
   const bool per_vertex = in.color_source == ColorSource::kPerVertex;
   const bool need_bary = smooth || per_vertex;
-  const Vec3 to_light = -1.0 * load3(in.light_dir);
-  const double half_w = 0.5 * in.width, half_h = 0.5 * in.height;
 
   std::unique_ptr<FaceShade[]> faces(new FaceShade[size_t(in.mesh.n_faces)]);
   std::vector<uint8_t> ready(size_t(in.mesh.n_faces), 0);
-
-  auto lambert = [&](Vec3 n, const double albedo[3], uint8_t* out) {
-    const double light = intensity(in, n, to_light);
-    for (int c = 0; c < 3; ++c) out[c] = to_byte(albedo[c] * light);
-  };
 
   auto prepare = [&](int32_t f) -> const FaceShade& {
     if (!ready[f]) {
@@ -280,7 +320,6 @@ void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
   };
 
   for (int j = 0; j < in.height; ++j) {
-    const double yn = 1.0 - (j + 0.5) / half_h;
     for (int i = 0; i < in.width; ++i) {
       const size_t p = size_t(j) * size_t(in.width) + size_t(i);
       uint8_t* out = image + 3 * p;
@@ -299,23 +338,7 @@ void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
         continue;
       }
 
-      double b[3];
-      clamped_barycentrics(s, (i + 0.5) / half_w - 1.0, yn, b);
-      const int32_t* idx = in.mesh.faces + 3 * int64_t(f);
-      const Vec3 n = smooth ? smooth_normal(in, s, idx, b) : s.normal;
-      double albedo[3] = {0.0, 0.0, 0.0};
-      for (int c = 0; c < 3; ++c) {
-        switch (in.color_source) {
-          case ColorSource::kUniform: albedo[c] = in.uniform_color[c]; break;
-          case ColorSource::kPerFace: albedo[c] = in.colors[3 * int64_t(f) + c]; break;
-          case ColorSource::kPerVertex:
-            albedo[c] = b[0] * in.colors[3 * int64_t(idx[0]) + c] +
-                        b[1] * in.colors[3 * int64_t(idx[1]) + c] +
-                        b[2] * in.colors[3 * int64_t(idx[2]) + c];
-            break;
-        }
-      }
-      lambert(n, albedo, out);
+      shade_pixel(in, s, f, i, j, smooth, out);
     }
   }
 }
@@ -377,7 +400,7 @@ struct FaceTable {
   }
   // After a pass: give back the memory of arrays too large to keep.
   void trim() {
-    if (exact.size() > kKeptRowFloats / 4) Buffer<float>().swap(exact);
+    if (exact.size() > kKeptRows / 16) std::vector<FaceShade>().swap(exact);
     if (exact_steps.size() > kKeptSlots) Buffer<uint32_t>().swap(exact_steps);
     if (stride > kKeptRows || rows.size() > kKeptRowFloats) {
       stride = 0;
@@ -413,41 +436,31 @@ struct FaceTable {
   int row_floats = kLine;
   int map_at = 0;  // smooth: FaceShade::normal_map from here (after the barycentrics if kept)
   Buffer<float> rows;
-  // Smooth shading: what the scalar pass's way needs of the faces whose
-  // map is not close enough (FaceShade::exact), kExactFloats a face: the
-  // barycentrics' coefficients (as kBary), the corners' normals (corner k,
-  // component c at kCorners + 3 k + c), the side and the flat normal. Row
-  // field kExact holds 1 + the face's index here (int32 bits), else 0.
-  enum ExactField { kCorners = 9, kSide = 18, kFlat = 19, kExactFloats = 24 };
-  Buffer<float> exact;
+  // Interpolated shading: the faces the vector passes leave to the scalar
+  // pass's way (FaceShade::exact), as it prepares them. Row field kExact
+  // holds 1 + the face's index here (int32 bits), else 0.
+  std::vector<FaceShade> exact;
   size_t n_exact = 0;
   // The steps of a row of a pass with lanes of such faces (y, x, lane
-  // bits), shaded again after the row (finish_exact16/8): in the loop over
-  // the row they would crowd its registers (an inlined or called helper
-  // there: 1.4-1.5x as slow).
+  // bits), shaded again after the row (finish_exact): in the loop over the
+  // row they would crowd its registers (an inlined or called helper there:
+  // 1.4-1.5x as slow).
   Buffer<uint32_t> exact_steps;
-  const float* exact_face(const float* row) const {
+  const FaceShade* exact_face(const float* row) const {
     int32_t at;
     std::memcpy(&at, row + kExact, sizeof at);
-    return at ? exact.data() + kExactFloats * (size_t(at) - 1) : nullptr;
+    return at ? &exact[size_t(at) - 1] : nullptr;
   }
-  // A new exact row for row r (after r's fields are written), zeroed.
-  float* add_exact(size_t r) {
-    if (exact.size() < kExactFloats * (n_exact + 1)) {
-      Buffer<float> more(std::max<size_t>(kExactFloats * 64, 2 * exact.size()));
-      std::copy(exact.begin(), exact.begin() + kExactFloats * n_exact, more.begin());
-      exact.swap(more);
-    }
-    float* e = exact.data() + kExactFloats * n_exact++;
-    std::fill(e, e + kExactFloats, 0.0f);
-    const int32_t at = int32_t(n_exact);
+  // A new exact face for row r (after r's fields are written).
+  FaceShade& add_exact(size_t r) {
+    if (exact.size() <= n_exact) exact.resize(std::max<size_t>(64, 2 * exact.size()));
+    const int32_t at = int32_t(++n_exact);
     std::memcpy(rows.data() + size_t(row_floats) * r + kExact, &at, sizeof at);
-    return e;
+    return exact[size_t(at) - 1];
   }
 };
 
-void store_row(const ShadingInput& in, FaceTable& table, size_t r, int32_t face, const FaceShade& s,
-               bool bary, bool map) {
+void store_row(FaceTable& table, size_t r, const FaceShade& s, bool bary, bool map) {
   table.rgb[r] = int32_t(s.rgb[0]) | (int32_t(s.rgb[1]) << 8) | (int32_t(s.rgb[2]) << 16);
   if (!bary && !map) return;
   float* row = table.rows.data() + size_t(table.row_floats) * r;
@@ -459,40 +472,24 @@ void store_row(const ShadingInput& in, FaceTable& table, size_t r, int32_t face,
   row[FaceTable::kNormal + 0] = float(s.normal.x);
   row[FaceTable::kNormal + 1] = float(s.normal.y);
   row[FaceTable::kNormal + 2] = float(s.normal.z);
-  if (map && s.exact) {
-    float* e = table.add_exact(r);
-    const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
-    for (int c = 0; c < 9; ++c) e[FaceTable::kBary + c] = float(s.bary[c]);
-    for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c)
-        e[FaceTable::kCorners + 3 * k + c] = float(in.vertex_normals[3 * int64_t(idx[k]) + c]);
-    e[FaceTable::kSide] = float(s.side);
-    e[FaceTable::kFlat + 0] = float(s.normal.x);
-    e[FaceTable::kFlat + 1] = float(s.normal.y);
-    e[FaceTable::kFlat + 2] = float(s.normal.z);
-  }
+  if (s.exact) table.add_exact(r) = s;
 }
 
-
-// A vector pass's colour of a pixel of `face` from its unit normal n and
-// barycentrics b (for per-vertex colours), in float as the passes light
-// it, into out[0..2]: for the pixels finish_exact shades again.
-void finish_pixel(const ShadingInput& in, int32_t face, const float n[3], const float b[3],
-                  uint8_t* out) {
-  const float ndotl = n[0] * float(-in.light_dir[0]) + n[1] * float(-in.light_dir[1]) +
-                      n[2] * float(-in.light_dir[2]);
-  const float light = float(in.ambient) + float(in.diffuse) * std::max(ndotl, 0.0f);
-  const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
-  for (int c = 0; c < 3; ++c) {
-    float albedo = in.uniform_color[c];
-    if (in.color_source == ColorSource::kPerFace) {
-      albedo = in.colors[3 * int64_t(face) + c];
-    } else if (in.color_source == ColorSource::kPerVertex) {
-      albedo = 0.0f;
-      for (int k = 0; k < 3; ++k) albedo = albedo + b[k] * in.colors[3 * int64_t(idx[k]) + c];
+// The pixels of a pass's recorded steps (FaceTable::exact_steps: row y,
+// from pixel x, lane bits) shaded again the scalar pass's way.
+__attribute__((noinline)) void finish_exact(const ShadingInput& in, const FaceTable& table,
+                                            const int32_t* triangle_id, uint8_t* image, size_t n_steps) {
+  const bool smooth = in.vertex_normals != nullptr;
+  for (size_t k = 0; k < n_steps; ++k) {
+    const int y = int(table.exact_steps[3 * k]), x = int(table.exact_steps[3 * k + 1]);
+    const size_t at = size_t(y) * size_t(in.width) + size_t(x);
+    for (unsigned lanes = table.exact_steps[3 * k + 2]; lanes; lanes &= lanes - 1) {
+      const int j = __builtin_ctz(lanes);
+      const int32_t face = triangle_id[at + size_t(j)];
+      const FaceShade& s =
+          *table.exact_face(table.rows.data() + size_t(table.row_floats) * size_t(table.row(face)));
+      shade_pixel(in, s, face, x + j, y, smooth, image + 3 * (at + size_t(j)));
     }
-    const float v = std::min(std::max(albedo * light, 0.0f), 1.0f);
-    out[c] = uint8_t(std::floor(v * 255.0f + 0.5f));
   }
 }
 
@@ -583,7 +580,6 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
 
   __m512d coef[9], normal_map[9];
   __mmask8 exact = 0;  // FaceShade::exact
-  alignas(64) double exact_fields[FaceTable::kFlat + 3][8];  // the exact rows' fields, if any
   if (bary || map) {
     const double* m = in.mvp;
     __m512d cx[3], cy[3], cw[3];
@@ -612,15 +608,24 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
                            ~_mm512_fpclass_pd_mask(big, kNanOrInf);
     const __m512d inv_big = _mm512_div_pd(one, big);
     for (int c = 0; c < 9; ++c) coef[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
+    const __m512d det = _mm512_add_pd(
+        _mm512_add_pd(_mm512_mul_pd(coef[0], cx[0]), _mm512_mul_pd(coef[1], cy[0])),
+        _mm512_mul_pd(coef[2], cw[0]));
+    {  // sums_are_close
+      const __m512d w = _mm512_max_pd(cw[2], _mm512_max_pd(cw[1], cw[0]));
+      const __mmask8 close = _mm512_cmp_pd_mask(cw[0], zero, _CMP_GT_OQ) &
+                             _mm512_cmp_pd_mask(cw[1], zero, _CMP_GT_OQ) &
+                             _mm512_cmp_pd_mask(cw[2], zero, _CMP_GT_OQ) &
+                             _mm512_cmp_pd_mask(_mm512_abs_pd(det),
+                                                _mm512_mul_pd(_mm512_set1_pd(kLeastSum), w), _CMP_GE_OQ);
+      exact = __mmask8(~close) & live;
+    }
     if (map) {
       __m512d vn[3][3];  // corner k, component c
       for (int k = 0; k < 3; ++k)
         for (int c = 0; c < 3; ++c)
           vn[k][c] = _mm512_mask_i32gather_pd(
               zero, live, _mm256_add_epi32(v3[k], _mm256_set1_epi32(c)), in.vertex_normals, 8);
-      const __m512d det = _mm512_add_pd(
-          _mm512_add_pd(_mm512_mul_pd(coef[0], cx[0]), _mm512_mul_pd(coef[1], cy[0])),
-          _mm512_mul_pd(coef[2], cw[0]));
       const __mmask8 usable = scale & _mm512_cmp_pd_mask(det, zero, _CMP_NEQ_OQ) &
                               ~_mm512_fpclass_pd_mask(det, kNanOrInf);
       // +1 where det and side have one sign
@@ -678,20 +683,19 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
         edge2 = _mm512_max_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(ex, ex), _mm512_mul_pd(ey, ey)),
                                             _mm512_mul_pd(cw[m], cw[m])),
                               edge2);
-        __m512d d2 = zero;
+        __m512d d2 = zero, along = zero;
         for (int c = 0; c < 3; ++c) {
           const __m512d d = _mm512_sub_pd(vn[a][c], vn[k][c]);
           d2 = _mm512_add_pd(d2, _mm512_mul_pd(d, d));
+          along = _mm512_add_pd(along, _mm512_mul_pd(vn[a][c], vn[k][c]));
         }
         spread2 = _mm512_max_pd(d2, spread2);
+        close &= _mm512_cmp_pd_mask(along, zero, _CMP_GE_OQ);
       }
       const __m512d spread_bound = _mm512_mul_pd(_mm512_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
                                                  _mm512_mul_pd(area, area));
       close &= _mm512_cmp_pd_mask(_mm512_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ);
-      exact = __mmask8(~close) & live;
-      if (exact)  // (their corners' normals: only here)
-        for (int k = 0; k < 3; ++k)
-          for (int c = 0; c < 3; ++c) _mm512_store_pd(exact_fields[FaceTable::kCorners + 3 * k + c], vn[k][c]);
+      exact |= __mmask8(~close) & live;
     }
   }
 
@@ -716,14 +720,18 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
       _mm256_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
     }
   }
-  if (exact) {
-    for (int c = 0; c < 9; ++c) _mm512_store_pd(exact_fields[FaceTable::kBary + c], coef[c]);
-    _mm512_store_pd(exact_fields[FaceTable::kSide], side);
-    for (int c = 0; c < 3; ++c) _mm512_store_pd(exact_fields[FaceTable::kFlat + c], normal[c]);
+  if (exact) {  // (the FaceShade fields the scalar way reads; the same values)
+    alignas(64) double fields[13][8];  // barycentrics' coefficients, side, normal
+    for (int c = 0; c < 9; ++c) _mm512_store_pd(fields[c], coef[c]);
+    _mm512_store_pd(fields[9], side);
+    for (int c = 0; c < 3; ++c) _mm512_store_pd(fields[10 + c], normal[c]);
     for (unsigned lanes = exact; lanes; lanes &= lanes - 1) {
       const int j = __builtin_ctz(lanes);
-      float* e = table.add_exact(first + size_t(j));
-      for (int c = 0; c < FaceTable::kFlat + 3; ++c) e[c] = float(exact_fields[c][j]);
+      FaceShade& e = table.add_exact(first + size_t(j));
+      for (int c = 0; c < 9; ++c) e.bary[c] = fields[c][j];
+      e.side = fields[9][j];
+      e.normal = {fields[10][j], fields[11][j], fields[12][j]};
+      e.exact = true;
     }
   }
 }
@@ -798,7 +806,6 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
 
   __m256d coef[9], normal_map[9];
   __m256d exact = zero;  // FaceShade::exact (all bits set)
-  alignas(32) double exact_fields[FaceTable::kFlat + 3][4];  // the exact rows' fields, if any
   if (bary || map) {
     const double* m = in.mvp;
     __m256d cx[3], cy[3], cw[3];
@@ -825,15 +832,24 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
     const __m256d scale = positive_finite(big);
     const __m256d inv_big = _mm256_div_pd(one, big);
     for (int c = 0; c < 9; ++c) coef[c] = _mm256_blendv_pd(b[c], _mm256_mul_pd(b[c], inv_big), scale);
+    const __m256d det = _mm256_add_pd(
+        _mm256_add_pd(_mm256_mul_pd(coef[0], cx[0]), _mm256_mul_pd(coef[1], cy[0])),
+        _mm256_mul_pd(coef[2], cw[0]));
+    {  // sums_are_close
+      const __m256d w = _mm256_max_pd(cw[2], _mm256_max_pd(cw[1], cw[0]));
+      const __m256d close = _mm256_and_pd(
+          _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(cw[0], zero, _CMP_GT_OQ),
+                                      _mm256_cmp_pd(cw[1], zero, _CMP_GT_OQ)),
+                        _mm256_cmp_pd(cw[2], zero, _CMP_GT_OQ)),
+          _mm256_cmp_pd(abs(det), _mm256_mul_pd(_mm256_set1_pd(kLeastSum), w), _CMP_GE_OQ));
+      exact = _mm256_andnot_pd(close, live_d);
+    }
     if (map) {
       __m256d vn[3][3];  // corner k, component c
       for (int k = 0; k < 3; ++k)
         for (int c = 0; c < 3; ++c)
           vn[k][c] = _mm256_mask_i32gather_pd(zero, in.vertex_normals,
                                               _mm_add_epi32(v3[k], _mm_set1_epi32(c)), live_d, 8);
-      const __m256d det = _mm256_add_pd(
-          _mm256_add_pd(_mm256_mul_pd(coef[0], cx[0]), _mm256_mul_pd(coef[1], cy[0])),
-          _mm256_mul_pd(coef[2], cw[0]));
       // det != 0 and finite: |det| in (0, inf)
       const __m256d usable = _mm256_and_pd(scale, positive_finite(abs(det)));
       // +1 where det and side have one sign
@@ -891,20 +907,19 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
         edge2 = _mm256_max_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey)),
                                             _mm256_mul_pd(cw[m], cw[m])),
                               edge2);
-        __m256d d2 = zero;
+        __m256d d2 = zero, along = zero;
         for (int c = 0; c < 3; ++c) {
           const __m256d d = _mm256_sub_pd(vn[a][c], vn[k][c]);
           d2 = _mm256_add_pd(d2, _mm256_mul_pd(d, d));
+          along = _mm256_add_pd(along, _mm256_mul_pd(vn[a][c], vn[k][c]));
         }
         spread2 = _mm256_max_pd(d2, spread2);
+        close = _mm256_and_pd(close, _mm256_cmp_pd(along, zero, _CMP_GE_OQ));
       }
       const __m256d spread_bound = _mm256_mul_pd(_mm256_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
                                                  _mm256_mul_pd(area, area));
       close = _mm256_and_pd(close, _mm256_cmp_pd(_mm256_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ));
-      exact = _mm256_andnot_pd(close, live_d);
-      if (_mm256_movemask_pd(exact))  // (their corners' normals: only here)
-        for (int k = 0; k < 3; ++k)
-          for (int c = 0; c < 3; ++c) _mm256_store_pd(exact_fields[FaceTable::kCorners + 3 * k + c], vn[k][c]);
+      exact = _mm256_or_pd(exact, _mm256_andnot_pd(close, live_d));
     }
   }
 
@@ -928,13 +943,18 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
       if (lanes & (1 << j)) _mm_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
   }
   if (const unsigned exact_lanes = unsigned(_mm256_movemask_pd(exact))) {
-    for (int c = 0; c < 9; ++c) _mm256_store_pd(exact_fields[FaceTable::kBary + c], coef[c]);
-    _mm256_store_pd(exact_fields[FaceTable::kSide], side);
-    for (int c = 0; c < 3; ++c) _mm256_store_pd(exact_fields[FaceTable::kFlat + c], normal[c]);
+    // (the FaceShade fields the scalar way reads; the same values)
+    alignas(32) double fields[13][4];  // barycentrics' coefficients, side, normal
+    for (int c = 0; c < 9; ++c) _mm256_store_pd(fields[c], coef[c]);
+    _mm256_store_pd(fields[9], side);
+    for (int c = 0; c < 3; ++c) _mm256_store_pd(fields[10 + c], normal[c]);
     for (unsigned l = exact_lanes; l; l &= l - 1) {
       const int j = __builtin_ctz(l);
-      float* e = table.add_exact(first + size_t(j));
-      for (int c = 0; c < FaceTable::kFlat + 3; ++c) e[c] = float(exact_fields[c][j]);
+      FaceShade& e = table.add_exact(first + size_t(j));
+      for (int c = 0; c < 9; ++c) e.bary[c] = fields[c][j];
+      e.side = fields[9][j];
+      e.normal = {fields[10][j], fields[11][j], fields[12][j]};
+      e.exact = true;
     }
   }
 }
@@ -1089,7 +1109,7 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
   }
 #endif
   for (; i < count; ++i)
-    store_row(in, table, i, face_at(i), prepare_face(in, face_at(i), bary || map, map), bary, map);
+    store_row(table, i, prepare_face(in, face_at(i), bary || map, map), bary, map);
 }
 
 // The calling thread's table, prepared for one pass and trimmed after it.
@@ -1164,72 +1184,6 @@ inline void clamped_barycentrics16(const __m512* coef, __m512 xn, __m512 yn, __m
     b[k] = _mm512_mask_mov_ps(_mm512_mul_ps(b[k], inv_total), bad, _mm512_set1_ps(1.0f / 3.0f));
 }
 
-// Smooth shading's normal the scalar pass's way (clamped barycentrics,
-// the corners' normals by them) into the lanes `lanes` of n: for the faces
-// whose map is not close enough (FaceShade::exact), their data read face
-// by face from the table's `exact` rows, and their clamped barycentrics
-// into b. f: the 16 pixels' ids.
-inline void exact_normals16(const FaceTable& table, const int32_t* ids, __m512i f, unsigned lanes,
-                            __m512 xn, __m512 yn, __m512 n[3], __m512 b[3]) {
-  constexpr int kFields = FaceTable::kFlat + 3;
-  __m512 e[kFields];
-  for (auto& v : e) v = _mm512_setzero_ps();
-  for (unsigned left = lanes; left;) {
-    const int32_t face = ids[__builtin_ctz(left)];
-    const __mmask16 same = _mm512_mask_cmpeq_epi32_mask(__mmask16(left), f, _mm512_set1_epi32(face));
-    left &= ~unsigned(same);
-    const float* row = table.exact_face(table.rows.data() + size_t(table.row_floats) * size_t(table.row(face)));
-    for (int c = 0; c < kFields; ++c) e[c] = _mm512_mask_mov_ps(e[c], same, _mm512_set1_ps(row[c]));
-  }
-  clamped_barycentrics16(e + FaceTable::kBary, xn, yn, b);
-  __m512 ns[3];
-  for (int c = 0; c < 3; ++c) {
-    ns[c] = _mm512_setzero_ps();
-    for (int k = 0; k < 3; ++k)
-      ns[c] = _mm512_add_ps(ns[c], _mm512_mul_ps(b[k], e[FaceTable::kCorners + 3 * k + c]));
-  }
-  const __m512 len2 = _mm512_add_ps(
-      _mm512_add_ps(_mm512_mul_ps(ns[0], ns[0]), _mm512_mul_ps(ns[1], ns[1])), _mm512_mul_ps(ns[2], ns[2]));
-  const __mmask16 usable = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);
-  const __m512 scale = _mm512_mul_ps(e[FaceTable::kSide], _mm512_div_ps(_mm512_set1_ps(1.0f), _mm512_sqrt_ps(len2)));
-  for (int c = 0; c < 3; ++c)
-    n[c] = _mm512_mask_mov_ps(
-        n[c], __mmask16(lanes),
-        _mm512_mask_mov_ps(e[FaceTable::kFlat + c], usable, _mm512_mul_ps(ns[c], scale)));
-}
-
-// The pixels of the recorded steps (FaceTable::exact_steps) shaded again,
-// with their normals the scalar pass's way (exact_normals16).
-__attribute__((noinline)) void finish_exact16(const ShadingInput& in, const FaceTable& table,
-                                              const int32_t* triangle_id, uint8_t* image, size_t n_steps) {
-  const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
-  const __m512 lane = _mm512_setr_ps(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  for (size_t k = 0; k < n_steps; ++k) {
-    const int y = int(table.exact_steps[3 * k]), x = int(table.exact_steps[3 * k + 1]);
-    const unsigned lanes = table.exact_steps[3 * k + 2];
-    const int32_t* ids = triangle_id + size_t(y) * size_t(in.width) + size_t(x);
-    const __m512i f = _mm512_maskz_loadu_epi32(__mmask16(lanes), ids);
-    // (as the pass: (x + 0.5) / half_w - 1 in float)
-    const __m512 xn = _mm512_sub_ps(
-        _mm512_div_ps(_mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(float(x)), lane), _mm512_set1_ps(0.5f)),
-                      _mm512_set1_ps(half_w)),
-        _mm512_set1_ps(1.0f));
-    const __m512 yn = _mm512_set1_ps(1.0f - (float(y) + 0.5f) / half_h);
-    __m512 n[3] = {_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()}, b[3];
-    exact_normals16(table, ids, f, lanes, xn, yn, n, b);
-    alignas(64) float nl[3][16], bl[3][16];
-    for (int c = 0; c < 3; ++c) {
-      _mm512_store_ps(nl[c], n[c]);
-      _mm512_store_ps(bl[c], b[c]);
-    }
-    for (unsigned l = lanes; l; l &= l - 1) {
-      const int j = __builtin_ctz(l);
-      const float nj[3] = {nl[0][j], nl[1][j], nl[2][j]}, bj[3] = {bl[0][j], bl[1][j], bl[2][j]};
-      finish_pixel(in, ids[j], nj, bj, image + 3 * (size_t(y) * size_t(in.width) + size_t(x + j)));
-    }
-  }
-}
-
 // One pass per kind of shading (smooth normals, per-vertex colours), so
 // that each keeps in registers only the fields it reads.
 template <bool smooth, bool per_vertex>
@@ -1240,7 +1194,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   FaceTable& table = prepared.table;
   size_t n_exact_steps = 0;
-  if (smooth && table.n_exact > 0) {
+  if (interpolated && table.n_exact > 0) {
     const size_t most = 3 * ((size_t(in.width) + 15) / 16);  // (a row's)
     if (table.exact_steps.size() < most) {
       Buffer<uint32_t>().swap(table.exact_steps);
@@ -1304,7 +1258,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
         for (int c = 0; c < 3; ++c) albedo[c] = _mm512_set1_ps(in.uniform_color[c]);
         // Run by run (a run: neighbouring lanes of one id), its lanes
         // known from the bits alone -- no compare waits on the last face.
-        unsigned exact_lanes = 0;  // smooth: faces without a close map (FaceShade::exact)
+        unsigned exact_lanes = 0;  // faces left to the scalar way (FaceShade::exact)
         const unsigned change =
             unsigned(_mm512_cmpneq_epi32_mask(f, _mm512_alignr_epi32(f, f, 15))) | 0x10001u;
         for (unsigned starts = change & drawn; starts; starts &= starts - 1) {
@@ -1316,12 +1270,11 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
           const float* fields = fields_of(face);
           // (Smooth shading looks the flat normal up below, for the rare
           // pixel whose interpolated normal vanishes.)
-          if constexpr (smooth) {
+          if constexpr (smooth)
             for (int c = 0; c < 9; ++c) put(normal_map[c], fields[kMapAt + c]);
-            exact_lanes |= same & (0u - unsigned(table.exact_face(fields) != nullptr));
-          } else {
+          else
             for (int c = 0; c < 3; ++c) put(n[c], fields[FaceTable::kNormal + c]);
-          }
+          exact_lanes |= same & (0u - unsigned(table.exact_face(fields) != nullptr));
           if constexpr (per_vertex) {
             for (int c = 0; c < 9; ++c) put(coef[c], fields[FaceTable::kBary + c]);
             const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
@@ -1350,12 +1303,12 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
             for (int c = 0; c < 3; ++c)
               n[c] = _mm512_mask_mov_ps(n[c], __mmask16(1u << k), _mm512_set1_ps(fields[FaceTable::kNormal + c]));
           }
-          if (exact_lanes) {  // shaded again after the pass
-            uint32_t* step = table.exact_steps.data() + 3 * n_exact_steps++;
-            step[0] = uint32_t(j);
-            step[1] = uint32_t(i);
-            step[2] = exact_lanes;
-          }
+        }
+        if (exact_lanes) {  // shaded again after the row
+          uint32_t* step = table.exact_steps.data() + 3 * n_exact_steps++;
+          step[0] = uint32_t(j);
+          step[1] = uint32_t(i);
+          step[2] = exact_lanes;
         }
         const __m512 ndotl = _mm512_add_ps(
             _mm512_add_ps(_mm512_mul_ps(n[0], lx), _mm512_mul_ps(n[1], ly)), _mm512_mul_ps(n[2], lz));
@@ -1383,7 +1336,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
       store_rgb16(row + 3 * size_t(i), rgba, valid);
     }
     if (n_exact_steps) {
-      finish_exact16(in, table, triangle_id, image, n_exact_steps);
+      finish_exact(in, table, triangle_id, image, n_exact_steps);
       n_exact_steps = 0;
     }
   }
@@ -1428,77 +1381,6 @@ inline void clamped_barycentrics8(const __m256* coef, __m256 xn, __m256 yn, __m2
     b[k] = _mm256_blendv_ps(_mm256_mul_ps(b[k], inv_total), _mm256_set1_ps(1.0f / 3.0f), bad);
 }
 
-// exact_normals16 for 8 pixels: lanes as bits, f the 8 pixels' ids.
-inline void exact_normals8(const FaceTable& table, const int32_t* ids, __m256i f, unsigned lanes,
-                           __m256 xn, __m256 yn, __m256 n[3], __m256 b[3]) {
-  constexpr int kFields = FaceTable::kFlat + 3;
-  __m256 e[kFields];
-  for (auto& v : e) v = _mm256_setzero_ps();
-  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  auto lanes_of = [&](unsigned bits) {
-    return _mm256_castsi256_ps(
-        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int32_t(bits)), lane_bit), lane_bit));
-  };
-  for (unsigned left = lanes; left;) {
-    const int32_t face = ids[__builtin_ctz(left)];
-    const unsigned same =
-        left & unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(f, _mm256_set1_epi32(face)))));
-    left &= ~same;
-    const __m256 in_face = lanes_of(same);
-    const float* row = table.exact_face(table.rows.data() + size_t(table.row_floats) * size_t(table.row(face)));
-    for (int c = 0; c < kFields; ++c) e[c] = _mm256_blendv_ps(e[c], _mm256_set1_ps(row[c]), in_face);
-  }
-  clamped_barycentrics8(e + FaceTable::kBary, xn, yn, b);
-  __m256 ns[3];
-  for (int c = 0; c < 3; ++c) {
-    ns[c] = _mm256_setzero_ps();
-    for (int k = 0; k < 3; ++k)
-      ns[c] = _mm256_add_ps(ns[c], _mm256_mul_ps(b[k], e[FaceTable::kCorners + 3 * k + c]));
-  }
-  const __m256 len2 = _mm256_add_ps(
-      _mm256_add_ps(_mm256_mul_ps(ns[0], ns[0]), _mm256_mul_ps(ns[1], ns[1])), _mm256_mul_ps(ns[2], ns[2]));
-  const __m256 usable = _mm256_cmp_ps(len2, _mm256_setzero_ps(), _CMP_GT_OQ);
-  const __m256 scale = _mm256_mul_ps(e[FaceTable::kSide], _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(len2)));
-  const __m256 in_lanes = lanes_of(lanes);
-  for (int c = 0; c < 3; ++c)
-    n[c] = _mm256_blendv_ps(
-        n[c], _mm256_blendv_ps(e[FaceTable::kFlat + c], _mm256_mul_ps(ns[c], scale), usable), in_lanes);
-}
-
-// finish_exact16 for the AVX2 pass's steps of 8 pixels.
-__attribute__((noinline)) void finish_exact8(const ShadingInput& in, const FaceTable& table,
-                                             const int32_t* triangle_id, uint8_t* image, size_t n_steps) {
-  const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
-  const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
-  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  for (size_t k = 0; k < n_steps; ++k) {
-    const int y = int(table.exact_steps[3 * k]), x = int(table.exact_steps[3 * k + 1]);
-    const unsigned lanes = table.exact_steps[3 * k + 2];
-    const int32_t* ids = triangle_id + size_t(y) * size_t(in.width) + size_t(x);
-    const __m256i live = _mm256_cmpeq_epi32(
-        _mm256_and_si256(_mm256_set1_epi32(int32_t(lanes)), lane_bit), lane_bit);
-    const __m256i f = _mm256_maskload_epi32(ids, live);
-    // (as the pass: (x + 0.5) / half_w - 1 in float)
-    const __m256 xn = _mm256_sub_ps(
-        _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_set1_ps(float(x)), lane), _mm256_set1_ps(0.5f)),
-                      _mm256_set1_ps(half_w)),
-        _mm256_set1_ps(1.0f));
-    const __m256 yn = _mm256_set1_ps(1.0f - (float(y) + 0.5f) / half_h);
-    __m256 n[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()}, b[3];
-    exact_normals8(table, ids, f, lanes, xn, yn, n, b);
-    alignas(32) float nl[3][8], bl[3][8];
-    for (int c = 0; c < 3; ++c) {
-      _mm256_store_ps(nl[c], n[c]);
-      _mm256_store_ps(bl[c], b[c]);
-    }
-    for (unsigned l = lanes; l; l &= l - 1) {
-      const int j = __builtin_ctz(l);
-      const float nj[3] = {nl[0][j], nl[1][j], nl[2][j]}, bj[3] = {bl[0][j], bl[1][j], bl[2][j]};
-      finish_pixel(in, ids[j], nj, bj, image + 3 * (size_t(y) * size_t(in.width) + size_t(x + j)));
-    }
-  }
-}
-
 // The AVX-512 pass above, 8 pixels per step; lane masks are vectors. One
 // pass per kind of shading, so that each keeps in registers only the
 // fields it reads (AVX2 has 16 of them).
@@ -1510,7 +1392,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
   const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   FaceTable& table = prepared.table;
   size_t n_exact_steps = 0;
-  if (smooth && table.n_exact > 0) {
+  if (interpolated && table.n_exact > 0) {
     const size_t most = 3 * ((size_t(in.width) + 7) / 8);  // (a row's)
     if (table.exact_steps.size() < most) {
       Buffer<uint32_t>().swap(table.exact_steps);
@@ -1574,7 +1456,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
         // leaves out the flat normal: it is looked up below for the rare
         // pixel whose interpolated normal vanishes.
         __m256 coef[9], normal_map[9], flat[3];
-        unsigned exact_lanes = 0;  // smooth: faces without a close map (FaceShade::exact)
+        unsigned exact_lanes = 0;  // faces left to the scalar way (FaceShade::exact)
         if constexpr (per_vertex)
           for (auto& v : coef) v = zero_f;
         if constexpr (smooth)
@@ -1597,12 +1479,11 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
             auto put = [&](__m256& reg, float v) { reg = _mm256_blendv_ps(reg, _mm256_set1_ps(v), in_run); };
             if constexpr (per_vertex)
               for (int c = 0; c < 9; ++c) put(coef[c], fields[FaceTable::kBary + c]);
-            if constexpr (smooth) {
+            if constexpr (smooth)
               for (int c = 0; c < 9; ++c) put(normal_map[c], fields[kMapAt + c]);
-              exact_lanes |= run & (0u - unsigned(table.exact_face(fields) != nullptr));
-            } else {
+            else
               for (int c = 0; c < 3; ++c) put(flat[c], fields[FaceTable::kNormal + c]);
-            }
+            exact_lanes |= run & (0u - unsigned(table.exact_face(fields) != nullptr));
           }
         }
         const __m256 xn = _mm256_sub_ps(
@@ -1637,14 +1518,14 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
             }
             for (int c = 0; c < 3; ++c) n[c] = _mm256_load_ps(lanes[c]);
           }
-          if (exact_lanes) {  // shaded again after the pass
-            uint32_t* step = table.exact_steps.data() + 3 * n_exact_steps++;
-            step[0] = uint32_t(j);
-            step[1] = uint32_t(i);
-            step[2] = exact_lanes;
-          }
         } else {
           for (int c = 0; c < 3; ++c) n[c] = flat[c];
+        }
+        if (exact_lanes) {  // shaded again after the row
+          uint32_t* step = table.exact_steps.data() + 3 * n_exact_steps++;
+          step[0] = uint32_t(j);
+          step[1] = uint32_t(i);
+          step[2] = exact_lanes;
         }
         const __m256 ndotl = _mm256_add_ps(
             _mm256_add_ps(_mm256_mul_ps(n[0], lx), _mm256_mul_ps(n[1], ly)), _mm256_mul_ps(n[2], lz));
@@ -1690,7 +1571,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
       if (count > 4) std::memcpy(out + 12, packed + 16, 3 * size_t(count - 4));
     }
     if (n_exact_steps) {
-      finish_exact8(in, table, triangle_id, image, n_exact_steps);
+      finish_exact(in, table, triangle_id, image, n_exact_steps);
       n_exact_steps = 0;
     }
   }
