@@ -91,9 +91,10 @@ struct FaceShade {
   // under 1e-3 of its largest entry, or that entry under 1e-9 before the
   // scaling (a map of rounding noise). Found by fuzzing helpers: up to 73
   // levels off on slivers of 1e-4 px^2, on faces collinear within rounding
-  // and on a prism's cap seen end-on, 3-14 on slivers at 4000 x 3000. A
-  // stricter spread <= h / 2 costs 25-75% more smooth-shading time on
-  // armadillo_86k and lucy_20k at 1024 x 1024 (8-21% of their faces).
+  // and on a prism's cap seen end-on, 3-14 on slivers at 4000 x 3000. The
+  // flags cost 12-25% of smooth shading at 1024 x 1024 on bunny_69k,
+  // armadillo_86k and lucy_20k (0.5-8% of their faces); spread <= h / 2
+  // instead would cost 26-77% (8-21% of their faces).
   bool exact = false;
 };
 
