@@ -428,7 +428,7 @@ struct FaceTable {
   enum Field {
     kBary = 0,    // 9: coefficient c of barycentric k at 3 k + c (per-vertex colours)
     kNormal = 9,  // 3: the flat normal, facing the viewer
-    kExact = 12,  // smooth: int32 1 + index into `exact`, or 0 (13-15: unused)
+    kExact = 12,  // interpolated: int32 1 + index into `exact`, or 0 (13-15: unused)
   };
   static constexpr int row_floats_for(bool bary, bool map) {
     return bary && map ? 2 * kLine : kLine;
