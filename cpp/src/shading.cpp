@@ -112,23 +112,22 @@ bool sums_are_close(const double cw[3], double det) {
   return cw[0] > 0.0 && cw[1] > 0.0 && cw[2] > 0.0 && std::abs(det) >= kLeastSum * w;
 }
 
-// Whether smooth shading's map may be evaluated in float32 (with
-// sums_are_close): the corners in front of the camera, no two corners'
-// normals more than 90 degrees apart, their spread within the smallest
-// altitude (squared:
-// spread^2 lmax^2 <= kSpreadPerPixel^2 (2 area)^2, in pixels), and the map's
-// length at each corner at least kLeastCornerLength, its largest entry
-// before the scaling (`largest`) at least kLeastMapEntry. The vector
-// preparations compute the same, in the same order.
+// Whether smooth shading's map may be evaluated in float32, for a face
+// whose sums_are_close (so every w_k > 0): no two corners' normals more
+// than 90 degrees apart, their spread within the smallest altitude
+// (squared: spread^2 lmax^2 <= kSpreadPerPixel^2 (2 area)^2, in pixels),
+// the map's length at each corner at least kLeastCornerLength, and its
+// largest entry before the scaling (`largest`) at least kLeastMapEntry.
+// The vector preparations compute the same, in the same order.
 bool map_is_close(const ShadingInput& in, const double cx[3], const double cy[3],
                   const double cw[3], const double vn[3][3], const double map[9],
                   double largest) {
-  if (!(cw[0] > 0.0 && cw[1] > 0.0 && cw[2] > 0.0 && largest >= kLeastMapEntry)) return false;
+  if (!(largest >= kLeastMapEntry)) return false;
   // Without divisions, in homogeneous pixels (x, y, w): the map's length at
   // corner k is |map (x_k, y_k, w_k)| / w_k, twice the area in pixels
-  // area / (w_0 w_1 w_2) (area: the determinant of the corners), and an edge from a to k is the length of
-  // (x_a w_k - x_k w_a, y_a w_k - y_k w_a) over w_a w_k; both sides of the
-  // bounds are multiplied out.
+  // area / (w_0 w_1 w_2) (area: the determinant of the corners), and an
+  // edge from a to k is the length of (x_a w_k - x_k w_a, y_a w_k - y_k w_a)
+  // over w_a w_k; both sides of the bounds are multiplied out.
   constexpr double kLeast2 = kLeastCornerLength * kLeastCornerLength;
   constexpr double kSpread2 = kSpreadPerPixel * kSpreadPerPixel;
   const double half_w = 0.5 * in.width, half_h = 0.5 * in.height;
@@ -363,13 +362,14 @@ namespace {
 // for the faces that show up -- not lazily, face by face as the pixels
 // meet them. Good: AVX-512 builds prepare 8 faces per instruction, AVX2
 // builds 4 (and both prefetch the corners of the faces to come), and the
-// pixel pass has no "seen yet?" test. Bad: where the mesh has more faces than a quarter of the
-// pixels (1/64 for interpolated shading, whose rows cost more), finding
-// the faces that show up takes a pass over the ids of its own (8 or 16 ids
-// compared with their left neighbours per instruction, the ids that start
-// a run packed into a short list, then looked up), and their
-// rows are then numbered apart from the faces (a slot per face found, so
-// that the table stays as small as the image's faces: a mesh of millions
+// pixel pass has no "seen yet?" test. Bad: where the mesh has more faces
+// than a quarter of the pixels (1/64 for interpolated shading, whose rows
+// cost more), finding the faces that show up takes a pass over the ids of
+// its own (8 or 16 ids compared with their left neighbours per
+// instruction, the ids that start a run packed into a short list, then
+// looked up), and their rows are then numbered apart from the faces (a
+// slot per face found, so that the table stays as small as the image's
+// faces: a mesh of millions
 // of faces would otherwise scatter its few visible rows over hundreds of
 // megabytes of fresh pages). Found faces get rows in the order the image
 // first shows them, so that the pixel pass reads the table almost in
@@ -401,7 +401,7 @@ struct FaceTable {
   }
   // After a pass: give back the memory of arrays too large to keep.
   void trim() {
-    if (exact.size() > kKeptRows / 16) std::vector<FaceShade>().swap(exact);
+    if (exact.capacity() > kKeptRows / 16) std::vector<FaceShade>().swap(exact);
     if (exact_steps.size() > kKeptSlots) Buffer<uint32_t>().swap(exact_steps);
     if (stride > kKeptRows || rows.size() > kKeptRowFloats) {
       stride = 0;
@@ -441,7 +441,6 @@ struct FaceTable {
   // pass's way (FaceShade::exact), as it prepares them. Row field kExact
   // holds 1 + the face's index here (int32 bits), else 0.
   std::vector<FaceShade> exact;
-  size_t n_exact = 0;
   // The steps of a row of a pass with lanes of such faces (y, x, lane
   // bits), shaded again after the row (finish_exact): in the loop over the
   // row they would crowd its registers (an inlined or called helper there:
@@ -452,12 +451,19 @@ struct FaceTable {
     std::memcpy(&at, row + kExact, sizeof at);
     return at ? &exact[size_t(at) - 1] : nullptr;
   }
-  // A new exact face for row r (after r's fields are written).
-  FaceShade& add_exact(size_t r) {
-    if (exact.size() <= n_exact) exact.resize(std::max<size_t>(64, 2 * exact.size()));
-    const int32_t at = int32_t(++n_exact);
+  // Face s left to the scalar way, for row r (after r's fields are written).
+  void add_exact(size_t r, const FaceShade& s) {
+    exact.push_back(s);
+    const int32_t at = int32_t(exact.size());
     std::memcpy(rows.data() + size_t(row_floats) * r + kExact, &at, sizeof at);
-    return exact[size_t(at) - 1];
+  }
+  // Room for a row's steps of `step` pixels (exact_steps).
+  void reserve_steps(int width, int step) {
+    const size_t most = 3 * ((size_t(width) + size_t(step) - 1) / size_t(step));
+    if (exact_steps.size() < most) {
+      Buffer<uint32_t>().swap(exact_steps);
+      exact_steps.resize(most);
+    }
   }
 };
 
@@ -473,8 +479,27 @@ void store_row(FaceTable& table, size_t r, const FaceShade& s, bool bary, bool m
   row[FaceTable::kNormal + 0] = float(s.normal.x);
   row[FaceTable::kNormal + 1] = float(s.normal.y);
   row[FaceTable::kNormal + 2] = float(s.normal.z);
-  if (s.exact) table.add_exact(r) = s;
+  if (s.exact) table.add_exact(r, s);
 }
+
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+// For the vector preparations: the faces of rows first + j, for the bits j
+// of `lanes`, left to the scalar way, from their lanes of the FaceShade
+// fields that way reads (fields: the barycentrics' 9 coefficients, the
+// side, the normal's 3 components; the same values as prepare_face's).
+template <int W>
+void add_exact_lanes(FaceTable& table, size_t first, unsigned lanes, const double (&fields)[13][W]) {
+  for (; lanes; lanes &= lanes - 1) {
+    const int j = __builtin_ctz(lanes);
+    FaceShade e{};
+    for (int c = 0; c < 9; ++c) e.bary[c] = fields[c][j];
+    e.side = fields[9][j];
+    e.normal = {fields[10][j], fields[11][j], fields[12][j]};
+    e.exact = true;
+    table.add_exact(first + size_t(j), e);
+  }
+}
+#endif
 
 // The pixels of a pass's recorded steps (FaceTable::exact_steps: row y,
 // from pixel x, lane bits) shaded again the scalar pass's way.
@@ -653,10 +678,7 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
       // FaceShade::exact, as map_is_close computes it.
       const __m512d half_w = _mm512_set1_pd(0.5 * in.width), half_h = _mm512_set1_pd(0.5 * in.height);
       const __m512d least2 = _mm512_set1_pd(kLeastCornerLength * kLeastCornerLength);
-      __mmask8 close = _mm512_cmp_pd_mask(cw[0], zero, _CMP_GT_OQ) &
-                       _mm512_cmp_pd_mask(cw[1], zero, _CMP_GT_OQ) &
-                       _mm512_cmp_pd_mask(cw[2], zero, _CMP_GT_OQ) &
-                       _mm512_cmp_pd_mask(largest, _mm512_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
+      __mmask8 close = _mm512_cmp_pd_mask(largest, _mm512_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
       __m512d x[3], y[3];
       for (int k = 0; k < 3; ++k) {
         x[k] = _mm512_mul_pd(cx[k], half_w);
@@ -721,19 +743,12 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
       _mm256_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
     }
   }
-  if (exact) {  // (the FaceShade fields the scalar way reads; the same values)
-    alignas(64) double fields[13][8];  // barycentrics' coefficients, side, normal
+  if (exact) {
+    alignas(64) double fields[13][8];
     for (int c = 0; c < 9; ++c) _mm512_store_pd(fields[c], coef[c]);
     _mm512_store_pd(fields[9], side);
     for (int c = 0; c < 3; ++c) _mm512_store_pd(fields[10 + c], normal[c]);
-    for (unsigned lanes = exact; lanes; lanes &= lanes - 1) {
-      const int j = __builtin_ctz(lanes);
-      FaceShade& e = table.add_exact(first + size_t(j));
-      for (int c = 0; c < 9; ++c) e.bary[c] = fields[c][j];
-      e.side = fields[9][j];
-      e.normal = {fields[10][j], fields[11][j], fields[12][j]};
-      e.exact = true;
-    }
+    add_exact_lanes(table, first, exact, fields);
   }
 }
 #endif
@@ -875,11 +890,7 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
       // FaceShade::exact, as map_is_close computes it.
       const __m256d half_w = _mm256_set1_pd(0.5 * in.width), half_h = _mm256_set1_pd(0.5 * in.height);
       const __m256d least2 = _mm256_set1_pd(kLeastCornerLength * kLeastCornerLength);
-      __m256d close = _mm256_and_pd(
-          _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(cw[0], zero, _CMP_GT_OQ),
-                                      _mm256_cmp_pd(cw[1], zero, _CMP_GT_OQ)),
-                        _mm256_cmp_pd(cw[2], zero, _CMP_GT_OQ)),
-          _mm256_cmp_pd(largest, _mm256_set1_pd(kLeastMapEntry), _CMP_GE_OQ));
+      __m256d close = _mm256_cmp_pd(largest, _mm256_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
       __m256d x[3], y[3];
       for (int k = 0; k < 3; ++k) {
         x[k] = _mm256_mul_pd(cx[k], half_w);
@@ -944,19 +955,11 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
       if (lanes & (1 << j)) _mm_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
   }
   if (const unsigned exact_lanes = unsigned(_mm256_movemask_pd(exact))) {
-    // (the FaceShade fields the scalar way reads; the same values)
-    alignas(32) double fields[13][4];  // barycentrics' coefficients, side, normal
+    alignas(32) double fields[13][4];
     for (int c = 0; c < 9; ++c) _mm256_store_pd(fields[c], coef[c]);
     _mm256_store_pd(fields[9], side);
     for (int c = 0; c < 3; ++c) _mm256_store_pd(fields[10 + c], normal[c]);
-    for (unsigned l = exact_lanes; l; l &= l - 1) {
-      const int j = __builtin_ctz(l);
-      FaceShade& e = table.add_exact(first + size_t(j));
-      for (int c = 0; c < 9; ++c) e.bary[c] = fields[c][j];
-      e.side = fields[9][j];
-      e.normal = {fields[10][j], fields[11][j], fields[12][j]};
-      e.exact = true;
-    }
+    add_exact_lanes(table, first, exact_lanes, fields);
   }
 }
 #endif
@@ -1055,56 +1058,51 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
     for (size_t i = 0; i < found; ++i) table.slot[size_t(list[i])] = int32_t(i);
   }
   const size_t count = table.by_slot ? list.size() : n_faces;
-  table.n_exact = 0;
+  table.exact.clear();
   table.resize(count, bary, map);
   auto face_at = [&](size_t i) { return table.by_slot ? list[i] : int32_t(i); };
   size_t i = 0;
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+  // The vector preparations' gathers wait on memory (found faces come in
+  // image order, their corners from anywhere): before preparing the w faces
+  // from i, the corners of the faces two steps on are fetched, and the
+  // found faces' indices four steps on.
+  auto prefetch_ahead = [&](size_t i, size_t w) {
+    auto prefetch = [](const void* p) { _mm_prefetch(static_cast<const char*>(p), _MM_HINT_T0); };
+    if (table.by_slot && i + 5 * w <= count)
+      for (size_t a = i + 4 * w; a < i + 5 * w; ++a) prefetch(in.mesh.faces + 3 * size_t(list[a]));
+    if (i + 3 * w <= count)
+      for (size_t a = i + 2 * w; a < i + 3 * w; ++a)
+        for (int k = 0; k < 3; ++k) {
+          const size_t v = size_t(in.mesh.faces[3 * size_t(face_at(a)) + size_t(k)]);
+          prefetch(in.mesh.positions + 3 * v);
+          if (map) prefetch(in.vertex_normals + 3 * v);
+        }
+  };
   // (int32 gather indices: 3 n_vertices and 3 n_faces must fit)
   constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
-  if (in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed) {
+  const bool indexed = in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed;
+#endif
+#ifdef ZBUFFER_AVX512
+  if (indexed) {
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     for (; i < count; i += 8) {
       const __mmask8 live = __mmask8(_bzhi_u32(0xFF, uint32_t(std::min<size_t>(count - i, 8))));
       const __m256i f = table.by_slot ? _mm256_maskz_loadu_epi32(live, list.data() + i)
                                       : _mm256_add_epi32(_mm256_set1_epi32(int32_t(i)), lane);
-      // The gathers wait on memory (found faces come in image order, their
-      // corners from anywhere): the corners of the faces two steps on are
-      // fetched now, and the found faces' indices four steps on.
-      auto prefetch = [](const void* p) { _mm_prefetch(static_cast<const char*>(p), _MM_HINT_T0); };
-      if (table.by_slot && i + 40 <= count)
-        for (size_t a = i + 32; a < i + 40; ++a) prefetch(in.mesh.faces + 3 * size_t(list[a]));
-      if (i + 24 <= count)
-        for (size_t a = i + 16; a < i + 24; ++a)
-          for (int k = 0; k < 3; ++k) {
-            const size_t v = size_t(in.mesh.faces[3 * size_t(face_at(a)) + size_t(k)]);
-            prefetch(in.mesh.positions + 3 * v);
-            if (map) prefetch(in.vertex_normals + 3 * v);
-          }
+      prefetch_ahead(i, 8);
       prepare_faces8(in, table, f, live, bary, map, i);
     }
   }
 #elif defined(ZBUFFER_AVX2)
-  constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
-  if (in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed) {
+  if (indexed) {
     const __m128i lane = _mm_setr_epi32(0, 1, 2, 3);
     for (; i < count; i += 4) {
       const __m128i live =
           _mm_cmpgt_epi32(_mm_set1_epi32(int32_t(std::min<size_t>(count - i, 4))), lane);
       const __m128i f = table.by_slot ? _mm_maskload_epi32(list.data() + i, live)
                                       : _mm_add_epi32(_mm_set1_epi32(int32_t(i)), lane);
-      // (as above: the corners of the faces two steps on, and the found
-      // faces' indices four steps on)
-      auto prefetch = [](const void* p) { _mm_prefetch(static_cast<const char*>(p), _MM_HINT_T0); };
-      if (table.by_slot && i + 20 <= count)
-        for (size_t a = i + 16; a < i + 20; ++a) prefetch(in.mesh.faces + 3 * size_t(list[a]));
-      if (i + 12 <= count)
-        for (size_t a = i + 8; a < i + 12; ++a)
-          for (int k = 0; k < 3; ++k) {
-            const size_t v = size_t(in.mesh.faces[3 * size_t(face_at(a)) + size_t(k)]);
-            prefetch(in.mesh.positions + 3 * v);
-            if (map) prefetch(in.vertex_normals + 3 * v);
-          }
+      prefetch_ahead(i, 4);
       prepare_faces4(in, table, f, live, bary, map, i);
     }
   }
@@ -1195,13 +1193,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   FaceTable& table = prepared.table;
   size_t n_exact_steps = 0;
-  if (interpolated && table.n_exact > 0) {
-    const size_t most = 3 * ((size_t(in.width) + 15) / 16);  // (a row's)
-    if (table.exact_steps.size() < most) {
-      Buffer<uint32_t>().swap(table.exact_steps);
-      table.exact_steps.resize(most);
-    }
-  }
+  if (interpolated && !table.exact.empty()) table.reserve_steps(in.width, 16);
 
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
   // x of each column's pixel centres in NDC (and 16 spare entries).
@@ -1393,13 +1385,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
   const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   FaceTable& table = prepared.table;
   size_t n_exact_steps = 0;
-  if (interpolated && table.n_exact > 0) {
-    const size_t most = 3 * ((size_t(in.width) + 7) / 8);  // (a row's)
-    if (table.exact_steps.size() < most) {
-      Buffer<uint32_t>().swap(table.exact_steps);
-      table.exact_steps.resize(most);
-    }
-  }
+  if (interpolated && !table.exact.empty()) table.reserve_steps(in.width, 8);
   const size_t nv = size_t(in.mesh.n_vertices);
   const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
 

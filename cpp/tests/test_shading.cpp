@@ -34,6 +34,39 @@ void sphere(int rings, int sectors, std::vector<double>& pos, std::vector<int32_
     }
 }
 
+// The ids the plain Z-buffer draws of `mesh` at w x h.
+std::vector<int32_t> visible_ids(const MeshView& mesh, const double mvp[16], int w, int h) {
+  RenderInput input;
+  input.mesh = mesh;
+  for (int k = 0; k < 16; ++k) input.mvp[k] = mvp[k];
+  std::vector<float> depth(size_t(w) * h);
+  std::vector<int32_t> ids(size_t(w) * h);
+  DepthTarget target{depth.data(), ids.data(), w, h};
+  RenderStats stats;
+  render(*find_algorithm("zbuffer"), input, target, stats);
+  CHECK(stats.pixels_written > 1000);
+  return ids;
+}
+
+// A unit light direction.
+void set_light(ShadingInput& in, double x, double y, double z) {
+  const double len = std::sqrt(x * x + y * y + z * z);
+  in.light_dir[0] = x / len;
+  in.light_dir[1] = y / len;
+  in.light_dir[2] = z / len;
+}
+
+// The largest difference of a channel between the vector pass and the
+// scalar pass, shading ids.
+int worst_difference(const ShadingInput& in, const std::vector<int32_t>& ids) {
+  std::vector<uint8_t> fast(ids.size() * 3), slow(ids.size() * 3);
+  shade(in, ids.data(), fast.data());
+  shade_scalar(in, ids.data(), slow.data());
+  int worst = 0;
+  for (size_t k = 0; k < fast.size(); ++k) worst = std::max(worst, std::abs(int(fast[k]) - int(slow[k])));
+  return worst;
+}
+
 struct Eye {
   double x, y, z, near, far;
 };
@@ -60,15 +93,8 @@ void test_vector_pass_matches_scalar_pass(int w, int h, Eye eye = {0, 0, 3, 1, 6
   const double a = -(fa + n) / (fa - n), b = -2 * fa * n / (fa - n);
   const double mvp[16] = {f, 0, 0, -f * eye.x, 0, f, 0, -f * eye.y,
                           0, 0, a, b - a * eye.z, 0, 0, -1, eye.z};
-  RenderInput input;
-  input.mesh = {pos.data(), n_vertices, faces.data(), n_faces};
-  for (int k = 0; k < 16; ++k) input.mvp[k] = mvp[k];
-  std::vector<float> depth(size_t(w) * h);
-  std::vector<int32_t> ids(size_t(w) * h);
-  DepthTarget target{depth.data(), ids.data(), w, h};
-  RenderStats stats;
-  render(*find_algorithm("zbuffer"), input, target, stats);
-  CHECK(stats.pixels_written > 1000);
+  const MeshView mesh{pos.data(), n_vertices, faces.data(), n_faces};
+  const std::vector<int32_t> ids = visible_ids(mesh, mvp, w, h);
 
   std::vector<float> colors_v(size_t(n_vertices) * 3), colors_f(size_t(n_faces) * 3);
   for (size_t k = 0; k < colors_v.size(); ++k) colors_v[k] = float((k * 37) % 101) / 100.0f;
@@ -76,7 +102,7 @@ void test_vector_pass_matches_scalar_pass(int w, int h, Eye eye = {0, 0, 3, 1, 6
   for (int smooth = 0; smooth < 2; ++smooth)
     for (int source = 0; source < 3; ++source) {
       ShadingInput in;
-      in.mesh = input.mesh;
+      in.mesh = mesh;
       in.width = w;
       in.height = h;
       for (int k = 0; k < 16; ++k) in.mvp[k] = mvp[k];
@@ -84,18 +110,11 @@ void test_vector_pass_matches_scalar_pass(int w, int h, Eye eye = {0, 0, 3, 1, 6
       in.viewer[1] = eye.y;
       in.viewer[2] = eye.z;
       in.viewer[3] = 1;
-      const double l[3] = {0.3, -0.5, -0.8};
-      const double len = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
-      for (int k = 0; k < 3; ++k) in.light_dir[k] = l[k] / len;
+      set_light(in, 0.3, -0.5, -0.8);
       in.vertex_normals = smooth ? normals.data() : nullptr;
       in.color_source = ColorSource(source);
       in.colors = source == 1 ? colors_v.data() : source == 2 ? colors_f.data() : nullptr;
-      std::vector<uint8_t> fast(size_t(w) * h * 3), slow(size_t(w) * h * 3);
-      shade(in, ids.data(), fast.data());
-      shade_scalar(in, ids.data(), slow.data());
-      int worst = 0;
-      for (size_t k = 0; k < fast.size(); ++k) worst = std::max(worst, std::abs(int(fast[k]) - int(slow[k])));
-      CHECK(worst <= (smooth == 0 && source != 1 ? 0 : 1));
+      CHECK(worst_difference(in, ids) <= (smooth == 0 && source != 1 ? 0 : 1));
     }
 }
 
@@ -144,32 +163,19 @@ void test_hard_faces_match_scalar_pass() {
   const double mvp[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 1};  // orthographic
   for (const int w : {200, 1600}) {
     const int h = w * 17 / 20;
-    RenderInput input;
-    input.mesh = {pos.data(), int64_t(pos.size() / 3), faces.data(), n_faces};
-    for (int k = 0; k < 16; ++k) input.mvp[k] = mvp[k];
-    std::vector<float> depth(size_t(w) * h);
-    std::vector<int32_t> ids(size_t(w) * h);
-    DepthTarget target{depth.data(), ids.data(), w, h};
-    RenderStats stats;
-    render(*find_algorithm("zbuffer"), input, target, stats);
-    CHECK(stats.pixels_written > 1000);
+    const MeshView mesh{pos.data(), int64_t(pos.size() / 3), faces.data(), n_faces};
+    const std::vector<int32_t> ids = visible_ids(mesh, mvp, w, h);
     for (int mode = 0; mode < 3; ++mode) {  // smooth; smooth, per-vertex colours; per-vertex colours
       ShadingInput in;
-      in.mesh = input.mesh;
+      in.mesh = mesh;
       in.width = w;
       in.height = h;
       for (int k = 0; k < 16; ++k) in.mvp[k] = mvp[k];
       in.vertex_normals = mode < 2 ? normals.data() : nullptr;
       in.color_source = mode > 0 ? ColorSource::kPerVertex : ColorSource::kUniform;
       in.colors = mode > 0 ? colours.data() : nullptr;
-      const double l[3] = {0.2, 0.3, -0.9};
-      const double len = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
-      for (int k = 0; k < 3; ++k) in.light_dir[k] = l[k] / len;
-      std::vector<uint8_t> fast(size_t(w) * h * 3), slow(size_t(w) * h * 3);
-      shade(in, ids.data(), fast.data());
-      shade_scalar(in, ids.data(), slow.data());
-      int worst = 0;
-      for (size_t k = 0; k < fast.size(); ++k) worst = std::max(worst, std::abs(int(fast[k]) - int(slow[k])));
+      set_light(in, 0.2, 0.3, -0.9);
+      const int worst = worst_difference(in, ids);
       CHECK(worst <= 1);
       if (worst > 1) std::printf("hard faces: %d x %d, mode %d: %d levels off\n", w, h, mode, worst);
     }

@@ -12,7 +12,7 @@ import numpy as np
 from . import _core
 from .api import check_algorithm, check_record_culls, finish, render_visibility
 from .camera import Camera
-from .mesh import as_mesh
+from .mesh import _INT32_MAX, as_mesh
 from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE
@@ -34,9 +34,6 @@ def _positive_int(name: str, value) -> int:
     if not 1 <= value <= _INT32_MAX:
         raise ValueError(f"{name} must be in [1, {_INT32_MAX}], got {value}")
     return int(value)
-
-
-_INT32_MAX = 2**31 - 1
 
 
 class Scene:
