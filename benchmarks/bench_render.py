@@ -43,6 +43,26 @@ CASES = [
 # Depth storage per algorithm: one render of this mesh at this size each.
 MEMORY_CASE = ("bunny_69k.obj", 4096, 4096)
 
+# Rendering into the caller's arrays (out=) against new arrays each frame.
+OUT_CASE = ("bunny_69k.obj", (1024, 2048, 4096))
+
+
+def bench_out(mesh, size, runs):
+    """Median total_ms of depth-only zbuffer renders into new arrays and,
+    alternating with them, into the arrays of one earlier result (out=)."""
+    camera = zbuffer.Camera.fit(mesh, aspect=1.0).resolve(mesh)
+    render = lambda **kw: zbuffer.render(mesh, camera=camera, width=size,  # noqa: E731
+                                         height=size, shading="none", **kw)
+    kept = render()
+    render(out=kept)  # warm up
+    fresh, into = [], []
+    for _ in range(runs):
+        fresh.append(render().stats["total_ms"])
+        into.append(render(out=kept).stats["total_ms"])
+    return {"size": f"{size}x{size}", "new_ms_median": statistics.median(fresh),
+            "out_ms_median": statistics.median(into),
+            "ratio": statistics.median(into) / statistics.median(fresh), "runs": runs}
+
 
 def bench(mesh, width, height, shading, algo, runs):
     """Median times of `runs` renders; for an algorithm other than zbuffer,
@@ -146,6 +166,15 @@ def markdown(report: dict) -> str:
         for row in memory["algorithms"]:
             lines.append(f"| {row['algo']} | {row['depth_storage_bytes']:,} | "
                          f"{row['depth_storage_bytes'] / 2**20:.3f} | {row['core_ms']:.1f} |")
+    out = report.get("out")
+    if out:
+        lines += ["", f"Rendering into the caller's arrays (`out=`), {out['mesh']}, depth only, "
+                  "`zbuffer`: median `total_ms` of new arrays every frame and, alternating "
+                  "with them, of the arrays of one earlier result:", "",
+                  "| size | new arrays ms | out= ms | ratio |", "|---|---:|---:|---:|"]
+        for row in out["sizes"]:
+            lines.append(f"| {row['size']} | {row['new_ms_median']:.2f} | "
+                         f"{row['out_ms_median']:.2f} | {row['ratio']:.2f} |")
     vtk = [c for c in report["cases"] if c.get("vtk_ms_median")]
     if vtk:
         lines += ["", "Same run, VTK offscreen depth (pyvista `render()` + `get_image_depth()`, "
@@ -167,7 +196,7 @@ def main(argv=None) -> int:
     runs = args.runs or (3 if args.quick else 21)
 
     report = {**new_report("bench_render.py", argv), "cases": []}
-    progress = Progress("render", len(CASES) + len(zbuffer.algorithms()))
+    progress = Progress("render", len(CASES) + len(zbuffer.algorithms()) + len(OUT_CASE[1]))
     for name, width, height, shading, algo, target in CASES:
         if args.quick:
             width, height = width // 4, height // 4
@@ -206,6 +235,17 @@ def main(argv=None) -> int:
             progress(f"{label} {width}x{height} {algo}: depth storage "
                      f"{res.stats['depth_storage_bytes']:,} bytes")
         report["depth_storage"] = {"mesh": label, "size": f"{width}x{height}", "algorithms": rows}
+
+    name, sizes = OUT_CASE
+    mesh, label = load_model(name, args.quick)
+    if mesh is not None:
+        rows = []
+        for size in sizes:
+            size = size // 8 if args.quick else size
+            rows.append(bench_out(mesh, size, 3 if args.quick else 11))
+            progress(f"{label} {size}x{size} out=: {rows[-1]['out_ms_median']:.2f} ms against "
+                     f"{rows[-1]['new_ms_median']:.2f} ms")
+        report["out"] = {"mesh": label, "sizes": rows}
 
     write_report(args.out, "render", report, markdown(report))
     return 0

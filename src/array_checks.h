@@ -42,4 +42,35 @@ py::array_t<T> require_array(py::handle obj, const char* name,
   return py::reinterpret_borrow<py::array_t<T>>(a);
 }
 
+// An array the core writes into: require_array's checks, and writeable.
+template <class T>
+py::array_t<T> require_output(py::handle obj, const char* name,
+                              const std::vector<py::ssize_t>& shape) {
+  auto a = require_array<T>(obj, name, shape);
+  if (!a.writeable()) throw py::value_error(std::string(name) + " must be writeable");
+  return a;
+}
+
+// An array a call reads or writes, named for messages.
+struct NamedArray {
+  py::array array;
+  const char* name;
+};
+
+// ValueError if the memory of `out` (an array the core writes) overlaps
+// that of any of `others` (arrays the same call reads or writes): the core
+// would read what it has just written. Empty arrays overlap nothing.
+inline void require_apart(const NamedArray& out, const std::vector<NamedArray>& others) {
+  const auto* lo = static_cast<const char*>(out.array.data());
+  const auto* hi = lo + out.array.nbytes();
+  for (const NamedArray& other : others) {
+    if (!other.array || other.array.nbytes() == 0 || out.array.nbytes() == 0) continue;
+    const auto* o_lo = static_cast<const char*>(other.array.data());
+    const auto* o_hi = o_lo + other.array.nbytes();
+    if (lo < o_hi && o_lo < hi)
+      throw py::value_error(std::string(out.name) + " shares memory with " + other.name +
+                            ": pass arrays of their own to render into");
+  }
+}
+
 }  // namespace zbuffer_py

@@ -54,14 +54,16 @@ std::unique_ptr<Tree> build(const std::string& kind, py::handle positions_obj,
 }
 
 py::tuple render(Tree& self, py::handle mvp_obj, int width, int height, bool cull_backfaces,
-                 bool temporal, bool record_culls) {
+                 bool temporal, bool record_culls, py::handle out_depth_obj,
+                 py::handle out_ids_obj) {
   check_image_size(width, height);
   zbuffer::RenderInput input;
   read_mvp(mvp_obj, input.mvp);
   input.cull_backfaces = cull_backfaces;
   if (temporal && self.tree.cluster_of_id.empty() && self.tree.n_input_faces > 0)
     throw py::value_error("temporal coherence needs a tree built without face_ids");
-  auto [depth, ids] = allocate_planes(width, height);
+  // (The tree holds its own copies of the mesh: no input array to keep apart.)
+  auto [depth, ids] = output_planes(out_depth_obj, out_ids_obj, width, height, {});
   zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
   zbuffer::RenderStats stats;
   const auto culls = attach_cull_map(record_culls, width, height, input);
@@ -133,9 +135,11 @@ void bind_object_tree(py::module_& m) {
       .def_property_readonly("memory_bytes", [](const Tree& t) { return t.tree.memory_bytes(); })
       .def("render", &render, py::arg("mvp"), py::arg("width"), py::arg("height"),
            py::arg("cull_backfaces") = false, py::arg("temporal") = false,
-           py::arg("record_culls") = false,
+           py::arg("record_culls") = false, py::arg("out_depth") = py::none(),
+           py::arg("out_ids") = py::none(),
            "Render one frame: (depth, triangle_id, stats), and with record_culls the\n"
-           "triangles culled by tests that read each pyramid cell, per level.")
+           "triangles culled by tests that read each pyramid cell, per level. With\n"
+           "out_depth and out_ids, into those arrays (as _core.render).")
       .def("nodes", &nodes,
            "The nodes as arrays: lo, hi (K, 3) float64; depth, parent, first_child,\n"
            "n_children (K,) int32; n_triangles, own_triangles (K,) int64; fate (K,) uint8\n"

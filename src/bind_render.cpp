@@ -93,7 +93,7 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
                  int width, int height, const std::string& algo, bool cull_backfaces,
                  py::handle face_ids_obj, py::handle polygon_offsets_obj,
                  py::handle polygon_indices_obj, bool record_culls, py::handle cell_start_obj,
-                 py::handle cell_centre_obj) {
+                 py::handle cell_centre_obj, py::handle out_depth_obj, py::handle out_ids_obj) {
   const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
   if (!algorithm)
     throw py::value_error("unknown algorithm \"" + algo + "\"; valid names are " +
@@ -140,8 +140,13 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   read_mvp(mvp_obj, input.mvp);
   input.cull_backfaces = cull_backfaces;
 
-  // Outputs are the user's arrays: written in place, handed over uncopied.
-  auto [depth, ids] = allocate_planes(width, height);
+  // Outputs are the user's arrays: written in place, handed over uncopied
+  // (new ones, or those the caller passed to be rendered into).
+  auto [depth, ids] = output_planes(
+      out_depth_obj, out_ids_obj, width, height,
+      {{positions, "positions"}, {faces, "faces"}, {face_ids, "face_ids"},
+       {cell_start, "cell_start"}, {cell_centre, "cell_centre"},
+       {polygon_offsets, "polygon_offsets"}, {polygon_indices, "polygon_indices"}});
   zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
   zbuffer::RenderStats stats;
   const auto culls = attach_cull_map(record_culls, width, height, input);
@@ -169,7 +174,8 @@ void bind_render(py::module_& m) {
         py::arg("cull_backfaces") = false, py::arg("face_ids") = py::none(),
         py::arg("polygon_offsets") = py::none(), py::arg("polygon_indices") = py::none(),
         py::arg("record_culls") = false, py::arg("cell_start") = py::none(),
-        py::arg("cell_centre") = py::none(),
+        py::arg("cell_centre") = py::none(), py::arg("out_depth") = py::none(),
+        py::arg("out_ids") = py::none(),
         "Render depth and triangle ids; returns (depth, triangle_id, stats), and with\n"
         "record_culls (algorithms with a Z-pyramid) a fourth item: per pyramid level an\n"
         "int64 array of the triangles culled by tests that read each cell. With face_ids,\n"
@@ -177,7 +183,10 @@ void bind_render(py::module_& m) {
         "(int64 offsets, int32 indices; faces = their triangulation in polygon order), an\n"
         "algorithm that draws polygons draws them natively, each with its first triangle's id.\n"
         "With cells (spatial_order's cell_start and cell_centre for these faces), the\n"
-        "image-space algorithms visit the faces cell by cell, nearest cell first.");
+        "image-space algorithms visit the faces cell by cell, nearest cell first.\n"
+        "With out_depth and out_ids (float32 and int32 (height, width), C-contiguous,\n"
+        "writeable, sharing no memory with each other or the inputs), renders into them\n"
+        "and returns them instead of new arrays.");
   m.def(
       "polygon_algorithms",
       [] {

@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 
 #include <string>
+#include <vector>
 
 #include "array_checks.h"
 #include "zbuffer/mesh_checks.h"
@@ -17,7 +18,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
                            py::handle light_dir_obj, double ambient, double diffuse,
                            py::handle background_obj, py::handle uniform_color_obj,
                            const std::string& color_source, py::handle colors_obj,
-                           py::handle normals_obj) {
+                           py::handle normals_obj, py::handle out_obj) {
   auto ids = require_array<int32_t>(ids_obj, "triangle_id", {-1, -1});
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
   auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
@@ -70,7 +71,16 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   in.ambient = ambient;
   in.diffuse = diffuse;
 
-  py::array_t<uint8_t> image({py::ssize_t(in.height), py::ssize_t(in.width), py::ssize_t(3)});
+  const std::vector<py::ssize_t> shape = {in.height, in.width, 3};
+  py::array_t<uint8_t> image;
+  if (out_obj.is_none()) {
+    image = py::array_t<uint8_t>(shape);
+  } else {  // the caller's image, written in place
+    image = require_output<uint8_t>(out_obj, "out", shape);
+    require_apart({image, "out"}, {{ids, "triangle_id"}, {positions, "positions"},
+                                   {faces, "faces"}, {colors, "colors"},
+                                   {normals, "vertex_normals"}});
+  }
   uint8_t* out = image.mutable_data();
   {
     py::gil_scoped_release release;
@@ -86,8 +96,9 @@ void bind_shading(py::module_& m) {
         py::arg("mvp"), py::arg("viewer"), py::arg("light_dir"), py::arg("ambient"),
         py::arg("diffuse"), py::arg("background"), py::arg("uniform_color"),
         py::arg("color_source") = "uniform", py::arg("colors") = py::none(),
-        py::arg("vertex_normals") = py::none(),
-        "Lambert-shade a visibility result; returns an (H, W, 3) uint8 image.");
+        py::arg("vertex_normals") = py::none(), py::arg("out") = py::none(),
+        "Lambert-shade a visibility result; returns an (H, W, 3) uint8 image (out, if\n"
+        "given: C-contiguous, writeable, sharing no memory with the inputs).");
 }
 
 }  // namespace zbuffer_py

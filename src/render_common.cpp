@@ -136,6 +136,22 @@ std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, i
   return {depth, ids};
 }
 
+std::pair<py::array_t<float>, py::array_t<int32_t>> output_planes(
+    py::handle out_depth, py::handle out_ids, int width, int height,
+    const std::vector<NamedArray>& inputs) {
+  if (out_depth.is_none() && out_ids.is_none()) return allocate_planes(width, height);
+  if (out_depth.is_none() || out_ids.is_none())
+    throw py::value_error("give both out_depth and out_ids, or neither");
+  const std::vector<py::ssize_t> shape = {height, width};
+  auto depth = require_output<float>(out_depth, "out_depth", shape);
+  auto ids = require_output<int32_t>(out_ids, "out_ids", shape);
+  std::vector<NamedArray> others = inputs;
+  others.push_back({ids, "out_ids"});
+  require_apart({depth, "out_depth"}, others);
+  require_apart({ids, "out_ids"}, inputs);
+  return {depth, ids};
+}
+
 void read_mvp(py::handle mvp_obj, double* out) {
   auto mvp = require_array<double>(mvp_obj, "mvp", {4, 4});
   for (int k = 0; k < 16; ++k) {

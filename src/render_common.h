@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <utility>
+#include <vector>
 
 #include "array_checks.h"
 #include "zbuffer/types.h"
@@ -41,5 +42,13 @@ py::tuple render_result(py::array_t<float> depth, py::array_t<int32_t> ids,
 
 // The depth and id planes, as two C-contiguous (H, W) arrays in one block.
 std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height);
+
+// The planes a render writes: the caller's (out_depth float32 and out_ids
+// int32, both (height, width), C-contiguous, writeable, apart from each
+// other and from every array in `inputs`), or, when both are None, new ones
+// (allocate_planes). ValueError/TypeError naming what is wrong otherwise.
+std::pair<py::array_t<float>, py::array_t<int32_t>> output_planes(
+    py::handle out_depth, py::handle out_ids, int width, int height,
+    const std::vector<NamedArray>& inputs);
 
 }  // namespace zbuffer_py

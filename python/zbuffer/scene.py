@@ -10,7 +10,8 @@ from typing import Dict, Optional
 import numpy as np
 
 from . import _core
-from .api import check_algorithm, check_record_culls, finish, render_visibility
+from .api import (check_algorithm, check_record_culls, finish, output_arrays,
+                  render_visibility)
 from .camera import Camera
 from .mesh import _INT32_MAX, as_mesh
 from .options import DEFAULT_SIZE, prepare
@@ -144,7 +145,8 @@ class Scene:
                temporal: bool = False, cull_backfaces: bool = False, shading: str = "flat",
                light_dir=None, ambient: float = DEFAULT_AMBIENT,
                diffuse: float = DEFAULT_DIFFUSE, color=None,
-               background=DEFAULT_BACKGROUND, record_culls: bool = False) -> RenderResult:
+               background=DEFAULT_BACKGROUND, record_culls: bool = False,
+               out=None) -> RenderResult:
         """Render one frame; arguments as for :func:`zbuffer.render`.
 
         Parameters
@@ -174,14 +176,17 @@ class Scene:
             self.mesh, camera, width, height, shading, light_dir, ambient, diffuse, color,
             background, cull_backfaces)
         record_culls = check_record_culls(record_culls)
+        depth, ids, image = output_arrays(out, width, height)
         if algo not in TREE_ALGORITHMS:
-            out = render_visibility(mesh, algo, mvp, width, height, cull_backfaces, record_culls)
+            planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
+                                       record_culls, out_depth=depth, out_ids=ids)
         else:
             build_ms = self.build(algo)
-            out = self._trees[algo].render(mvp, width, height, bool(cull_backfaces),
-                                           bool(temporal), record_culls)
-            out[2]["build_ms"] = build_ms
-        return finish(mesh, camera, mvp, params, algo, *out, start=start)
+            planes = self._trees[algo].render(mvp, width, height, bool(cull_backfaces),
+                                              bool(temporal), record_culls, out_depth=depth,
+                                              out_ids=ids)
+            planes[2]["build_ms"] = build_ms
+        return finish(mesh, camera, mvp, params, algo, *planes, start=start, out_image=image)
 
     def _require_tree(self, algo: str) -> None:
         check_algorithm(algo)

@@ -1,0 +1,138 @@
+"""Rendering into the caller's arrays (``out=``): the same bits as new arrays,
+the same array objects back, and clear errors for arrays that cannot be
+written into."""
+
+import numpy as np
+import pytest
+
+import zbuffer
+from zbuffer import scenes
+
+ALGOS = zbuffer.algorithms()
+W, H = 96, 64
+
+
+def mesh_and_camera():
+    mesh = scenes.default_scene()
+    return mesh, zbuffer.Camera.fit(mesh, aspect=W / H)
+
+
+def stale(width=W, height=H):
+    """Arrays holding values no render leaves (so that a pixel the render
+    failed to write shows)."""
+    return (np.full((height, width), 0.25, np.float32), np.full((height, width), 7, np.int32),
+            np.full((height, width, 3), 9, np.uint8))
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+@pytest.mark.parametrize("shading", ["none", "flat", "smooth"])
+def test_rendering_into_arrays_gives_the_same_bits(algo, shading):
+    mesh, cam = mesh_and_camera()
+    fresh = zbuffer.render(mesh, algo, cam, W, H, shading=shading)
+    depth, ids, image = stale()
+    res = zbuffer.render(mesh, algo, cam, W, H, shading=shading, out=(depth, ids, image))
+    assert res.depth is depth and res.triangle_id is ids
+    np.testing.assert_array_equal(depth, fresh.depth)
+    np.testing.assert_array_equal(ids, fresh.triangle_id)
+    if shading == "none":
+        assert res.image is None and (image == 9).all()  # not shaded, not touched
+    else:
+        assert res.image is image
+        np.testing.assert_array_equal(image, fresh.image)
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_a_result_is_reused_frame_after_frame(algo):
+    mesh, _ = mesh_and_camera()
+    scene = zbuffer.Scene(mesh)
+    cameras = [zbuffer.Camera.look_at((3 * np.sin(a), 0.5, 3 * np.cos(a)), (0, 0, 0), fov_y=40)
+               for a in np.linspace(0, 2.5, 4)]
+    res = first = None
+    for cam in cameras:
+        fresh = zbuffer.render(mesh, algo, cam, W, H)
+        res = scene.render(cam, algo, W, H, out=res)
+        first = res if first is None else first
+        assert res.depth is first.depth and res.image is first.image
+        np.testing.assert_array_equal(res.depth, fresh.depth)
+        np.testing.assert_array_equal(res.triangle_id, fresh.triangle_id)
+        np.testing.assert_array_equal(res.image, fresh.image)
+
+
+def test_polygons_and_temporal_frames_render_into_arrays(tmp_path):
+    # The scanline's native polygons (a concave pentagon), and a tree's
+    # temporal frames.
+    path = tmp_path / "concave.obj"
+    path.write_text("v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nf 1 2 3 4 5\n")
+    mesh = zbuffer.load(path)
+    assert mesh.polygon_sizes is not None
+    cam = zbuffer.Camera.fit(mesh, aspect=W / H)
+    fresh = zbuffer.render(mesh, "scanline", cam, W, H, shading="none")
+    depth, ids, _ = stale()
+    zbuffer.render(mesh, "scanline", cam, W, H, shading="none", out=(depth, ids))
+    np.testing.assert_array_equal(ids, fresh.triangle_id)
+
+    grid = scenes.instance_grid(scenes.default_scene(), (2, 2, 3))
+    scene = zbuffer.Scene(grid)
+    cam = zbuffer.Camera.fit(grid, aspect=W / H)
+    depth, ids, _ = stale()
+    for _ in range(2):
+        res = scene.render(cam, "hiz_octree", W, H, shading="none", temporal=True,
+                           out=(depth, ids))
+        np.testing.assert_array_equal(ids, zbuffer.reference.render(grid, cam, W, H).triangle_id)
+        assert res.triangle_id is ids
+
+
+def test_arrays_that_cannot_be_rendered_into_are_refused():
+    mesh, cam = mesh_and_camera()
+    depth, ids, image = stale()
+    render = lambda out, **kw: zbuffer.render(mesh, "zbuffer", cam, W, H, out=out, **kw)
+    with pytest.raises(TypeError, match="RenderResult or a tuple"):
+        render([depth, ids])
+    with pytest.raises(TypeError, match="RenderResult or a tuple"):
+        render((depth,))
+    with pytest.raises(TypeError, match="depth must be a numpy array"):
+        render((depth.tolist(), ids))
+    with pytest.raises(TypeError, match="depth must have dtype float32"):
+        render((depth.astype(np.float64), ids))
+    with pytest.raises(TypeError, match="triangle_id must have dtype int32"):
+        render((depth, ids.astype(np.int64)))
+    with pytest.raises(ValueError, match=r"depth has shape \(64, 95\)"):
+        render((depth[:, 1:].copy(), ids))
+    with pytest.raises(ValueError, match="image has shape"):
+        render((depth, ids, image[..., :2].copy()))
+    with pytest.raises(ValueError, match="C-contiguous"):
+        render((np.asfortranarray(depth), ids))
+    frozen = depth.copy()
+    frozen.flags.writeable = False
+    with pytest.raises(ValueError, match="writeable"):
+        render((frozen, ids))
+    with pytest.raises(ValueError, match="share memory"):
+        render((depth, depth.view(np.int32)))
+    # A result of another size
+    small = zbuffer.render(mesh, "zbuffer", cam, W // 2, H // 2)
+    with pytest.raises(ValueError, match="this render needs"):
+        render(small)
+    # Nothing was written by the refused calls.
+    assert (depth == 0.25).all() and (ids == 7).all() and (image == 9).all()
+
+
+def test_arrays_sharing_memory_with_the_mesh_are_refused():
+    # The core reads the faces while it writes the ids: an id plane over the
+    # faces' memory would feed it its own output.
+    block = np.zeros(H * W + 3 * 2, np.int32)
+    faces = block[:6].reshape(2, 3)
+    faces[:] = [[0, 1, 2], [0, 2, 3]]
+    verts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    ids = block[: H * W].reshape(H, W)
+    with pytest.raises(ValueError, match="out_ids shares memory with faces"):
+        zbuffer._core.render(verts, faces, np.eye(4), W, H, out_depth=np.zeros((H, W), np.float32),
+                             out_ids=ids)
+    with pytest.raises(ValueError, match="give both out_depth and out_ids"):
+        zbuffer._core.render(verts, faces, np.eye(4), W, H,
+                             out_depth=np.zeros((H, W), np.float32))
+    plane = np.zeros(4 * H * W, np.uint8)
+    tid = plane.view(np.int32).reshape(H, W)
+    with pytest.raises(ValueError, match="out shares memory with triangle_id"):
+        zbuffer._core.shade(tid, verts, faces, np.eye(4), np.array([0, 0, 1, 0.0]),
+                            np.array([0, 0, -1.0]), 0.2, 0.8, np.zeros(3, np.uint8),
+                            np.ones(3, np.float32), out=plane[: 3 * H * W].reshape(H, W, 3))
