@@ -67,16 +67,21 @@ def results_markdown(out: Path, record: dict) -> str:
              "`<date>-<host>.json`); each suite's section repeats its own table "
              "(`<suite>.md`). Times are in-process medians; machines like this one are "
              "shared and noisy, so compare algorithms by their ratios within one run.", ""]
+    kept = set(record.get("kept_from_earlier_runs", ()))
     for name in SUITES:
-        if name in record["suites"]:
+        if name in record["suites"] and name not in kept:
             report, note = record["suites"][name], []
-        elif (out / f"{name}.json").is_file() and (out / f"{name}.md").is_file():
-            # Not run this time: the suite's latest recorded run, with its own date.
-            report = json.loads((out / f"{name}.json").read_text())
-            note = [f"*Not run by this command: the section below is from an earlier run "
-                    f"({report['date']}, `{report['command']}`).*", ""]
         else:
-            continue
+            # Not run this time: the suite's run kept from earlier the same
+            # day, or else its latest recorded one; either with its own date.
+            if name in record["suites"]:
+                report = record["suites"][name]
+            elif (out / f"{name}.json").is_file() and (out / f"{name}.md").is_file():
+                report = json.loads((out / f"{name}.json").read_text())
+            else:
+                continue
+            note = [f"*Not run by this command: the section below (and \"this run\" in it) "
+                    f"is from an earlier run ({report['date']}, `{report['command']}`).*", ""]
         md = (out / f"{name}.md").read_text().splitlines()
         title = md[0].lstrip("# ").strip() if md and md[0].startswith("#") else name
         lines += [f"## {title}", "", *note,

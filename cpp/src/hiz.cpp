@@ -20,7 +20,9 @@ void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stat
   // (level 3) up: the batch tests triangles against it, skips hidden tiles
   // of large ones, and keeps it up to date. Faces come cell by cell, nearest
   // first, when the mesh has cells (FaceCells). Batches are tested against
-  // the pyramid as it was after the previous batch, so smaller ones cull
+  // the pyramid as it was after the previous batch (or, with lazy upkeep,
+  // after the last batch that culled enough to be worth updating for: up to
+  // 1 + TriangleBatch::kMaxSkippedUpdates batches back), so smaller ones cull
   // sooner but cost more upkeep: 128 instead of 512 made single meshes ~4%
   // slower. Keeping 4x4 cells too (as the tree algorithms do) made them
   // 1-4% slower, and so did finer cells (16 x 16 x 16: up to 25% on small

@@ -35,6 +35,8 @@ class ObjectTree:
         cull_backfaces: bool = False,
         temporal: bool = False,
         record_culls: bool = False,
+        out_depth: Optional[npt.NDArray[np.float32]] = None,
+        out_ids: Optional[npt.NDArray[np.int32]] = None,
     ) -> Tuple[Any, ...]: ...  # (depth, triangle_id, stats[, culls per pyramid level])
     def nodes(self) -> Dict[str, np.ndarray]: ...
 
@@ -65,6 +67,8 @@ def render(
     record_culls: bool = False,
     cell_start: Optional[npt.NDArray[np.int32]] = None,
     cell_centre: Optional[npt.NDArray[np.float64]] = None,
+    out_depth: Optional[npt.NDArray[np.float32]] = None,
+    out_ids: Optional[npt.NDArray[np.int32]] = None,
 ) -> Tuple[Any, ...]: ...  # (depth, triangle_id, stats[, culls per pyramid level])
 def pyramid_levels(depth: npt.NDArray[np.float32]) -> List[npt.NDArray[np.float32]]: ...
 def spatial_order(
@@ -89,4 +93,5 @@ def shade(
     color_source: str = "uniform",
     colors: Optional[npt.NDArray[np.float32]] = None,
     vertex_normals: Optional[npt.NDArray[np.float64]] = None,
+    out: Optional[npt.NDArray[np.uint8]] = None,
 ) -> npt.NDArray[np.uint8]: ...

@@ -537,10 +537,16 @@ def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
            polygons: bool = False) -> RenderResult:
     """Render like :func:`zbuffer.render`, in pure numpy.
 
-    Takes the same arguments (but no ``algo``) and returns a
-    :class:`~zbuffer.RenderResult` whose ``depth`` and ``triangle_id`` every
-    compiled algorithm reproduces exactly. ``stats`` holds the counters that do
-    not depend on visiting order (no ``pixels_written``) and ``total_ms``.
+    Takes the same arguments but ``algo``, ``record_culls`` and ``out``, and
+    returns a :class:`~zbuffer.RenderResult` whose ``depth`` and
+    ``triangle_id`` every compiled algorithm reproduces exactly. ``stats``
+    holds the pipeline's counters that do not depend on the visiting order
+    -- ``triangles_in``, ``culled_invalid``, ``culled_frustum``, ``clipped``,
+    ``clipped_away``, ``clip_pieces``, ``culled_backface``,
+    ``culled_degenerate``, ``culled_hidden`` (0: it culls nothing as
+    hidden), ``rasterized``, ``pixels_tested`` (not with
+    polygons drawn natively, where it is each algorithm's own) and
+    ``pixels_covered`` -- and ``total_ms``.
 
     With ``polygons=True``, a mesh that keeps polygon faces
     (``mesh.polygon_sizes``) has them drawn natively, as the algorithms

@@ -35,8 +35,10 @@ class RenderResult:
         With ``record_culls=True`` (algorithms with a Z-pyramid): per
         pyramid level, shaped like :meth:`pyramid`'s, how many triangles
         were culled by occlusion tests that read each cell (a triangle
-        culled by the maximum of four cells counts in each; a tree node
-        culled whole counts its triangles). None otherwise.
+        culled by the maximum of several cells -- up to 3 x 3 for a small
+        triangle, 2 x 2 for a large one -- counts in each; a tree node
+        culled whole counts its triangles in the up to 4 x 4 cells it was
+        tested against). None otherwise.
     """
 
     image: Optional[np.ndarray]

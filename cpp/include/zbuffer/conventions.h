@@ -43,7 +43,7 @@ constexpr int32_t kHalfPixel = kSubpixelScale / 2;        // pixel centre offset
 // coordinate by 2^24 in magnitude, so edge functions (products of two
 // coordinate differences) stay below 2^51: exact in int64 and in double.
 constexpr int kMaxImageSide = 32768;
-// Largest image, in pixels (1 GiB of depth plus ids plus image at most).
+// Largest image, in pixels (1 GiB of depth plus ids, 1.375 GiB with the image).
 constexpr int64_t kMaxImagePixels = int64_t(1) << 27;
 
 // Guard band: triangles are clipped in x and y only where they leave the

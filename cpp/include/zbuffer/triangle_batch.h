@@ -40,7 +40,8 @@ class TriangleBatch {
   // are added, before their setup, large ones when drawing --, skips hidden
   // 8x8 tiles of large triangles, and after drawing brings the pyramid up to
   // date over the 16 x 16 blocks it drew into. The pyramid then lags by at
-  // most one batch, which only makes it cull less. Small boxes are tested
+  // most one batch (with set_lazy_upkeep, up to 1 + kMaxSkippedUpdates),
+  // which only makes it cull less. Small boxes are tested
   // against the at most 3 x 3 cells of the finest kept level (1 to 3) where
   // they span at most three cells a side: a pyramid kept from level 2 culls
   // more small triangles than one kept from level 3, for more upkeep.

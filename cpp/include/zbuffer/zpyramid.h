@@ -138,8 +138,10 @@ class ZPyramid {
 // Where the pyramid culled, cell by cell: for every level of a pyramid over
 // a width x height image (levels as ZPyramid's, all of them), the number of
 // triangles culled by tests that read the cell -- a triangle culled by the
-// maximum of four cells counts in each of them, a tree node culled whole
-// counts its triangles. Filled only when a render asks for it
+// maximum of several cells (up to 3 x 3 for a small triangle, 2 x 2 for a
+// large one) counts in each of them, a tree node culled whole counts its
+// triangles in each of the up to 4 x 4 cells it was tested against. Filled
+// only when a render asks for it
 // (record_culls): the hot loops test one pointer and otherwise do nothing.
 class CullMap {
  public:
