@@ -18,7 +18,8 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
                            py::handle light_dir_obj, double ambient, double diffuse,
                            py::handle background_obj, py::handle uniform_color_obj,
                            const std::string& color_source, py::handle colors_obj,
-                           py::handle normals_obj, py::handle out_obj) {
+                           py::handle normals_obj, py::handle out_obj,
+                           bool pixels_beyond_faces) {
   auto ids = require_array<int32_t>(ids_obj, "triangle_id", {-1, -1});
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
   auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
@@ -70,6 +71,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   }
   in.ambient = ambient;
   in.diffuse = diffuse;
+  in.pixels_beyond_faces = pixels_beyond_faces;
 
   const std::vector<py::ssize_t> shape = {in.height, in.width, 3};
   py::array_t<uint8_t> image;
@@ -97,8 +99,11 @@ void bind_shading(py::module_& m) {
         py::arg("diffuse"), py::arg("background"), py::arg("uniform_color"),
         py::arg("color_source") = "uniform", py::arg("colors") = py::none(),
         py::arg("vertex_normals") = py::none(), py::arg("out") = py::none(),
+        py::arg("pixels_beyond_faces") = false,
         "Lambert-shade a visibility result; returns an (H, W, 3) uint8 image (out, if\n"
-        "given: C-contiguous, writeable, sharing no memory with the inputs).");
+        "given: C-contiguous, writeable, sharing no memory with the inputs). With\n"
+        "pixels_beyond_faces (polygons drawn natively: a pixel carries its polygon's\n"
+        "first triangle), interpolation clamps every pixel into its face.");
 }
 
 }  // namespace zbuffer_py

@@ -136,3 +136,28 @@ def test_arrays_sharing_memory_with_the_mesh_are_refused():
         zbuffer._core.shade(tid, verts, faces, np.eye(4), np.array([0, 0, 1, 0.0]),
                             np.array([0, 0, -1.0]), 0.2, 0.8, np.zeros(3, np.uint8),
                             np.ones(3, np.float32), out=plane[: 3 * H * W].reshape(H, W, 3))
+
+
+def test_arrays_sharing_memory_with_the_mesh_object_are_refused():
+    # The core may get copies (a prepared mesh's renumbered vertices, a
+    # Scene's tree) while the shading pass reads the Mesh's own arrays,
+    # which may be the caller's (float64 vertices and float32 colours are
+    # kept without a copy): those are checked in Python, before any write.
+    base = scenes.default_scene()
+    n = len(base.vertices)
+    block = np.zeros(3 * n + W * H, np.float64)
+    block[: 3 * n] = base.vertices.ravel()
+    mesh = zbuffer.Mesh(block[: 3 * n].reshape(n, 3), base.faces).prepare()
+    over_vertices = block.view(np.float32)[: W * H].reshape(H, W)
+    colours = np.full(3 * n + W * H, 0.5, np.float32)
+    coloured = zbuffer.Mesh(base.vertices, base.faces, vertex_colors=colours[: 3 * n].reshape(n, 3))
+    over_colours = colours[: W * H].reshape(H, W)
+    ids = np.empty((H, W), np.int32)
+    with pytest.raises(ValueError, match="depth shares memory with the mesh's vertices"):
+        zbuffer.render(mesh, width=W, height=H, out=(over_vertices, ids))
+    with pytest.raises(ValueError, match="depth shares memory with the mesh's vertices"):
+        zbuffer.Scene(mesh).render(None, "hiz_bvh", W, H, out=(over_vertices, ids))
+    with pytest.raises(ValueError, match="depth shares memory with the mesh's vertex_colors"):
+        zbuffer.render(coloured, width=W, height=H, out=(over_colours, ids))
+    np.testing.assert_array_equal(mesh.vertices, base.vertices)  # nothing written
+    assert (colours == 0.5).all()

@@ -242,6 +242,45 @@ def test_adversarial_models_equal_reference(algo, name):
     assert drawn > 0
 
 
+def polygon_shading_differences(mesh, size=64):
+    """Largest difference (levels of 255) between the scanline's shaded
+    image of a polygon mesh and the reference's, over smooth shading and
+    per-vertex colours, from two directions."""
+    worst = 0
+    for direction in [(0.3, 0.2, 1.0), (-0.6, 0.4, 0.7)]:
+        cam = zbuffer.Camera.fit(mesh, direction=direction, aspect=1.0)
+        for shading in ["smooth", "flat"]:
+            res = zbuffer.render(mesh, algo="scanline", camera=cam, width=size, height=size,
+                                 shading=shading)
+            ref = zbuffer.reference.render(mesh, camera=cam, width=size, height=size,
+                                           shading=shading, polygons=True)
+            assert_same_visibility(res, ref)
+            worst = max(worst, int(np.abs(res.image.astype(int) - ref.image.astype(int)).max()))
+    return worst
+
+
+def test_smooth_shading_of_native_polygons_clamps_like_the_reference(tmp_path):
+    # Every pixel of a polygon drawn natively carries its first triangle's
+    # id, also where it lies outside that triangle: interpolation must clamp
+    # there as the reference does (the vector passes extrapolated, up to
+    # 36 levels off on these two bent quads). With per-vertex colours too.
+    text = "v -1 -1 0 1 0 0\nv 0 -1 0.6 0 1 0\nv 1 -1 0 0 0 1\n" \
+           "v -1 1 0 1 1 0\nv 0 1 0.6 0 1 1\nv 1 1 0 1 0 1\nf 1 2 5 4\nf 2 3 6 5\n"
+    (tmp_path / "bent_quads.obj").write_text(text)
+    mesh = zbuffer.load(tmp_path / "bent_quads.obj")
+    assert mesh.polygon_sizes is not None and mesh.vertex_colors is not None
+    assert polygon_shading_differences(mesh) <= 1
+    plain = zbuffer.Mesh(mesh.vertices, mesh.faces, polygons=(mesh.polygon_sizes,
+                                                             mesh.polygon_indices))
+    assert polygon_shading_differences(plain) <= 1
+
+
+@pytest.mark.models
+@pytest.mark.parametrize("name", ["rabbit_ngons.obj", "flowers.obj", "quadknot.obj", "cube.obj"])
+def test_smooth_shading_of_polygon_models_equals_reference(name):
+    assert polygon_shading_differences(zbuffer.load(model_path(name))) <= 1
+
+
 @pytest.mark.models
 @pytest.mark.parametrize("name", ["concave_plane.obj", "four_rectangles.obj", "cube.obj",
                                   "six_boxes.obj"])

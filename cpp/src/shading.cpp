@@ -294,6 +294,11 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
 }  // namespace
 
 void shade(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image) {
+  const bool interpolated = in.vertex_normals || in.color_source == ColorSource::kPerVertex;
+  if (in.pixels_beyond_faces && interpolated) {
+    shade_scalar(in, triangle_id, image);
+    return;
+  }
 #if defined(ZBUFFER_AVX512)
   shade_avx512(in, triangle_id, image);
 #elif defined(ZBUFFER_AVX2)

@@ -94,4 +94,5 @@ def shade(
     colors: Optional[npt.NDArray[np.float32]] = None,
     vertex_normals: Optional[npt.NDArray[np.float64]] = None,
     out: Optional[npt.NDArray[np.uint8]] = None,
+    pixels_beyond_faces: bool = False,
 ) -> npt.NDArray[np.uint8]: ...

@@ -32,8 +32,11 @@ def algorithms() -> List[str]:
 
 
 def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
-          params: ShadingParams, out: Optional[np.ndarray] = None) -> np.ndarray:
-    """Run the compiled shading pass; (H, W, 3) uint8 (``out``, if given)."""
+          params: ShadingParams, out: Optional[np.ndarray] = None,
+          polygons: bool = False) -> np.ndarray:
+    """Run the compiled shading pass; (H, W, 3) uint8 (``out``, if given).
+    ``polygons``: the ids came from polygons drawn natively (each pixel
+    carries its polygon's first triangle, which it may lie outside)."""
     source, colors, uniform = color_source(mesh, params)
     return _core.shade(
         triangle_id, mesh.vertices, mesh.faces,
@@ -43,7 +46,7 @@ def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
         background=params.background, uniform_color=uniform,
         color_source=source, colors=colors,
         vertex_normals=mesh.vertex_normals if params.mode == "smooth" else None,
-        out=out,
+        out=out, pixels_beyond_faces=polygons,
     )
 
 
@@ -125,7 +128,7 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background,
         cull_backfaces)
-    depth, ids, image = output_arrays(out, width, height)
+    depth, ids, image = output_arrays(out, width, height, mesh)
     planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
                                check_record_culls(record_culls), out_depth=depth, out_ids=ids)
     return finish(mesh, camera, mvp, params, algo, *planes, start=start, out_image=image)
@@ -138,7 +141,7 @@ def render_visibility(mesh: Mesh, algo: str, mvp, width: int, height: int,
     an algorithm that draws them natively, the faces in visiting order
     otherwise. ``outputs``: out_depth and out_ids of ``_core.render``.
     Returns ``_core.render``'s tuple."""
-    if algo in _POLYGON_ALGORITHMS and mesh.polygon_sizes is not None:
+    if draws_polygons(algo, mesh):
         # Polygons as written; faces in polygon order for those drawn as triangles.
         return Visit(mesh.vertices, mesh.faces).render(
             mvp, width, height, algo, cull_backfaces, polygon_offsets=mesh.polygon_offsets,
@@ -147,13 +150,21 @@ def render_visibility(mesh: Mesh, algo: str, mvp, width: int, height: int,
                                           record_culls=record_culls, **outputs)
 
 
+def draws_polygons(algo: str, mesh: Mesh) -> bool:
+    """Whether ``algo`` draws ``mesh``'s polygon faces natively."""
+    return algo in _POLYGON_ALGORITHMS and mesh.polygon_sizes is not None
+
+
 _OUTPUTS = (("depth", np.float32, ()), ("triangle_id", np.int32, ()), ("image", np.uint8, (3,)))
 
 
-def output_arrays(out, width: int, height: int) -> tuple:
+def output_arrays(out, width: int, height: int, mesh: Mesh) -> tuple:
     """``out=`` of :func:`render` and :meth:`Scene.render`, checked, as
     (depth, triangle_id, image): each an array to render into, or None for a
-    new one. (Overlap with the mesh is the core's check.)"""
+    new one. None of them may share memory with another or with any array of
+    ``mesh`` (its own, its colours, its prepared copies): a render writes the
+    outputs while it and the shading pass read the mesh. (The core checks
+    the arrays it is given again.)"""
     if out is None:
         return None, None, None
     if isinstance(out, RenderResult):
@@ -182,7 +193,21 @@ def output_arrays(out, width: int, height: int) -> tuple:
         for other, b in present[i + 1:]:
             if np.may_share_memory(a, b):
                 raise ValueError(f"out: {name} and {other} share memory")
+        for other, b in _mesh_arrays(mesh):
+            if np.may_share_memory(a, b):
+                raise ValueError(f"out: {name} shares memory with the mesh's {other}")
     return arrays
+
+
+def _mesh_arrays(mesh: Mesh):
+    """(name, array) of every array a Mesh holds, its prepared visit's too."""
+    for name, value in vars(mesh).items():
+        if isinstance(value, np.ndarray):
+            yield name.lstrip("_"), value
+        elif isinstance(value, Visit):
+            for field, array in value._asdict().items():
+                if isinstance(array, np.ndarray):
+                    yield f"prepared {field}", array
 
 
 def check_record_culls(record_culls) -> bool:
@@ -209,7 +234,8 @@ def finish(mesh: Mesh, camera: Camera, mvp: np.ndarray, params: ShadingParams, a
     shade_ms = 0.0
     if params.mode != "none":
         t0 = time.perf_counter()
-        image = shade(mesh, triangle_id, camera, mvp, params, out=out_image)
+        image = shade(mesh, triangle_id, camera, mvp, params, out=out_image,
+                      polygons=draws_polygons(algo, mesh))
         shade_ms = (time.perf_counter() - t0) * 1e3
     stats["shade_ms"] = shade_ms
     stats["total_ms"] = (time.perf_counter() - start) * 1e3

@@ -176,7 +176,7 @@ class Scene:
             self.mesh, camera, width, height, shading, light_dir, ambient, diffuse, color,
             background, cull_backfaces)
         record_culls = check_record_culls(record_culls)
-        depth, ids, image = output_arrays(out, width, height)
+        depth, ids, image = output_arrays(out, width, height, mesh)
         if algo not in TREE_ALGORITHMS:
             planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
                                        record_culls, out_depth=depth, out_ids=ids)

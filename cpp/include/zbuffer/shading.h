@@ -38,6 +38,12 @@ struct ShadingInput {
   double light_dir[3] = {0, 0, -1};  // unit direction the light travels in
   double ambient = 0.2, diffuse = 0.8;
   uint8_t background[3] = {255, 255, 255};
+  // True when a pixel may lie anywhere outside the face its id names: a
+  // polygon drawn natively gives all its pixels its first triangle's id
+  // (docs/rasterization.md, 3.7). Interpolated shading then clamps every
+  // pixel the scalar pass's way (the vector passes' bounds assume pixel
+  // centres on their face).
+  bool pixels_beyond_faces = false;
 };
 
 // Writes the (height, width, 3) RGB image for the visibility result ids,
