@@ -178,6 +178,33 @@ def test_unreadable_and_malformed_files(tmp_path):
         zbuffer.load(binary)
 
 
+@pytest.mark.parametrize("name, content", [
+    ("empty.stl", b"solid empty\nendsolid empty\n"),
+    ("empty_binary.stl", b"\0" * 84),
+    ("empty.ply", b"ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
+                  b"property float y\nproperty float z\nelement face 0\n"
+                  b"property list uchar int vertex_indices\nend_header\n"),
+    ("points.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                   b"property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n"),
+    ("empty.off", b"OFF\n0 0 0\n"),
+    ("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\np 1 2 3\n"),
+])
+def test_files_that_say_they_hold_no_faces_render_empty(tmp_path, name, content):
+    path = tmp_path / name
+    path.write_bytes(content)
+    res = zbuffer.render(path, width=8, height=6)
+    assert len(zbuffer.load(path).faces) == 0
+    assert (res.triangle_id == -1).all() and np.isinf(res.depth).all()
+
+
+def test_files_whose_faces_do_not_come_through_are_refused(tmp_path):
+    # A header promising faces that trimesh reads as nothing is malformed.
+    path = tmp_path / "broken.off"
+    path.write_bytes(b"OFF\n3 1 0\n0 0 0\n1 0 0\n")
+    with pytest.raises(ValueError, match="could not read a mesh from"):
+        zbuffer.load(path)
+
+
 def test_huge_coordinates_cannot_be_framed_automatically():
     with pytest.raises(ValueError, match="too large to frame automatically"):
         zbuffer.render(([[0, 0, 0], [1e300, 0, 0], [0, 1e300, 0]], [[0, 1, 2]]), width=4, height=4)

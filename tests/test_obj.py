@@ -51,6 +51,21 @@ def test_vertex_colours_and_continuation_lines(tmp_path):
     assert mesh.vertex_colors is not None and len(mesh.faces) == 1
 
 
+def test_indented_records_and_trailing_comments(tmp_path):
+    # Records indented by spaces or tabs count (an indented v shifts what
+    # relative indices name); a comment may end a record, and a backslash
+    # inside a comment continues nothing.
+    text = ("  v 5 5 5  # not used\n\tv 0 0 0\nv 1 0 0 # x axis\n v 0 1 0\n"
+            "   f -3 -2 -1   # the only face \\\nf 1 1 1\n")
+    data = read_obj(write(tmp_path, text))
+    np.testing.assert_array_equal(data.vertices, [[5, 5, 5], [0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    np.testing.assert_array_equal(data.polygon_indices, [1, 2, 3, 0, 0, 0])
+    assert list(data.polygon_sizes) == [3, 3]
+    mesh = zbuffer.load(write(tmp_path, "v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1 2 3\n", "i.obj"))
+    assert len(mesh.faces) == 1
+    assert zbuffer.render(mesh, width=16, height=16, shading="none").mask.any()
+
+
 @pytest.mark.parametrize("text, message", [
     ("v 0 0\nf 1 1 1\n", "line 1: a vertex needs 3 coordinates"),
     ("v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3: a face needs at least 3 corners"),

@@ -75,6 +75,20 @@ def test_overlays(viewer):
     assert viewer.overlay == "none"
 
 
+@pytest.mark.parametrize("width, height", [(1, 1), (1, 5), (3, 2)])
+def test_pyramid_overlay_of_tiny_images(width, height):
+    # A 1 x 1 image has one pyramid level: the overlay shows it, then goes off.
+    viewer = Viewer(scenes.default_scene(), algo="zbuffer", width=width, height=height)
+    levels = len(viewer.render().pyramid())
+    shown = []
+    viewer.toggle("pyramid")
+    while viewer.overlay == "pyramid":
+        assert viewer.frame().shape == (height, width, 3)
+        shown.append(viewer.pyramid_level)
+        viewer.toggle("pyramid")
+    assert shown == (list(range(1, levels)) if levels > 1 else [0])
+
+
 def test_shading_cycle_and_false_colour_ids(viewer):
     seen = set()
     for _ in range(3):

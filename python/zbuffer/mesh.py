@@ -407,9 +407,10 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
     if not isinstance(tm, trimesh.Trimesh):
         raise ValueError(f"{path!r} holds no triangle mesh (got {type(tm).__name__})")
-    if len(tm.vertices) == 0 and _has_content(path):
+    if len(tm.vertices) == 0 and _has_content(path) and not _declares_no_faces(path):
         # trimesh reads some malformed files (a garbage binary STL, say) as
-        # empty; an empty mesh is only believable from an empty file.
+        # empty; an empty mesh is only believable from an empty file, or one
+        # whose own header or records say it has no faces.
         raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
                          "non-empty file (malformed or unsupported content)")
     mesh = Mesh.from_trimesh(tm, name=os.path.basename(path))
@@ -433,6 +434,38 @@ def _load_obj(path: str) -> Mesh:
     return Mesh(data.vertices, faces, vertex_colors=data.vertex_colors,
                 name=os.path.basename(path), face_polygon=owner if polygons else None,
                 polygons=(data.polygon_sizes, data.polygon_indices) if polygons else None)
+
+
+def _declares_no_faces(path: str) -> bool:
+    """True if the file says, in its format's own terms, that it holds no
+    faces: a PLY header without faces (``element face 0``, or none: points
+    only), an OFF header with 0 faces, an ASCII STL with no ``facet``, a
+    binary STL of 0 triangles."""
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix == ".ply" and head.startswith(b"ply"):
+        end = head.find(b"end_header")
+        if end < 0:
+            return False
+        for line in head[:end].splitlines():
+            words = line.split()
+            if words[:2] == [b"element", b"face"]:
+                return len(words) == 3 and words[2] == b"0"
+        return True  # no face element: points only
+    if suffix == ".off":
+        records = [line.split(b"#", 1)[0].split() for line in head.splitlines()]
+        records = [r for r in records if r]
+        if records and records[0][0].endswith(b"OFF"):
+            counts = records[0][1:] or (records[1] if len(records) > 1 else [])
+            return len(counts) >= 2 and counts[1] == b"0"
+        return False
+    if suffix == ".stl":
+        if head.lstrip().startswith(b"solid") and b"facet" not in head:
+            with open(path, "rb") as fh:
+                return b"facet" not in fh.read()
+        return len(head) == 84 and head[80:84] == b"\0\0\0\0"
+    return False
 
 
 def _has_content(path: str) -> bool:

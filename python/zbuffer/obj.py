@@ -45,7 +45,8 @@ def read_obj(path: str) -> ObjData:
 
     Supports ``v x y z [w]`` and ``v x y z r g b``, faces of any number of
     corners written ``i``, ``i/t``, ``i//n`` or ``i/t/n`` with positive or
-    negative (relative) indices, ``#`` comments and ``\\`` line continuations
+    negative (relative) indices, records indented by white space, ``#``
+    comments (whole lines or the end of one) and ``\\`` line continuations
     (which do not extend comments: a comment ends at its line's end).
     Everything else (texture coordinates, normals, groups, materials, lines,
     points) is ignored.
@@ -66,14 +67,19 @@ def read_obj(path: str) -> ObjData:
     corners: List[int] = []
     lines = text.splitlines()
     number = 0
+    def uncommented(line: str) -> str:
+        hash_at = line.find("#")
+        return line if hash_at < 0 else line[:hash_at]
+
     while number < len(lines):
-        line = lines[number]
+        line = lines[number].lstrip()
         number += 1
         start = number  # 1-based number of the record's first line
         if not line or line[0] not in "vf":
             continue  # comments (even ending in a backslash) and other records
+        line = uncommented(line)
         while line.endswith("\\") and number < len(lines):  # continuation
-            line = line[:-1] + " " + lines[number]
+            line = line[:-1] + " " + uncommented(lines[number])
             number += 1
         parts = line.split()
         if not parts:

@@ -118,11 +118,13 @@ class Viewer:
         if overlay not in ("depth", "pyramid", "tree"):
             raise ValueError(f"unknown overlay {overlay!r}")
         if overlay == "pyramid":
+            levels = _pyramid_levels(self.width, self.height)
             if self.overlay != "pyramid":
-                self.overlay, self.pyramid_level = "pyramid", 1
+                # Level 1 first (level 0 is the depth overlay), unless the
+                # image is a single pixel: then its only level.
+                self.overlay, self.pyramid_level = "pyramid", min(1, levels - 1)
             else:
                 self.pyramid_level += 1
-                levels = len(self.result.pyramid()) if self.result is not None else 1
                 if self.pyramid_level >= levels:
                     self.overlay, self.pyramid_level = "none", 0
             return
@@ -149,7 +151,9 @@ class Viewer:
         if self.overlay == "depth":
             picture = _grey(depth_for_display(res.depth))
         elif self.overlay == "pyramid":
-            level = res.pyramid()[self.pyramid_level]
+            levels = res.pyramid()
+            self.pyramid_level = min(self.pyramid_level, len(levels) - 1)  # a smaller image now
+            level = levels[self.pyramid_level]
             k = 2 ** self.pyramid_level
             up = np.repeat(np.repeat(level, k, axis=0), k, axis=1)[:self.height, :self.width]
             picture = _grey(depth_for_display(up))
@@ -276,3 +280,13 @@ def run(viewer: Viewer, screenshot: Optional[str] = None):
         plotter.add_key_event(key, lambda action=action: (action(), show()))
     plotter.show()
     return plotter
+
+
+def _pyramid_levels(width: int, height: int) -> int:
+    """How many levels the Z-pyramid of a width x height image has (level 0
+    the image itself, the last one 1 x 1)."""
+    levels = 1
+    while width > 1 or height > 1:
+        width, height = (width + 1) // 2, (height + 1) // 2
+        levels += 1
+    return levels
