@@ -17,6 +17,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 import zbuffer
 from common import HERE, MODELS, Progress, load_model, new_report, write_report
 
@@ -54,14 +56,18 @@ def bench_out(mesh, size, runs):
     render = lambda **kw: zbuffer.render(mesh, camera=camera, width=size,  # noqa: E731
                                          height=size, shading="none", **kw)
     kept = render()
-    render(out=kept)  # warm up
-    fresh, into = [], []
+    own = (np.empty((size, size), np.float32), np.empty((size, size), np.int32))
+    render(out=kept), render(out=own)  # warm up
+    fresh, into, into_own = [], [], []
     for _ in range(runs):
         fresh.append(render().stats["total_ms"])
         into.append(render(out=kept).stats["total_ms"])
+        into_own.append(render(out=own).stats["total_ms"])
     return {"size": f"{size}x{size}", "new_ms_median": statistics.median(fresh),
             "out_ms_median": statistics.median(into),
-            "ratio": statistics.median(into) / statistics.median(fresh), "runs": runs}
+            "ratio": statistics.median(into) / statistics.median(fresh),
+            "own_ms_median": statistics.median(into_own),
+            "own_ratio": statistics.median(into_own) / statistics.median(fresh), "runs": runs}
 
 
 def bench(mesh, width, height, shading, algo, runs):
@@ -170,11 +176,14 @@ def markdown(report: dict) -> str:
     if out:
         lines += ["", f"Rendering into the caller's arrays (`out=`), {out['mesh']}, depth only, "
                   "`zbuffer`: median `total_ms` of new arrays every frame and, alternating "
-                  "with them, of the arrays of one earlier result:", "",
-                  "| size | new arrays ms | out= ms | ratio |", "|---|---:|---:|---:|"]
+                  "with them, of the arrays of one earlier result and of two `np.empty` "
+                  "planes of one's own (ratios to new arrays):", "",
+                  "| size | new arrays ms | out=result ms | ratio | out=(np.empty, np.empty) ms "
+                  "| ratio |", "|---|---:|---:|---:|---:|---:|"]
         for row in out["sizes"]:
             lines.append(f"| {row['size']} | {row['new_ms_median']:.2f} | "
-                         f"{row['out_ms_median']:.2f} | {row['ratio']:.2f} |")
+                         f"{row['out_ms_median']:.2f} | {row['ratio']:.2f} | "
+                         f"{row['own_ms_median']:.2f} | {row['own_ratio']:.2f} |")
     vtk = [c for c in report["cases"] if c.get("vtk_ms_median")]
     if vtk:
         lines += ["", "Same run, VTK offscreen depth (pyvista `render()` + `get_image_depth()`, "

@@ -103,7 +103,8 @@ void bind_shading(py::module_& m) {
         "Lambert-shade a visibility result; returns an (H, W, 3) uint8 image (out, if\n"
         "given: C-contiguous, writeable, sharing no memory with the inputs). With\n"
         "pixels_beyond_faces (polygons drawn natively: a pixel carries its polygon's\n"
-        "first triangle), interpolation clamps every pixel into its face.");
+        "first triangle, which it may lie outside), interpolated shading runs the\n"
+        "scalar pass, the one whose clamping holds for such pixels.");
 }
 
 }  // namespace zbuffer_py

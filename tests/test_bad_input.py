@@ -1,6 +1,7 @@
 """Bad input gets a clear Python exception naming the problem, never a crash."""
 
 import re
+import struct
 
 import numpy as np
 import pytest
@@ -188,6 +189,8 @@ def test_unreadable_and_malformed_files(tmp_path):
                    b"property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n"),
     ("empty.off", b"OFF\n0 0 0\n"),
     ("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\np 1 2 3\n"),
+    ("empty_scene.obj", b"# Blender\nmtllib empty.mtl\no Empty\n"),
+    ("bom.obj", b"\xef\xbb\xbf# nothing here\n"),
 ])
 def test_files_that_say_they_hold_no_faces_render_empty(tmp_path, name, content):
     path = tmp_path / name
@@ -197,10 +200,26 @@ def test_files_that_say_they_hold_no_faces_render_empty(tmp_path, name, content)
     assert (res.triangle_id == -1).all() and np.isinf(res.depth).all()
 
 
-def test_files_whose_faces_do_not_come_through_are_refused(tmp_path):
-    # A header promising faces that trimesh reads as nothing is malformed.
-    path = tmp_path / "broken.off"
-    path.write_bytes(b"OFF\n3 1 0\n0 0 0\n1 0 0\n")
+@pytest.mark.parametrize("name, content", [
+    # A binary STL whose 80-byte header starts with "solid" (as many
+    # exporters write it), cut short: its triangles do not come through.
+    ("cut.stl", b"solid part".ljust(80) + struct.pack("<I", 2) + bytes(70)),
+    ("garbage.stl", b"solid x\nthis is garbage\n"),
+    ("counted.stl", bytes(80) + struct.pack("<I", 3)),
+    # Faces stored as another element (old Stanford scans: tristrips).
+    ("strips.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                   b"property float y\nproperty float z\nelement tristrips 1\n"
+                   b"property list int int vertex_indices\nend_header\n0 0 0\n1 0 0\n"
+                   b"0 1 0\n3 0 1 2\n"),
+    ("notoff.off", b"NOTOFF\n0 0 0\n"),
+    ("short.off", b"OFF\n0 0\n"),
+    ("picture.obj", b"\x89PNG\r\n\x1a\nIHDR garbage\n"),
+])
+def test_files_whose_faces_do_not_come_through_are_refused(tmp_path, name, content):
+    # trimesh (or the OBJ reader) finds nothing in them, yet nothing in the
+    # file says it is empty: malformed, not an empty mesh.
+    path = tmp_path / name
+    path.write_bytes(content)
     with pytest.raises(ValueError, match="could not read a mesh from"):
         zbuffer.load(path)
 

@@ -61,6 +61,11 @@ def test_indented_records_and_trailing_comments(tmp_path):
     np.testing.assert_array_equal(data.vertices, [[5, 5, 5], [0, 0, 0], [1, 0, 0], [0, 1, 0]])
     np.testing.assert_array_equal(data.polygon_indices, [1, 2, 3, 0, 0, 0])
     assert list(data.polygon_sizes) == [3, 3]
+    # A comment after a continuation's backslash, and white space after one.
+    data = read_obj(write(tmp_path, "v 0 0 0\nv 1 0 0\nv 0 1 \\ # z next\n0\nf 1 2 \\  \n3\n",
+                          "k.obj"))
+    np.testing.assert_array_equal(data.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    assert list(data.polygon_indices) == [0, 1, 2]
     mesh = zbuffer.load(write(tmp_path, "v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1 2 3\n", "i.obj"))
     assert len(mesh.faces) == 1
     assert zbuffer.render(mesh, width=16, height=16, shading="none").mask.any()

@@ -193,21 +193,10 @@ def output_arrays(out, width: int, height: int, mesh: Mesh) -> tuple:
         for other, b in present[i + 1:]:
             if np.may_share_memory(a, b):
                 raise ValueError(f"out: {name} and {other} share memory")
-        for other, b in _mesh_arrays(mesh):
+        for other, b in mesh.arrays():
             if np.may_share_memory(a, b):
                 raise ValueError(f"out: {name} shares memory with the mesh's {other}")
     return arrays
-
-
-def _mesh_arrays(mesh: Mesh):
-    """(name, array) of every array a Mesh holds, its prepared visit's too."""
-    for name, value in vars(mesh).items():
-        if isinstance(value, np.ndarray):
-            yield name.lstrip("_"), value
-        elif isinstance(value, Visit):
-            for field, array in value._asdict().items():
-                if isinstance(array, np.ndarray):
-                    yield f"prepared {field}", array
 
 
 def check_record_culls(record_culls) -> bool:

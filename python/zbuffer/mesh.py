@@ -298,6 +298,19 @@ class Mesh:
     # Meshes at least this large get a cache-friendly visiting order.
     _ORDER_MIN_FACES = 2048
 
+    def arrays(self):
+        """(name, array) of every numpy array this Mesh holds -- its own,
+        its colours, its polygons, cached normals and its prepared visit's
+        copies --, for checks that an array the caller writes into is none
+        of them."""
+        for name, value in vars(self).items():
+            if isinstance(value, np.ndarray):
+                yield name.lstrip("_"), value
+            elif isinstance(value, Visit):
+                for field, array in value._asdict().items():
+                    if isinstance(array, np.ndarray):
+                        yield f"prepared {field}", array
+
     def prepare(self) -> "Mesh":
         """Compute the cache-friendly order the compiled algorithms visit the
         faces in (a Z-order curve through their centroids, in cells of a
@@ -426,7 +439,7 @@ def _load_obj(path: str) -> Mesh:
         data = read_obj(path)
     except ValueError as err:
         raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
-    if len(data.vertices) == 0 and _has_content(path):
+    if len(data.vertices) == 0 and not _is_obj_without_geometry(path):
         raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
                          "non-empty file")
     faces, owner = triangulate_polygons(data.vertices, data.polygon_sizes, data.polygon_indices)
@@ -437,10 +450,12 @@ def _load_obj(path: str) -> Mesh:
 
 
 def _declares_no_faces(path: str) -> bool:
-    """True if the file says, in its format's own terms, that it holds no
-    faces: a PLY header without faces (``element face 0``, or none: points
-    only), an OFF header with 0 faces, an ASCII STL with no ``facet``, a
-    binary STL of 0 triangles."""
+    """True if the file says, in its format's own terms and nothing else,
+    that it holds no faces: a PLY header whose only elements are its
+    vertices and, if any, ``face 0``; an OFF header (``OFF``, ``COFF``,
+    ``NOFF`` or ``CNOFF``) counting 0 faces; an ASCII STL that is only
+    ``solid ...`` and ``endsolid ...``; a binary STL of exactly 84 bytes that
+    counts 0 triangles."""
     with open(path, "rb") as fh:
         head = fh.read(1 << 16)
     suffix = os.path.splitext(path)[1].lower()
@@ -448,24 +463,41 @@ def _declares_no_faces(path: str) -> bool:
         end = head.find(b"end_header")
         if end < 0:
             return False
-        for line in head[:end].splitlines():
-            words = line.split()
-            if words[:2] == [b"element", b"face"]:
-                return len(words) == 3 and words[2] == b"0"
-        return True  # no face element: points only
+        elements = [line.split()[1:] for line in head[:end].splitlines()
+                    if line.split()[:1] == [b"element"]]
+        return all(e[:1] == [b"vertex"] or e == [b"face", b"0"] for e in elements)
     if suffix == ".off":
         records = [line.split(b"#", 1)[0].split() for line in head.splitlines()]
         records = [r for r in records if r]
-        if records and records[0][0].endswith(b"OFF"):
-            counts = records[0][1:] or (records[1] if len(records) > 1 else [])
-            return len(counts) >= 2 and counts[1] == b"0"
-        return False
+        if not records or records[0][0] not in (b"OFF", b"COFF", b"NOFF", b"CNOFF"):
+            return False
+        counts = records[0][1:] or (records[1] if len(records) > 1 else [])
+        return len(counts) == 3 and counts[1] == b"0"
     if suffix == ".stl":
-        if head.lstrip().startswith(b"solid") and b"facet" not in head:
-            with open(path, "rb") as fh:
-                return b"facet" not in fh.read()
-        return len(head) == 84 and head[80:84] == b"\0\0\0\0"
+        if len(head) == 84:
+            return head[80:84] == b"\0\0\0\0"
+        lines = head.split()
+        return (len(head) < (1 << 16) and lines[:1] == [b"solid"]
+                and b"endsolid" in lines and all(not w.startswith(b"facet") for w in lines))
     return False
+
+
+def _is_obj_without_geometry(path: str) -> bool:
+    """True if every record of the file is one an OBJ file may hold (blank
+    lines and comments aside): then an OBJ without vertices is an empty
+    mesh (what an exporter writes for an empty scene), not another kind of
+    file."""
+    keywords = {b"v", b"vt", b"vn", b"vp", b"f", b"l", b"p", b"o", b"g", b"s", b"mg",
+                b"mtllib", b"usemtl", b"cstype", b"deg", b"curv", b"curv2", b"surf", b"parm",
+                b"trim", b"hole", b"end", b"bevel", b"c_interp", b"d_interp", b"lod",
+                b"shadow_obj", b"trace_obj", b"ctech", b"stech", b"call", b"csh"}
+    with open(path, "rb") as fh:
+        text = fh.read().removeprefix(b"\xef\xbb\xbf")
+    for line in text.splitlines():
+        words = line.split(b"#", 1)[0].split()
+        if words and words[0] not in keywords:
+            return False
+    return True
 
 
 def _has_content(path: str) -> bool:

@@ -67,19 +67,17 @@ def read_obj(path: str) -> ObjData:
     corners: List[int] = []
     lines = text.splitlines()
     number = 0
-    def uncommented(line: str) -> str:
-        hash_at = line.find("#")
-        return line if hash_at < 0 else line[:hash_at]
-
     while number < len(lines):
         line = lines[number].lstrip()
         number += 1
         start = number  # 1-based number of the record's first line
         if not line or line[0] not in "vf":
             continue  # comments (even ending in a backslash) and other records
-        line = uncommented(line)
+        # A comment ends the record; a backslash ending what is left of a
+        # line (white space after it aside) continues it on the next line.
+        line = line.partition("#")[0].rstrip()
         while line.endswith("\\") and number < len(lines):  # continuation
-            line = line[:-1] + " " + uncommented(lines[number])
+            line = line[:-1] + " " + lines[number].partition("#")[0].rstrip()
             number += 1
         parts = line.split()
         if not parts:

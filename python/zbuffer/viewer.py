@@ -151,9 +151,7 @@ class Viewer:
         if self.overlay == "depth":
             picture = _grey(depth_for_display(res.depth))
         elif self.overlay == "pyramid":
-            levels = res.pyramid()
-            self.pyramid_level = min(self.pyramid_level, len(levels) - 1)  # a smaller image now
-            level = levels[self.pyramid_level]
+            level = res.pyramid()[self.pyramid_level]
             k = 2 ** self.pyramid_level
             up = np.repeat(np.repeat(level, k, axis=0), k, axis=1)[:self.height, :self.width]
             picture = _grey(depth_for_display(up))
@@ -285,8 +283,4 @@ def run(viewer: Viewer, screenshot: Optional[str] = None):
 def _pyramid_levels(width: int, height: int) -> int:
     """How many levels the Z-pyramid of a width x height image has (level 0
     the image itself, the last one 1 x 1)."""
-    levels = 1
-    while width > 1 or height > 1:
-        width, height = (width + 1) // 2, (height + 1) // 2
-        levels += 1
-    return levels
+    return (max(width, height) - 1).bit_length() + 1
