@@ -138,29 +138,41 @@ def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
 
     b1 = np.full(len(f), 1.0 / 3.0)
     b2 = np.full(len(f), 1.0 / 3.0)
+    b0 = np.full(len(f), 1.0 / 3.0)
     if need_bary:
         # Perspective-correct barycentrics: adj(M) (x_ndc, y_ndc, 1), with the
-        # corners' clip-space (x, y, w) as the columns of M (shading.h).
+        # corners' clip-space (x, y, w) as the columns of M (shading.h), its
+        # coefficients scaled to a largest magnitude of 1 -- the scalar pass's
+        # operations in its order (shading.cpp: prepare_face,
+        # clamped_barycentrics), so that the two agree even on faces whose
+        # corners are collinear within rounding, where the barycentrics are
+        # rounding noise before the clamp.
         xn = (is_ + 0.5) / (0.5 * width) - 1.0
         yn = 1.0 - (js + 0.5) / (0.5 * height)
         corners = [v[idx[:, k]] for k in range(3)]
-        cx = [c @ mvp[0, :3] + mvp[0, 3] for c in corners]
-        cy = [c @ mvp[1, :3] + mvp[1, 3] for c in corners]
-        cw = [c @ mvp[3, :3] + mvp[3, 3] for c in corners]
-        b = []
+
+        def clip_row(r):
+            m = mvp[r]
+            return [c[:, 0] * m[0] + c[:, 1] * m[1] + c[:, 2] * m[2] + m[3] for c in corners]
+
+        cx, cy, cw = clip_row(0), clip_row(1), clip_row(3)
+        coef = []
         for k in range(3):
             a, c = (k + 1) % 3, (k + 2) % 3
-            b.append((cy[a] * cw[c] - cy[c] * cw[a]) * xn
-                     + (cw[a] * cx[c] - cw[c] * cx[a]) * yn
-                     + (cx[a] * cy[c] - cx[c] * cy[a]))
+            coef += [cy[a] * cw[c] - cy[c] * cw[a], cw[a] * cx[c] - cw[c] * cx[a],
+                     cx[a] * cy[c] - cx[c] * cy[a]]
+        big = np.fmax.reduce(np.abs(coef), axis=0)  # NaNs aside, as std::max
+        scale = np.where((big > 0.0) & np.isfinite(big), 1.0 / np.where(big > 0.0, big, 1.0), 1.0)
+        coef = [e * scale for e in coef]
+        b = [coef[3 * k] * xn + coef[3 * k + 1] * yn + coef[3 * k + 2] for k in range(3)]
         total = b[0] + b[1] + b[2]
         ok = (total != 0.0) & np.isfinite(total)
         safe = np.where(ok, total, 1.0)
-        b = [np.clip(bk / safe, 0.0, 1.0) for bk in b]
+        b = [np.minimum(1.0, np.maximum(0.0, bk / safe)) for bk in b]
         total = b[0] + b[1] + b[2]
+        b0 = np.where(ok, b[0] / total, b0)
         b1 = np.where(ok, b[1] / total, b1)
         b2 = np.where(ok, b[2] / total, b2)
-    b0 = 1.0 - b1 - b2
 
     n = ng
     if smooth:
