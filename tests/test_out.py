@@ -161,3 +161,39 @@ def test_arrays_sharing_memory_with_the_mesh_object_are_refused():
         zbuffer.render(coloured, width=W, height=H, out=(over_colours, ids))
     np.testing.assert_array_equal(mesh.vertices, base.vertices)  # nothing written
     assert (colours == 0.5).all()
+
+
+def test_arrays_another_render_is_writing_into_are_refused():
+    # Two renders into one set of arrays at once: the second's shading would
+    # read ids the first is writing (another mesh's, perhaps beyond its own
+    # faces). The claim a render holds on its arrays makes the second fail.
+    mesh, cam = mesh_and_camera()
+    depth, ids, image = stale()
+    with zbuffer.api.claimed((depth, ids, None)):
+        with pytest.raises(ValueError, match="another render is writing into these arrays"):
+            zbuffer.render(mesh, camera=cam, width=W, height=H, out=(depth, ids, image))
+        with pytest.raises(ValueError, match="another render is writing into these arrays"):
+            zbuffer.Scene(mesh).render(cam, "hiz_bvh", W, H, out=(depth[:, :],
+                                                                  np.empty((H, W), np.int32)))
+        zbuffer.render(mesh, camera=cam, width=W, height=H)  # new arrays: no conflict
+    # Released after each render, refused or not: the arrays render again.
+    zbuffer.render(mesh, camera=cam, width=W, height=H, out=(depth, ids, image))
+    assert not zbuffer.api._CLAIMED
+    # Threads rendering into arrays of their own run side by side.
+    import threading
+    errors = []
+
+    def work():
+        try:
+            own = stale()
+            for _ in range(5):
+                zbuffer.render(mesh, camera=cam, width=W, height=H, out=own)
+        except Exception as err:  # pragma: no cover - reported below
+            errors.append(err)
+
+    threads = [threading.Thread(target=work) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors

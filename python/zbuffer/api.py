@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import threading
 import time
+from contextlib import contextmanager
 from typing import List, Optional
 
 import numpy as np
@@ -129,9 +131,10 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background,
         cull_backfaces)
     depth, ids, image = output_arrays(out, width, height, mesh)
-    planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
-                               check_record_culls(record_culls), out_depth=depth, out_ids=ids)
-    return finish(mesh, camera, mvp, params, algo, *planes, start=start, out_image=image)
+    with claimed((depth, ids, image)):
+        planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
+                                   check_record_culls(record_culls), out_depth=depth, out_ids=ids)
+        return finish(mesh, camera, mvp, params, algo, *planes, start=start, out_image=image)
 
 
 def render_visibility(mesh: Mesh, algo: str, mvp, width: int, height: int,
@@ -197,6 +200,33 @@ def output_arrays(out, width: int, height: int, mesh: Mesh) -> tuple:
             if np.may_share_memory(a, b):
                 raise ValueError(f"out: {name} shares memory with the mesh's {other}")
     return arrays
+
+
+# The caller's arrays that renders are writing into now (out=), so that a
+# second render into any of them while the first runs is refused: its
+# shading would read ids the other render is writing -- ids of another mesh,
+# perhaps, beyond this one's faces.
+_CLAIM_LOCK = threading.Lock()
+_CLAIMED: List[np.ndarray] = []
+
+
+@contextmanager
+def claimed(arrays):
+    """Hold the arrays of ``out=`` (None entries aside) for one render;
+    ValueError if another render holds memory of theirs."""
+    mine = [a for a in arrays if a is not None]
+    with _CLAIM_LOCK:
+        for a in mine:
+            if any(np.may_share_memory(a, b) for b in _CLAIMED):
+                raise ValueError("out: another render is writing into these arrays now; "
+                                 "renders that run at the same time need arrays of their own")
+        _CLAIMED.extend(mine)
+    try:
+        yield
+    finally:
+        with _CLAIM_LOCK:
+            for a in mine:
+                del _CLAIMED[next(k for k, b in enumerate(_CLAIMED) if b is a)]
 
 
 def check_record_culls(record_culls) -> bool:

@@ -10,7 +10,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from . import _core
-from .api import (check_algorithm, check_record_culls, finish, output_arrays,
+from .api import (check_algorithm, check_record_culls, claimed, finish, output_arrays,
                   render_visibility)
 from .camera import Camera
 from .mesh import _INT32_MAX, as_mesh
@@ -177,16 +177,18 @@ class Scene:
             background, cull_backfaces)
         record_culls = check_record_culls(record_culls)
         depth, ids, image = output_arrays(out, width, height, mesh)
-        if algo not in TREE_ALGORITHMS:
-            planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
-                                       record_culls, out_depth=depth, out_ids=ids)
-        else:
-            build_ms = self.build(algo)
-            planes = self._trees[algo].render(mvp, width, height, bool(cull_backfaces),
-                                              bool(temporal), record_culls, out_depth=depth,
-                                              out_ids=ids)
-            planes[2]["build_ms"] = build_ms
-        return finish(mesh, camera, mvp, params, algo, *planes, start=start, out_image=image)
+        with claimed((depth, ids, image)):
+            if algo not in TREE_ALGORITHMS:
+                planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
+                                           record_culls, out_depth=depth, out_ids=ids)
+            else:
+                build_ms = self.build(algo)
+                planes = self._trees[algo].render(mvp, width, height, bool(cull_backfaces),
+                                                  bool(temporal), record_culls,
+                                                  out_depth=depth, out_ids=ids)
+                planes[2]["build_ms"] = build_ms
+            return finish(mesh, camera, mvp, params, algo, *planes, start=start,
+                          out_image=image)
 
     def _require_tree(self, algo: str) -> None:
         check_algorithm(algo)
