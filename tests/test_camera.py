@@ -97,3 +97,16 @@ def test_mesh_remembers_resolved_cameras_per_camera():
     for k in range(200):
         mesh.resolved_camera(zbuffer.Camera.look_at(eye=(0.0, 1.0, 3.0 + k), target=(0, 0, 0)))
     assert len(mesh.__dict__["_resolved_cameras"]) <= 64
+
+
+def test_mvp_takes_whole_image_sizes_only():
+    # A fractional size would cache a matrix of its own aspect ratio under
+    # the whole size (64.99 x 48 under 64 x 48) for every later render.
+    cam = zbuffer.Camera.look_at((0, 0, 3), near=1, far=10)
+    with pytest.raises(TypeError, match="width and height must be integers"):
+        cam.mvp(64.99, 48.0)
+    with pytest.raises(TypeError, match="width and height must be integers"):
+        cam.mvp(64, "48")
+    expected = zbuffer.Camera.look_at((0, 0, 3), near=1, far=10).mvp(64, 48)
+    np.testing.assert_array_equal(cam.mvp(np.int64(64), np.int32(48)), expected)
+    np.testing.assert_array_equal(cam.mvp(64, 48), expected)

@@ -118,10 +118,31 @@ def test_nodes_nest_and_hold_their_triangles(algo, options):
     child = np.arange(1, len(parent))
     assert (lo[child] >= lo[parent[child]]).all() and (hi[child] <= hi[parent[child]]).all()
     assert (nodes["depth"][child] == nodes["depth"][parent[child]] + 1).all()
-    leaves = nodes["n_children"] == 0
-    assert (nodes["own_triangles"][leaves] == nodes["n_triangles"][leaves]).all()
-    assert nodes["own_triangles"].sum() == scene.tree_info(algo)["references"]
+    assert_node_counts(nodes, scene.tree_info(algo))
     assert (nodes["fate"] == 0).all()  # not rendered yet
+
+
+def assert_node_counts(nodes, info):
+    """n_triangles of a node: its own cluster's references plus its
+    children's (a leaf: its own); the root's: every reference."""
+    children = np.zeros_like(nodes["n_triangles"])
+    np.add.at(children, nodes["parent"][1:], nodes["n_triangles"][1:])
+    np.testing.assert_array_equal(nodes["n_triangles"], nodes["own_triangles"] + children)
+    assert nodes["n_triangles"][0] == info["references"] == nodes["own_triangles"].sum()
+
+
+def test_greene_leaves_count_each_face_once():
+    # Under Greene's rule a face is referenced from every cell it overlaps;
+    # a leaf holding several of them keeps it once. Node counts follow what
+    # the clusters hold, and a leaf is decided by the faces it names: a tree
+    # of fewer faces than leaf_size is one node.
+    mesh = zbuffer.Mesh(*scenes.uv_sphere(n_lat=48, n_lon=96))
+    scene = zbuffer.Scene(mesh, leaf_size=16, octree_rule="greene")
+    nodes, info = scene.nodes("hiz_octree"), scene.tree_info("hiz_octree")
+    assert info["references"] > len(mesh.faces)  # faces shared by cells
+    assert_node_counts(nodes, info)
+    whole = zbuffer.Scene(mesh, leaf_size=len(mesh.faces), max_depth=10, octree_rule="greene")
+    assert whole.tree_info("hiz_octree")["nodes"] == 1
 
 
 def test_node_fates_follow_the_last_render():

@@ -105,11 +105,15 @@ class OctreeBuilder {
 
   // Nodes
   // Node `index` holds the references [b, e), all inside its cell at `level`.
+  // It is a leaf if they name at most leaf_size faces (under Greene's rule a
+  // face may be referenced from several of its cells; a leaf keeps it once).
+  // Its n_triangles is set once its clusters are: the references its
+  // subtree's clusters hold.
   void build_node(int32_t index, int64_t b, int64_t e, int level) {
     tree_.nodes[size_t(index)].depth = level;
-    tree_.nodes[size_t(index)].n_triangles = e - b;
-    if (e - b <= params_.leaf_size || level == params_.max_depth) {  // a leaf: the whole subtree
-      clusters_.add_cluster(index, faces_.data() + b, e - b);
+    if (distinct_faces(index, b, e) <= params_.leaf_size || level == params_.max_depth) {
+      clusters_.add_cluster(index, faces_.data() + b, e - b);  // a leaf: the whole subtree
+      tree_.nodes[size_t(index)].n_triangles = own_references(index);
       return;
     }
     int64_t own_end = b;
@@ -129,8 +133,36 @@ class OctreeBuilder {
     }
     start[n] = e;
     const int32_t first = add_children(tree_, index, n);
-    for (int k = 0; k < n; ++k) build_node(first + k, start[k], start[k + 1], level + 1);
+    int64_t references = own_references(index);
+    for (int k = 0; k < n; ++k) {
+      build_node(first + k, start[k], start[k + 1], level + 1);
+      references += tree_.nodes[size_t(first + k)].n_triangles;
+    }
+    tree_.nodes[size_t(index)].n_triangles = references;
     merge_child_bounds(tree_, index);
+  }
+
+  // How many faces references [b, e) name: e - b, or under Greene's rule
+  // (where one face may have several) the distinct ones, marked with the
+  // node's index.
+  int64_t distinct_faces(int32_t index, int64_t b, int64_t e) {
+    if (!tree_.shared) return e - b;
+    if (mark_.size() != size_t(mesh_.n_faces)) mark_.assign(size_t(mesh_.n_faces), -1);
+    int64_t n = 0;
+    for (int64_t r = b; r < e; ++r) {
+      int32_t& m = mark_[size_t(faces_[size_t(r)])];
+      n += m != index;
+      m = index;
+    }
+    return n;
+  }
+
+  // The references of node `index`'s own cluster (0 without one).
+  int64_t own_references(int32_t index) const {
+    const int32_t c = tree_.nodes[size_t(index)].cluster;
+    if (c < 0) return 0;
+    const TriangleCluster& cl = tree_.clusters[size_t(c)];
+    return cl.face_end - cl.face_begin;
   }
 
   const MeshView& mesh_;
@@ -140,6 +172,7 @@ class OctreeBuilder {
   // Scratch, kept per thread from build to build (no page faults anew).
   std::vector<uint64_t>& keys_ = scratch_keys();
   std::vector<int32_t>& faces_ = scratch_faces();
+  std::vector<int32_t> mark_;  // Greene's rule: per face, the last node that counted it
   static std::vector<uint64_t>& scratch_keys() {
     thread_local std::vector<uint64_t> v;
     return v;

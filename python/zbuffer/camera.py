@@ -9,6 +9,7 @@ core and to the numpy reference alike, so both start from the same bits.
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass, replace
 from typing import Optional, Sequence, Tuple
 
@@ -327,14 +328,18 @@ class Camera:
     def mvp(self, width: int, height: int) -> np.ndarray:
         """(4, 4) float64 C-contiguous, read-only model-view-projection matrix
         (computed once per image size: cameras are immutable)."""
-        key = (int(width), int(height))
+        try:  # whole numbers only (numpy's too): the matrix and its cache key agree
+            key = (operator.index(width), operator.index(height))
+        except TypeError:
+            raise TypeError(f"width and height must be integers, got {width!r} and "
+                            f"{height!r}") from None
         if key[0] <= 0 or key[1] <= 0:
             raise ValueError(f"width and height must be positive, got {key[0]}x{key[1]}")
         m = self._mvp_cache.get(key)
         if m is None:
             with np.errstate(all="ignore"):  # absurd parameters: caught as non-finite
                 m = np.ascontiguousarray(
-                    self.projection_matrix(width / height) @ self.view_matrix())
+                    self.projection_matrix(key[0] / key[1]) @ self.view_matrix())
             m.flags.writeable = False
             if len(self._mvp_cache) > 64:
                 self._mvp_cache.clear()

@@ -27,7 +27,7 @@ struct TreeNode {
   int32_t n_children = 0;
   int32_t cluster = -1;      // index into ObjectTree::clusters, or -1
   int32_t depth = 0;         // 0 for the root
-  int64_t n_triangles = 0;   // triangle references in the subtree
+  int64_t n_triangles = 0;   // triangle references its subtree's clusters hold
 };
 
 // The triangles one node owns, drawn as one unit.
