@@ -110,3 +110,14 @@ def test_mvp_takes_whole_image_sizes_only():
     expected = zbuffer.Camera.look_at((0, 0, 3), near=1, far=10).mvp(64, 48)
     np.testing.assert_array_equal(cam.mvp(np.int64(64), np.int32(48)), expected)
     np.testing.assert_array_equal(cam.mvp(64, 48), expected)
+
+
+def test_meshes_too_small_to_frame_say_so():
+    # Fitted clip planes beyond double precision's reach: the error names the
+    # mesh and what to do, not a near plane the caller never gave.
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]]) * 1e-300
+    with pytest.raises(ValueError, match="cannot be framed automatically"):
+        zbuffer.render((v, np.array([[0, 1, 2]])), width=8, height=8)
+    ortho = zbuffer.Camera.fit(v, projection="orthographic")
+    assert zbuffer.render((v, np.array([[0, 1, 2]])), camera=ortho, width=8, height=8,
+                          shading="none").mask.any()

@@ -44,6 +44,9 @@ def test_render_a_file_with_options(tmp_path):
     (["render", "--out", "picture.xyz"], "must end in .png"),
     (["render", "--out", "no/such/folder/t.png"], "no folder"),
     (["render", "--out", "none", "--depth", "d.jpg"], "must end in .png"),
+    (["render", "--out", "none", "--target", "1,1,1"], "--target needs --eye"),
+    (["render", "--out", "none", "--eye", "0,0,3", "--view-dir", "1,0,0"],
+     "--view-dir and --eye both place the camera"),
 ])
 def test_errors_are_reported_not_raised(args, message, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -102,3 +105,31 @@ def test_bench_outside_a_checkout_says_what_it_needs(monkeypatch, tmp_path, caps
     assert cli.find_benchmarks() is None
     assert main(["bench", "--quick"]) == 2
     assert "source checkout" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args, message", [
+    (["bench", "nope", "--quick"], "unknown benchmark suite 'nope'"),
+    (["bench", "render", "--quick", "--out", ""], "is not a folder"),
+    (["bench", "render", "--quick", "--out", "a_file"], "is not a folder"),
+    (["bench", "render", "--quick", "--out", "a_file/below"], "cannot make that folder"),
+])
+def test_bench_checks_its_arguments_before_running(args, message, monkeypatch, tmp_path, capsys):
+    # Refused up front (nothing run, a zbuffer: error), not after the suites.
+    from pathlib import Path
+
+    from zbuffer import cli
+
+    monkeypatch.setenv("ZBUFFER_BENCHMARKS", str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a_file").write_text("")
+    monkeypatch.setattr(__import__("subprocess"), "run", lambda *a, **k: pytest.fail("ran"))
+    assert main(args) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_render_takes_up_on_the_built_in_scene(tmp_path):
+    # --up used to be ignored for the built-in scene's default camera.
+    plain, tilted = tmp_path / "a.png", tmp_path / "b.png"
+    assert main(["render", "--size", "64x48", "--out", str(plain)]) == 0
+    assert main(["render", "--size", "64x48", "--up", "1,0,0", "--out", str(tilted)]) == 0
+    assert plain.read_bytes() != tilted.read_bytes()

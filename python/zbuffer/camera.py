@@ -282,7 +282,18 @@ class Camera:
             changes["near"] = near
         if self.projection == "orthographic" and self.ortho_height is None:
             changes["ortho_height"] = 2.0 * radius * 1.05
-        return replace(self, **changes)
+        try:
+            return replace(self, **changes)
+        except ValueError as err:
+            if "near" not in changes and "far" not in changes:
+                raise
+            # Planes fitted here, not given: say what is wrong with the scene.
+            raise ValueError(f"the mesh (radius {radius:g}, {dist:g} from the eye along the "
+                             f"view) cannot be framed automatically by a {self.projection} "
+                             f"camera: "
+                             f"the clip planes it needs are out of double precision's reach "
+                             f"({err}); scale the scene, use an orthographic camera, or "
+                             f"pass near and far") from None
 
     def view_matrix(self) -> np.ndarray:
         """(4, 4) float64 world-to-eye matrix (gluLookAt)."""

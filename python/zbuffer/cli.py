@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Optional, Sequence
 
@@ -114,6 +115,11 @@ def _cmd_render(args) -> int:
     from .scenes import default_camera, default_scene
 
     width, height = args.size
+    if args.target is not None and args.eye is None:
+        raise ValueError("--target needs --eye (without it the camera frames the mesh "
+                         "from --view-dir)")
+    if args.view_dir is not None and args.eye is not None:
+        raise ValueError("--view-dir and --eye both place the camera: give one of them")
     if args.out is not None:
         _check_output(args.out, "--out", _IMAGE_SUFFIXES)
     if args.depth is not None:
@@ -124,7 +130,7 @@ def _cmd_render(args) -> int:
         camera = Camera.look_at(args.eye, target, up=args.up, fov_y=args.fov,
                                 projection=args.projection)
     elif (args.mesh is None and args.view_dir is None and args.fov == 45.0
-          and args.projection == "perspective"):
+          and args.projection == "perspective" and tuple(args.up) == (0.0, 1.0, 0.0)):
         camera = default_camera(width / height)
     else:
         direction = args.view_dir if args.view_dir is not None else (0.0, 0.0, 1.0)
@@ -213,6 +219,10 @@ def find_benchmarks():
     return None
 
 
+# The suites of benchmarks/run.py.
+BENCH_SUITES = ("models", "render", "hiz", "scaling", "peers")
+
+
 def _cmd_bench(args) -> int:
     import subprocess
 
@@ -222,11 +232,24 @@ def _cmd_bench(args) -> int:
                          "checkout (benchmarks/run.py), which an installed package does not "
                          "include: run it inside the checkout, or set "
                          "ZBUFFER_BENCHMARKS=/path/to/zbuffer/benchmarks")
+    unknown = [name for name in args.suites if name not in BENCH_SUITES]
+    if unknown:
+        raise ValueError(f"unknown benchmark suite {unknown[0]!r}; the suites are "
+                         f"{', '.join(BENCH_SUITES)}")
     command = [sys.executable, str(folder / "run.py"), *args.suites]
     if args.quick:
         command.append("--quick")
     if args.out is not None:
-        command += ["--out", args.out]
+        # Checked (and made) before the suites run, not after.
+        if not args.out or (os.path.exists(args.out) and not os.path.isdir(args.out)):
+            raise ValueError(f"--out {args.out!r} is not a folder")
+        try:
+            os.makedirs(args.out, exist_ok=True)
+        except OSError as err:
+            raise ValueError(f"--out {args.out!r}: cannot make that folder ({err})") from None
+        if not os.access(args.out, os.W_OK):
+            raise ValueError(f"--out {args.out!r}: cannot write there")
+        command += ["--out", os.path.abspath(args.out)]
     return subprocess.run(command).returncode
 
 

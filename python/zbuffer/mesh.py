@@ -135,9 +135,12 @@ class Mesh:
 
     Notes
     -----
-    Vertices are not copied when they already are C-contiguous float64;
-    modifying them afterwards invalidates the cached bounding sphere, normals
-    and visiting order, so build a new Mesh instead. Faces are always copied.
+    Vertices are not copied when they already are C-contiguous float64 (nor
+    colours given as C-contiguous (N, 3) float32); modifying them afterwards
+    invalidates the cached bounding sphere, normals and visiting order, and
+    any :class:`~zbuffer.Scene` built from the mesh (its trees hold copies: it
+    would draw the old mesh with some algorithms and the new with others),
+    so build a new Mesh instead. Faces are always copied.
     """
 
     def __init__(self, vertices, faces, vertex_colors=None, face_colors=None,

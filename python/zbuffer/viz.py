@@ -166,6 +166,12 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
                          "by an algorithm with a Z-pyramid (hiz, hiz_octree, hiz_bvh)")
     chosen = list(levels) if levels is not None else [
         k for k, level in enumerate(pyramid) if k == 0 or min(pyramid[k - 1].shape) > 4]
+    if not chosen:
+        raise ValueError("levels: no level to show")
+    for k in chosen:
+        if not isinstance(k, (int, np.integer)) or not 0 <= k < len(pyramid):
+            raise ValueError(f"levels: {k!r} is not a level of this pyramid "
+                             f"(0 .. {len(pyramid) - 1})")
     shown = [depth_for_display(pyramid[k]) for k in chosen]
     finite = np.concatenate([s[np.isfinite(s)] for s in shown] + [np.zeros(0)])
     clim = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
@@ -266,6 +272,8 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
 
     pv = _pyvista()
     names = list(algos) if algos is not None else algorithms()
+    if not names:
+        raise ValueError("algos: give at least one algorithm to compare")
     results = {name: render(mesh, algo=name, camera=camera, width=width, height=height,
                             **render_options) for name in names}
     first = results[names[0]]

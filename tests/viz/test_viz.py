@@ -56,6 +56,15 @@ def test_pyramid_views(result, tmp_path):
     assert not_blank(stack)
 
 
+def test_views_refuse_what_they_cannot_show(result):
+    levels = len(result.pyramid())
+    for bad in ([], [0, levels], [-1], [0.5]):
+        with pytest.raises(ValueError, match="levels: "):
+            viz.show_pyramid(result, screenshot=True, levels=bad)
+    with pytest.raises(ValueError, match="at least one algorithm"):
+        viz.compare_algorithms(scenes.default_scene(), algos=[], screenshot=True)
+
+
 def test_pyramid_view_outlines_the_cells_that_culled_most(tmp_path):
     mesh = scenes.default_scene()  # its torus hides part of what is behind it
     res = zbuffer.render(mesh, algo="hiz", width=128, height=96, shading="none",
