@@ -107,3 +107,10 @@ def test_bad_arguments():
         Viewer(scenes.default_scene(), shading="phong")
     with pytest.raises(ValueError, match="unknown overlay"):
         Viewer(scenes.default_scene()).toggle("normals")
+
+
+def test_viewer_and_viz_are_attributes_of_the_package():
+    # import zbuffer; zbuffer.viz.show_result(...) as README writes it.
+    assert zbuffer.viewer.Viewer is Viewer
+    with pytest.raises(AttributeError, match="no attribute 'vizz'"):
+        zbuffer.vizz

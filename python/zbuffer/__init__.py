@@ -31,3 +31,13 @@ __all__ = [
     "render",
     "scenes",
 ]
+
+
+def __getattr__(name):
+    """``zbuffer.viz`` and ``zbuffer.viewer`` on first use: they import
+    pyvista (and matplotlib), which rendering never needs."""
+    if name in ("viz", "viewer"):
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

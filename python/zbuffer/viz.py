@@ -184,7 +184,7 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
         title = f"level {level}: {w}x{h}"
         if top:
             counts = source.culls[level]
-            title += f", {int(counts.sum()):,} culled"
+            title += f", {int(counts.sum()):,} culls counted"
         _add_image(plotter, pv, values, title, clim=clim, cmap="viridis_r",
                    scalar_bar=k == cols - 1, bar_title="depth")
         if top:
@@ -283,7 +283,9 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
         plotter.subplot(0, k)
         picture = res.image if res.image is not None else id_colors(res.triangle_id)
         _add_image(plotter, pv, picture, f"{name}: {res.stats['render_ms']:.2f} ms, "
-                   f"{res.stats['rasterized']:,} drawn, {res.stats.get('culled_hidden', 0):,} culled",
+                   f"{res.stats['rasterized']:,} drawn, "
+                   f"{res.stats.get('culled_hidden', 0) + res.stats.get('culled_in_nodes', 0):,} "
+                   f"culled",
                    rgb=True)
         plotter.subplot(1, k)
         same = np.where(np.isfinite(first.depth), first.depth, 0.0)
@@ -443,6 +445,9 @@ def plot_grid_times(report: dict):
                     label=f"{key[0]} ({key[1]})")
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
+        ns = sorted({c["N"] for c in cases})
+        ax.set_xticks(ns, [str(n) for n in ns])  # N itself, not powers of 2
+        ax.minorticks_off()
         ax.set_xlabel("N (5 x 5 x N copies)")
         ax.set_ylabel("ms per frame (median)")
         ax.set_title(f"{projection}, {report['size']}x{report['size']}")
