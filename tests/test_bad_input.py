@@ -271,6 +271,8 @@ def test_coordinates_that_overflow_the_transform_are_skipped():
     (lambda: zbuffer.Camera.look_at((0, 0, 1), near=1, far=2).mvp(10, 0), ValueError,
      "width and height must be positive"),
     (lambda: zbuffer.Camera.look_at((0, 0, 1), fov_y="x"), TypeError, "fov_y must be a number"),
+    (lambda: zbuffer.Camera.fit(TRI, fov_y="45"), TypeError, "fov_y must be a number"),
+    (lambda: zbuffer.Camera.fit(TRI, fov_y=180), ValueError, "fov_y must be in (0, 180)"),
     (lambda: zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, light_dir="abc"), TypeError,
      "light_dir must be 3 numbers"),
     (lambda: zbuffer.render((TRI * 1e-170, [[0, 1, 2]]), width=8, height=8), ValueError,

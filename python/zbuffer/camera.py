@@ -49,6 +49,17 @@ def _unit(v: np.ndarray) -> Tuple[np.ndarray, float]:
     return w / n, m * n
 
 
+def _fov(value) -> float:
+    """A vertical field of view in degrees, in (0, 180): TypeError for a
+    non-number, ValueError out of range."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise TypeError(f"fov_y must be a number of degrees, got {value!r}")
+    fov = float(value)
+    if not 0.0 < fov < 180.0:
+        raise ValueError(f"fov_y must be in (0, 180) degrees, got {value!r}")
+    return fov
+
+
 def _positive(value, name: str, allow_none: bool = False) -> Optional[float]:
     if value is None and allow_none:
         return None
@@ -118,13 +129,7 @@ class Camera:
         side = _cross(forward, up_unit)
         if np.linalg.norm(side) < 1e-9:
             raise ValueError("degenerate camera: up is parallel to the viewing direction")
-        if isinstance(self.fov_y, bool) or not isinstance(
-                self.fov_y, (int, float, np.floating, np.integer)):
-            raise TypeError(f"fov_y must be a number of degrees, got {self.fov_y!r}")
-        fov = float(self.fov_y)
-        if not (0.0 < fov < 180.0):
-            raise ValueError(f"fov_y must be in (0, 180) degrees, got {self.fov_y!r}")
-        object.__setattr__(self, "fov_y", fov)
+        object.__setattr__(self, "fov_y", _fov(self.fov_y))
         object.__setattr__(
             self, "ortho_height", _positive(self.ortho_height, "ortho_height", allow_none=True)
         )
@@ -230,9 +235,7 @@ class Camera:
             raise ValueError("direction must not be the zero vector")
         aspect = _positive(aspect, "aspect")
         margin = _positive(margin, "margin")
-        if isinstance(fov_y, bool) or not isinstance(fov_y, (int, float, np.floating, np.integer)) \
-                or not 0.0 < float(fov_y) < 180.0:
-            raise ValueError(f"fov_y must be in (0, 180) degrees, got {fov_y!r}")
+        fov_y = _fov(fov_y)
         r = radius * margin
         if projection == "orthographic":
             height = 2.0 * r / min(1.0, aspect)
