@@ -118,6 +118,10 @@ def test_meshes_too_small_to_frame_say_so():
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]]) * 1e-300
     with pytest.raises(ValueError, match="cannot be framed automatically"):
         zbuffer.render((v, np.array([[0, 1, 2]])), width=8, height=8)
+    # A plane the caller gave is the trouble, not the mesh: Camera's own message.
+    with pytest.raises(ValueError, match="near must be at least 1e-290"):
+        zbuffer.render((v * 1e300, np.array([[0, 1, 2]])), width=8, height=8,
+                       camera=zbuffer.Camera.look_at((0, 0, 3), far=1e-290))
     ortho = zbuffer.Camera.fit(v, projection="orthographic")
     assert zbuffer.render((v, np.array([[0, 1, 2]])), camera=ortho, width=8, height=8,
                           shading="none").mask.any()

@@ -176,7 +176,13 @@ def test_arrays_another_render_is_writing_into_are_refused():
             zbuffer.Scene(mesh).render(cam, "hiz_bvh", W, H, out=(depth[:, :],
                                                                   np.empty((H, W), np.int32)))
         zbuffer.render(mesh, camera=cam, width=W, height=H)  # new arrays: no conflict
-    # Released after each render, refused or not: the arrays render again.
+    # Released after each render, refused or not, also one that fails after
+    # claiming them: the arrays render again.
+    with pytest.raises(TypeError, match="record_culls must be a bool"):
+        zbuffer.render(mesh, camera=cam, width=W, height=H, out=(depth, ids), record_culls="x")
+    with pytest.raises(ValueError, match="has no Z-pyramid"):  # raised by the core
+        zbuffer.Scene(mesh).render(cam, "zbuffer", W, H, out=(depth, ids), record_culls=True)
+    assert not zbuffer.api._CLAIMED
     zbuffer.render(mesh, camera=cam, width=W, height=H, out=(depth, ids, image))
     assert not zbuffer.api._CLAIMED
     # Threads rendering into arrays of their own run side by side.

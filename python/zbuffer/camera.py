@@ -288,9 +288,9 @@ class Camera:
         try:
             return replace(self, **changes)
         except ValueError as err:
-            if "near" not in changes and "far" not in changes:
-                raise
-            # Planes fitted here, not given: say what is wrong with the scene.
+            if "near" not in changes or "far" not in changes:
+                raise  # a plane the caller gave: the message names it
+            # Both planes fitted here: say what is wrong with the scene.
             raise ValueError(f"the mesh (radius {radius:g}, {dist:g} from the eye along the "
                              f"view) cannot be framed automatically by a {self.projection} "
                              f"camera: "

@@ -108,11 +108,30 @@ def _print_stats(stats: dict, out) -> None:
         print(f"  {k:<{width}}  {stats[k]:>12.3f}", file=out)
 
 
+def render_camera(args, mesh, width: int, height: int):
+    """The camera ``zbuffer render`` uses: from --eye (looking at --target,
+    else the mesh's centre), else framing the mesh from --view-dir -- for
+    the built-in scene with no view options, its own default view -- with
+    --up, --fov and --projection throughout."""
+    from .camera import Camera
+    from .scenes import default_camera
+
+    if args.eye is not None:
+        target = args.target if args.target is not None else tuple(mesh.bounding_sphere[0])
+        return Camera.look_at(args.eye, target, up=args.up, fov_y=args.fov,
+                              projection=args.projection)
+    if (args.mesh is None and args.view_dir is None and args.fov == 45.0
+            and args.projection == "perspective"):
+        return default_camera(width / height, up=args.up)
+    direction = args.view_dir if args.view_dir is not None else (0.0, 0.0, 1.0)
+    return Camera.fit(mesh, direction=direction, up=args.up, fov_y=args.fov,
+                      projection=args.projection, aspect=width / height)
+
+
 def _cmd_render(args) -> int:
     import zbuffer
 
-    from .camera import Camera
-    from .scenes import default_camera, default_scene
+    from .scenes import default_scene
 
     width, height = args.size
     if args.target is not None and args.eye is None:
@@ -125,17 +144,7 @@ def _cmd_render(args) -> int:
     if args.depth is not None:
         _check_output(args.depth, "--depth", _DEPTH_SUFFIXES)
     mesh = default_scene() if args.mesh is None else zbuffer.load(args.mesh)
-    if args.eye is not None:
-        target = args.target if args.target is not None else tuple(mesh.bounding_sphere[0])
-        camera = Camera.look_at(args.eye, target, up=args.up, fov_y=args.fov,
-                                projection=args.projection)
-    elif (args.mesh is None and args.view_dir is None and args.fov == 45.0
-          and args.projection == "perspective" and tuple(args.up) == (0.0, 1.0, 0.0)):
-        camera = default_camera(width / height)
-    else:
-        direction = args.view_dir if args.view_dir is not None else (0.0, 0.0, 1.0)
-        camera = Camera.fit(mesh, direction=direction, up=args.up, fov_y=args.fov,
-                            projection=args.projection, aspect=width / height)
+    camera = render_camera(args, mesh, width, height)
     shading = "none" if args.out is None else args.shading
     result = zbuffer.render(mesh, algo=args.algo, camera=camera, width=width, height=height,
                             cull_backfaces=args.cull_backfaces, shading=shading)

@@ -122,11 +122,13 @@ def default_scene() -> Mesh:
     return combine(parts, colors, name="default scene")
 
 
-def default_camera(aspect: float = 4.0 / 3.0):
-    """A camera looking at :func:`default_scene` from the front, above and right."""
+def default_camera(aspect: float = 4.0 / 3.0, up=(0.0, 1.0, 0.0)):
+    """A camera looking at :func:`default_scene` from the front, above and right
+    (``up``: the world direction shown upwards)."""
     from .camera import Camera
 
-    return Camera.fit(default_scene(), direction=(0.45, 0.55, 1.0), aspect=aspect, margin=0.8)
+    return Camera.fit(default_scene(), direction=(0.45, 0.55, 1.0), up=up, aspect=aspect,
+                      margin=0.8)
 
 
 # Test Scenes

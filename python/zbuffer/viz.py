@@ -169,7 +169,7 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
     if not chosen:
         raise ValueError("levels: no level to show")
     for k in chosen:
-        if not isinstance(k, (int, np.integer)) or not 0 <= k < len(pyramid):
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(pyramid):
             raise ValueError(f"levels: {k!r} is not a level of this pyramid "
                              f"(0 .. {len(pyramid) - 1})")
     shown = [depth_for_display(pyramid[k]) for k in chosen]

@@ -58,7 +58,7 @@ def test_pyramid_views(result, tmp_path):
 
 def test_views_refuse_what_they_cannot_show(result):
     levels = len(result.pyramid())
-    for bad in ([], [0, levels], [-1], [0.5]):
+    for bad in ([], [0, levels], [-1], [0.5], [True]):
         with pytest.raises(ValueError, match="levels: "):
             viz.show_pyramid(result, screenshot=True, levels=bad)
     with pytest.raises(ValueError, match="at least one algorithm"):
