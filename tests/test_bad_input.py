@@ -179,14 +179,18 @@ def test_unreadable_and_malformed_files(tmp_path):
         zbuffer.load(binary)
 
 
+def ascii_ply(vertices: int, elements: bytes = b"", body: bytes = b"") -> bytes:
+    """An ASCII PLY file: `vertices` float x, y, z vertices, then the header
+    lines `elements` (other elements and their properties), then `body`."""
+    return (b"ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+            b"property float z\n" % vertices + elements + b"end_header\n" + body)
+
+
 @pytest.mark.parametrize("name, content", [
     ("empty.stl", b"solid empty\nendsolid empty\n"),
     ("empty_binary.stl", b"\0" * 84),
-    ("empty.ply", b"ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
-                  b"property float y\nproperty float z\nelement face 0\n"
-                  b"property list uchar int vertex_indices\nend_header\n"),
-    ("points.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
-                   b"property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n"),
+    ("empty.ply", ascii_ply(0, b"element face 0\nproperty list uchar int vertex_indices\n")),
+    ("points.ply", ascii_ply(3, body=b"0 0 0\n1 0 0\n0 1 0\n")),
     ("empty.off", b"OFF\n0 0 0\n"),
     ("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\np 1 2 3\n"),
     ("empty_scene.obj", b"# Blender\nmtllib empty.mtl\no Empty\n"),
@@ -207,10 +211,8 @@ def test_files_that_say_they_hold_no_faces_render_empty(tmp_path, name, content)
     ("garbage.stl", b"solid x\nthis is garbage\n"),
     ("counted.stl", bytes(80) + struct.pack("<I", 3)),
     # Faces stored as another element (old Stanford scans: tristrips).
-    ("strips.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
-                   b"property float y\nproperty float z\nelement tristrips 1\n"
-                   b"property list int int vertex_indices\nend_header\n0 0 0\n1 0 0\n"
-                   b"0 1 0\n3 0 1 2\n"),
+    ("strips.ply", ascii_ply(3, b"element tristrips 1\nproperty list int int vertex_indices\n",
+                             b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")),
     ("notoff.off", b"NOTOFF\n0 0 0\n"),
     ("short.off", b"OFF\n0 0\n"),
     ("picture.obj", b"\x89PNG\r\n\x1a\nIHDR garbage\n"),
