@@ -515,6 +515,7 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& writte
   const __m512i col = _mm512_and_si512(lane, _mm512_set1_epi32(7));
   const __m512i second_row = _mm512_srli_epi32(lane, 3);
   const size_t pitch = size_t(target_.width);
+  __m512i covered_v = _mm512_setzero_si512(), written_v = _mm512_setzero_si512();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
     // Edge values of the 16 lanes at the first pass.
@@ -531,10 +532,38 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& writte
     const __m512i bias1 = _mm512_set1_epi32(bias1_[i]), bias2 = _mm512_set1_epi32(bias2_[i]);
     const simd::DepthPlane16 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
     const __m512i id = _mm512_set1_epi32(id_[i]);
-    const unsigned one_row = (1u << box_w_[i]) - 1;
     const int rows = box_h_[i];
     float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
     int32_t* const ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
+    if (x0_[i] + 8 <= target_.width) {
+      // The 8 columns of the passes lie in the image: coverage alone masks
+      // the lanes (a pixel centre outside the box is outside the triangle,
+      // and a small triangle's edge values stay far inside int32 over the
+      // passes), without the box's row and column masks or spare rows. A
+      // box of an odd number of rows has its last pass's second row
+      // masked off, at the first row's address.
+      __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
+      const __m512i step0 = _mm512_sub_epi32(_mm512_setzero_si512(), _mm512_add_epi32(step1, step2));
+      const bool odd = rows & 1;
+      for (int p = 0; p < kPasses; ++p) {
+        const bool half = p == kPasses - 1 && odd;
+        const __mmask16 inside =
+            simd::covered16(half ? __mmask16(0x00FF) : __mmask16(0xFFFF), w0b, w1, w2, bias1, bias2);
+        const __m512 z = simd::depth16(plane, w1, w2);
+        const size_t row0 = 2 * p * pitch, row1 = half ? row0 : row0 + pitch;
+        const __mmask16 win =
+            simd::write16_rows(inside, z, id, depth + row0, depth + row1, ids + row0, ids + row1);
+        covered_v = simd::count16(covered_v, inside);
+        written_v = simd::count16(written_v, win);
+        w0b = _mm512_add_epi32(w0b, step0);
+        w1 = _mm512_add_epi32(w1, step1);
+        w2 = _mm512_add_epi32(w2, step2);
+      }
+      continue;
+    }
+    // Near the image's right edge: lanes masked to the box, and rows past it
+    // pointed at spare rows.
+    const unsigned one_row = (1u << box_w_[i]) - 1;
     for (int p = 0; p < kPasses; ++p) {
       const int r = 2 * p;
       const bool first = r < rows, second = r + 1 < rows;
@@ -556,8 +585,8 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& writte
       w2 = _mm512_add_epi32(w2, step2);
     }
   }
-  covered_out += covered;
-  written_out += written;
+  covered_out += covered + _mm512_reduce_add_epi32(covered_v);
+  written_out += written + _mm512_reduce_add_epi32(written_v);
 }
 
 // kRows passes of 16 x 1 pixels: lane k is pixel k of a row. Rows past the
@@ -567,6 +596,7 @@ void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_
   int64_t covered = 0, written = 0;  // in registers, not behind the references
   const __m512i col = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   const size_t pitch = size_t(target_.width);
+  __m512i covered_v = _mm512_setzero_si512(), written_v = _mm512_setzero_si512();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
     __m512i w1 = _mm512_add_epi32(_mm512_set1_epi32(w1_[i]),
@@ -578,10 +608,34 @@ void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_
     const __m512i bias1 = _mm512_set1_epi32(bias1_[i]), bias2 = _mm512_set1_epi32(bias2_[i]);
     const simd::DepthPlane16 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
     const __m512i id = _mm512_set1_epi32(id_[i]);
-    const __mmask16 one_row = __mmask16((1u << box_w_[i]) - 1);
     const int rows = box_h_[i];
     float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
     int32_t* const ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
+    if (x0_[i] + 16 <= target_.width) {
+      // In the image: coverage alone masks the lanes (as in draw_narrow). A
+      // box of an odd number of rows has its last pass masked off, at the
+      // row before.
+      __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
+      const __m512i step0 = _mm512_sub_epi32(_mm512_setzero_si512(), _mm512_add_epi32(step1, step2));
+      const bool odd = rows & 1;
+      for (int r = 0; r < kRows; ++r) {
+        const bool off = r == kRows - 1 && odd;
+        const size_t row = size_t(off ? r - 1 : r) * pitch;
+        const __mmask16 inside =
+            simd::covered16(off ? __mmask16(0) : __mmask16(0xFFFF), w0b, w1, w2, bias1, bias2);
+        const __m512 z = simd::depth16(plane, w1, w2);
+        const __mmask16 win = simd::write16(inside, z, id, depth + row, ids + row);
+        covered_v = simd::count16(covered_v, inside);
+        written_v = simd::count16(written_v, win);
+        w0b = _mm512_add_epi32(w0b, step0);
+        w1 = _mm512_add_epi32(w1, step1);
+        w2 = _mm512_add_epi32(w2, step2);
+      }
+      continue;
+    }
+    // Near the image's right edge: lanes masked to the box, and rows past it
+    // pointed at spare rows.
+    const __mmask16 one_row = __mmask16((1u << box_w_[i]) - 1);
     for (int r = 0; r < kRows; ++r) {
       const bool real = r < rows;
       const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
@@ -598,8 +652,8 @@ void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_
       w2 = _mm512_add_epi32(w2, step2);
     }
   }
-  covered_out += covered;
-  written_out += written;
+  covered_out += covered + _mm512_reduce_add_epi32(covered_v);
+  written_out += written + _mm512_reduce_add_epi32(written_v);
 }
 
 void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
