@@ -693,12 +693,20 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     const __m512i group = _mm512_add_epi32(
         _mm512_maskz_set1_epi32(__mmask16(~box.narrow), kWideGroups),
         _mm512_srai_epi32(_mm512_sub_epi32(box.box_h, _mm512_set1_epi32(1)), 1));
-    alignas(64) int32_t groups[16];
-    _mm512_store_si512(groups, _mm512_maskz_compress_epi32(m, group));
+    // Each group present (a few of the 16) takes its faces' slots in one
+    // store: a face-by-face loop would chain on its group's size in memory.
+    const __m512i slots = _mm512_add_epi32(
+        _mm512_set1_epi32(n), _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0));
+    const __m512i packed = _mm512_maskz_compress_epi32(m, group);
     const int count = __builtin_popcount(m);
-    for (int k = 0; k < count; ++k) {
-      const int g = groups[k];
-      group_[g][group_size_[g]++] = uint16_t(n + k);
+    for (__mmask16 left = __mmask16((1u << count) - 1); left;) {
+      const int g = _mm_cvtsi128_si32(_mm512_castsi512_si128(
+          _mm512_maskz_compress_epi32(left, packed)));
+      const __mmask16 in_g = _mm512_mask_cmpeq_epi32_mask(left, packed, _mm512_set1_epi32(g));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(group_[g] + group_size_[g]),
+                          _mm512_cvtepi32_epi16(_mm512_maskz_compress_epi32(in_g, slots)));
+      group_size_[g] += __builtin_popcount(in_g);
+      left &= __mmask16(~in_g);
     }
     n_small_ += count;
   }
