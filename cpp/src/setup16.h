@@ -115,10 +115,16 @@ ZBUFFER_INLINE void assemble16(const MeshView& mesh, const ScreenVertices& sv, i
   __m512d* z_hi = f.z_hi;
   __m512i oc[3];
   const bool all_inside = sv.any_outcode == 0;  // then every outcode is 0: not read
+  // A corner's (x, y) pair is one 64-bit element: two gathers of 8 pairs
+  // instead of four of 16 coordinates, then split into x and y.
+  const __m512i even = _mm512_set_epi32(30, 28, 26, 24, 22, 20, 18, 16, 14, 12, 10, 8, 6, 4, 2, 0);
+  const __m512i odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
   for (int k = 0; k < 3; ++k) {
     const __m512i idx = corner[k];
-    x[k] = _mm512_i32gather_epi32(idx, sv.x_fx.data(), 4);
-    y[k] = _mm512_i32gather_epi32(idx, sv.y_fx.data(), 4);
+    const __m512i lo = _mm512_i32gather_epi64(_mm512_castsi512_si256(idx), sv.xy.data(), 8);
+    const __m512i hi = _mm512_i32gather_epi64(_mm512_extracti64x4_epi64(idx, 1), sv.xy.data(), 8);
+    x[k] = _mm512_permutex2var_epi32(lo, even, hi);
+    y[k] = _mm512_permutex2var_epi32(lo, odd, hi);
     oc[k] = all_inside ? _mm512_setzero_si512() : _mm512_i32gather_epi32(idx, sv.outcode.data(), 4);
     z_lo[k] = _mm512_i32gather_pd(_mm512_castsi512_si256(idx), sv.z.data(), 8);
     z_hi[k] = _mm512_i32gather_pd(_mm512_extracti64x4_epi64(idx, 1), sv.z.data(), 8);

@@ -99,10 +99,18 @@ ZBUFFER_INLINE void assemble8(const MeshView& mesh, const ScreenVertices& sv, in
   const int32_t* fp = mesh.faces + 3 * first;
   __m256i oc[3];
   const bool all_inside = sv.any_outcode == 0;  // then every outcode is 0: not read
+  // A corner's (x, y) pair is one 64-bit element (as in setup16.h): two
+  // gathers of 4 pairs, each split into its x and y halves.
+  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+  const long long* xy = reinterpret_cast<const long long*>(sv.xy.data());
   for (int k = 0; k < 3; ++k) {
     const __m256i idx = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), fp + k, lane3, live, 4);
-    f.x[k] = _mm256_i32gather_epi32(sv.x_fx.data(), idx, 4);
-    f.y[k] = _mm256_i32gather_epi32(sv.y_fx.data(), idx, 4);
+    const __m256i lo = _mm256_permutevar8x32_epi32(
+        _mm256_i32gather_epi64(xy, _mm256_castsi256_si128(idx), 8), split);  // x0-3, y0-3
+    const __m256i hi = _mm256_permutevar8x32_epi32(
+        _mm256_i32gather_epi64(xy, _mm256_extracti128_si256(idx, 1), 8), split);  // x4-7, y4-7
+    f.x[k] = _mm256_permute2x128_si256(lo, hi, 0x20);
+    f.y[k] = _mm256_permute2x128_si256(lo, hi, 0x31);
     oc[k] = all_inside ? _mm256_setzero_si256()
                        : _mm256_i32gather_epi32(reinterpret_cast<const int*>(sv.outcode.data()), idx, 4);
     f.z_lo[k] = _mm256_i32gather_pd(sv.z.data(), _mm256_castsi256_si128(idx), 8);

@@ -23,8 +23,8 @@ void transform_vertex(const MeshView& mesh, const double* mvp, const Viewport& v
   // Vertices that need clipping get their window coordinates from the
   // clipped polygon instead; theirs could be unbounded here.
   if (!(oc & (kOutClip | kOutInvalid))) s = to_screen(c, vp);
-  out.x_fx[i] = s.x_fx;
-  out.y_fx[i] = s.y_fx;
+  out.xy[2 * i] = s.x_fx;
+  out.xy[2 * i + 1] = s.y_fx;
   out.outcode[i] = oc;
   out.z[i] = s.z;
 }
@@ -33,8 +33,8 @@ void transform_vertex(const MeshView& mesh, const double* mvp, const Viewport& v
 // Eight vertices: deinterleave xyz, transform, outcodes, divide, viewport,
 // snap. Lanes of vertices that need clipping or are invalid store zeros,
 // exactly as the scalar loop does.
-void transform_8(const double* p, const double* m, const Viewport& vp, int32_t* x_out,
-                 int32_t* y_out, uint32_t* oc_out, double* z_out) {
+void transform_8(const double* p, const double* m, const Viewport& vp, int32_t* xy_out,
+                 uint32_t* oc_out, double* z_out) {
   // Deinterleave 24 doubles (x0 y0 z0 x1 ...) into x, y and z.
   const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8), c = _mm512_loadu_pd(p + 16);
   const __m512d x = _mm512_permutex2var_pd(
@@ -89,8 +89,10 @@ void transform_8(const double* p, const double* m, const Viewport& vp, int32_t* 
   // cvtpd_epi32 rounds in the current mode (to nearest even), like nearbyint.
   const __m256i xf = _mm256_maskz_mov_epi32(direct, _mm512_cvtpd_epi32(_mm512_mul_pd(xw, scale)));
   const __m256i yf = _mm256_maskz_mov_epi32(direct, _mm512_cvtpd_epi32(_mm512_mul_pd(yw, scale)));
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(x_out), xf);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(y_out), yf);
+  const __m512i pairs = _mm512_permutexvar_epi32(
+      _mm512_set_epi32(15, 7, 14, 6, 13, 5, 12, 4, 11, 3, 10, 2, 9, 1, 8, 0),
+      _mm512_inserti64x4(_mm512_castsi256_si512(xf), yf, 1));  // x0 y0 x1 y1 ...
+  _mm512_storeu_si512(xy_out, pairs);
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(oc_out), oc);
   _mm512_storeu_pd(z_out, _mm512_maskz_mov_pd(direct, zw));
 }
@@ -98,8 +100,8 @@ void transform_8(const double* p, const double* m, const Viewport& vp, int32_t* 
 
 #ifdef ZBUFFER_AVX2
 // Four vertices, AVX2: transform_8's operations with 4 binary64 lanes.
-void transform_4(const double* p, const double* m, const Viewport& vp, int32_t* x_out,
-                 int32_t* y_out, uint32_t* oc_out, double* z_out) {
+void transform_4(const double* p, const double* m, const Viewport& vp, int32_t* xy_out,
+                 uint32_t* oc_out, double* z_out) {
   const __m256d x = _mm256_setr_pd(p[0], p[3], p[6], p[9]);
   const __m256d y = _mm256_setr_pd(p[1], p[4], p[7], p[10]);
   const __m256d z = _mm256_setr_pd(p[2], p[5], p[8], p[11]);
@@ -156,8 +158,8 @@ void transform_4(const double* p, const double* m, const Viewport& vp, int32_t* 
   // cvtpd_epi32 rounds in the current mode (to nearest even), like nearbyint.
   const __m128i xf = _mm_and_si128(direct, _mm256_cvtpd_epi32(_mm256_mul_pd(xw, scale)));
   const __m128i yf = _mm_and_si128(direct, _mm256_cvtpd_epi32(_mm256_mul_pd(yw, scale)));
-  _mm_storeu_si128(reinterpret_cast<__m128i*>(x_out), xf);
-  _mm_storeu_si128(reinterpret_cast<__m128i*>(y_out), yf);
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(xy_out), _mm_unpacklo_epi32(xf, yf));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(xy_out + 4), _mm_unpackhi_epi32(xf, yf));
   _mm_storeu_si128(reinterpret_cast<__m128i*>(oc_out), oc);
   _mm256_storeu_pd(z_out, _mm256_and_pd(_mm256_castsi256_pd(_mm256_cvtepi32_epi64(direct)), zw));
 }
@@ -176,12 +178,10 @@ uint32_t transform_vertex_range(const MeshView& mesh, const double* mvp, const V
   int64_t i = begin;
 #if defined(ZBUFFER_AVX512)
   for (; i + 8 <= end; i += 8)
-    transform_8(mesh.positions + 3 * i, mvp, vp, &out.x_fx[i], &out.y_fx[i], &out.outcode[i],
-                &out.z[i]);
+    transform_8(mesh.positions + 3 * i, mvp, vp, &out.xy[2 * i], &out.outcode[i], &out.z[i]);
 #elif defined(ZBUFFER_AVX2)
   for (; i + 4 <= end; i += 4)
-    transform_4(mesh.positions + 3 * i, mvp, vp, &out.x_fx[i], &out.y_fx[i], &out.outcode[i],
-                &out.z[i]);
+    transform_4(mesh.positions + 3 * i, mvp, vp, &out.xy[2 * i], &out.outcode[i], &out.z[i]);
 #endif
   for (; i < end; ++i) transform_vertex(mesh, mvp, vp, i, out);
   uint32_t any = 0;

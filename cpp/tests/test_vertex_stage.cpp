@@ -140,7 +140,7 @@ void test_transform_vertices_matches_scalar_formulas() {
     ScreenVertex s{};
     if (!(oc & (kOutClip | kOutInvalid))) s = to_screen(c, vp);
     clipped += (oc & kOutClip) != 0;
-    same &= out.outcode[i] == oc && out.x_fx[i] == s.x_fx && out.y_fx[i] == s.y_fx &&
+    same &= out.outcode[i] == oc && out.xy[2 * i] == s.x_fx && out.xy[2 * i + 1] == s.y_fx &&
             std::memcmp(&out.z[i], &s.z, sizeof(double)) == 0;
   }
   CHECK(same);
