@@ -741,6 +741,56 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
     const __m256i sy1 = _mm256_set1_epi32(sy1_[i]), sy2 = _mm256_set1_epi32(sy2_[i]);
     const int rows = box_h_[i];
     const size_t first = size_t(x0_[i]) + size_t(y0_[i]) * pitch;
+    if (x0_[i] + 8 <= target_.width) {
+      // The 8 columns of the passes lie in the image: coverage alone masks
+      // the lanes (a pixel centre outside the box is outside the triangle),
+      // rows are loaded and stored whole, and a row past the box (the last
+      // of an odd number) is neither loaded nor stored.
+      float* const depth = target_.depth + first;
+      int32_t* const ids = target_.triangle_id + first;
+      const __m256i all = _mm256_set1_epi32(-1);
+      auto pass = [&](__m256i& w0b, __m256i& w1, __m256i& w2, size_t row, bool second,
+                      __m256i step0, __m256i step1, __m256i step2, bool two_rows) {
+        const __m256i inside = simd::covered8x32(
+            two_rows && !second ? low_half : all, w0b, _mm256_sub_epi32(w1, bias1),
+            _mm256_sub_epi32(w2, bias2));
+        const __m256 z = simd::depth8x32(plane, w1, w2);
+        const __m256i win =
+            two_rows ? simd::write8_rows(inside, z, id, depth + row, depth + row + pitch, ids + row,
+                                         ids + row + pitch, second, true)
+                     : simd::write8(inside, z, id, depth + row, ids + row, true);
+        covered += simd::lanes8(inside);
+        written += simd::lanes8(win);
+        w0b = _mm256_add_epi32(w0b, step0);
+        w1 = _mm256_add_epi32(w1, step1);
+        w2 = _mm256_add_epi32(w2, step2);
+      };
+      if (box_w_[i] <= 4) {
+        __m256i w1 = _mm256_add_epi32(
+            _mm256_set1_epi32(w1_[i]),
+            _mm256_add_epi32(_mm256_mullo_epi32(col4, sx1), _mm256_mullo_epi32(row4, sy1)));
+        __m256i w2 = _mm256_add_epi32(
+            _mm256_set1_epi32(w2_[i]),
+            _mm256_add_epi32(_mm256_mullo_epi32(col4, sx2), _mm256_mullo_epi32(row4, sy2)));
+        __m256i w0b = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1), w2);
+        const __m256i step1 = _mm256_add_epi32(sy1, sy1), step2 = _mm256_add_epi32(sy2, sy2);
+        const __m256i step0 = _mm256_sub_epi32(_mm256_setzero_si256(), _mm256_add_epi32(step1, step2));
+        for (int r = 0; r < 2 * kPasses; r += 2)
+          pass(w0b, w1, w2, size_t(r) * pitch, r + 1 < rows, step0, step1, step2, true);
+      } else {
+        __m256i w1 = _mm256_add_epi32(_mm256_set1_epi32(w1_[i]), _mm256_mullo_epi32(lane, sx1));
+        __m256i w2 = _mm256_add_epi32(_mm256_set1_epi32(w2_[i]), _mm256_mullo_epi32(lane, sx2));
+        __m256i w0b = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1), w2);
+        const __m256i step0 = _mm256_sub_epi32(_mm256_setzero_si256(), _mm256_add_epi32(sy1, sy2));
+        for (int r = 0; r < 2 * kPasses; ++r) {
+          if (r == rows) break;  // the last row of an odd number: past the box
+          pass(w0b, w1, w2, size_t(r) * pitch, false, step0, sy1, sy2, false);
+        }
+      }
+      continue;
+    }
+    // Near the image's right edge: lanes masked to the box, and rows past it
+    // pointed at spare rows.
     // Coverage and depth of one pass, its depth write, and the step.
     auto pass = [&](__m256i in_box, __m256i& w1, __m256i& w2, float* d0, float* d1, int32_t* i0,
                     int32_t* i1, bool whole, __m256i step1, __m256i step2) {
@@ -810,10 +860,36 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
     const __m256i bias1 = _mm256_set1_epi32(bias1_[i]), bias2 = _mm256_set1_epi32(bias2_[i]);
     const simd::DepthPlane8 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
     const __m256i id = _mm256_set1_epi32(id_[i]);
-    const __m256i in_row[2] = {_mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), col),
-                               _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i] - 8), col)};
     const int rows = box_h_[i];
     const size_t first = size_t(x0_[i]) + size_t(y0_[i]) * pitch;
+    if (x0_[i] + 16 <= target_.width) {
+      // In the image: coverage alone masks the lanes, rows are loaded and
+      // stored whole, and a row past the box is not drawn (as in draw_narrow).
+      __m256i w0b[2];
+      for (int half = 0; half < 2; ++half)
+        w0b[half] = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1[half]), w2[half]);
+      const __m256i step0 = _mm256_sub_epi32(_mm256_setzero_si256(), _mm256_add_epi32(step1, step2));
+      for (int r = 0; r < kRows; ++r) {
+        if (r == rows) break;  // the last row of an odd number: past the box
+        const size_t p = first + size_t(r) * pitch;
+        for (int half = 0; half < 2; ++half) {
+          const __m256i inside =
+              simd::covered8x32(_mm256_set1_epi32(-1), w0b[half], _mm256_sub_epi32(w1[half], bias1),
+                                _mm256_sub_epi32(w2[half], bias2));
+          const __m256 z = simd::depth8x32(plane, w1[half], w2[half]);
+          const __m256i win = simd::write8(inside, z, id, target_.depth + p + 8 * half,
+                                           target_.triangle_id + p + 8 * half, true);
+          covered += simd::lanes8(inside);
+          written += simd::lanes8(win);
+          w0b[half] = _mm256_add_epi32(w0b[half], step0);
+          w1[half] = _mm256_add_epi32(w1[half], step1);
+          w2[half] = _mm256_add_epi32(w2[half], step2);
+        }
+      }
+      continue;
+    }
+    const __m256i in_row[2] = {_mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), col),
+                               _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i] - 8), col)};
     for (int r = 0; r < kRows; ++r) {
       const bool real = r < rows;
       const size_t p = first + size_t(r) * pitch;
