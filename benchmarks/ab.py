@@ -1,0 +1,192 @@
+"""A/B: the C++ cores of two source trees in one process, frame by frame.
+
+    python benchmarks/ab.py 598c1dd                 # that commit against the working tree
+    python benchmarks/ab.py HEAD~3 HEAD --algo zbuffer hiz
+    python benchmarks/ab.py HEAD . --march haswell  # the AVX2 loops (any x86-64 with AVX2)
+    python benchmarks/ab.py HEAD . --cases bunny_69k.obj@1024x1024 --frames 400
+
+The machines these benchmarks run on are shared and noisy: the same frame
+takes 2.4 ms in one minute and 3.5 ms in the next, so two builds timed one
+after the other, even in alternating processes, differ by more than most
+changes are worth. This script builds the core (``cpp/``) of each tree --
+a git revision, or ``.`` for the working tree -- under its own namespace
+(``-Dzbuffer=zb_a`` / ``zb_b``), links both into one runner
+(``benchmarks/ab/``), and renders every case with A and B in alternating
+frames (A B, B A, ...): both see the same noise, and the ratio of their
+medians is stable to about half a percent (an A/A run of one tree against
+itself gives 0.995-1.005). It also checks that the two drew the same bits.
+
+The inputs are the Python side's, made once by the installed ``zbuffer``
+(the mesh's prepared visiting order, the fitted camera's matrix): the
+comparison is of the compiled core alone, from the vertex stage to the last
+pixel, with the output planes cleared in the call (``render_ms``).
+Builds go to ``build/ab/``; the report (every frame's time, medians,
+ratios, machine, command, date) to ``--out`` (default
+``benchmarks/results``) as ``--name`` ``.json`` and ``.md`` (default ``ab``).
+Nothing is asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tarfile
+import io
+from pathlib import Path
+
+import numpy as np
+
+import zbuffer
+from common import HERE, MODELS, new_report, write_report
+
+ROOT = HERE.parent
+BUILD = ROOT / "build" / "ab"
+DEFAULT_CASES = ["bunny_10k.obj@666x500", "bunny_69k.obj@1024x1024", "armadillo_86k.obj@1024x1024"]
+MARCH = {  # --march: (CMake options of the core, compiler flag of the runner)
+    "native": (["-DZBUFFER_NATIVE=ON"], ["-march=native"]),
+    "haswell": (["-DZBUFFER_MARCH=haswell"], ["-march=haswell"]),
+    "portable": (["-DZBUFFER_NATIVE=OFF"], []),
+}
+
+
+def run(cmd, **kw):
+    return subprocess.run(cmd, check=True, **kw)
+
+
+def tree_of(rev: str) -> tuple[Path, str]:
+    """(source folder, label) of a revision: the working tree for '.', else
+    the revision's cpp/ exported into build/ab/tree-<sha>."""
+    if rev == ".":
+        return ROOT, "working tree"
+    sha = run(["git", "rev-parse", "--short", rev], cwd=ROOT, capture_output=True,
+              text=True).stdout.strip()
+    dest = BUILD / f"tree-{sha}"
+    if not (dest / "cpp" / "CMakeLists.txt").is_file():
+        archive = run(["git", "archive", "--format=tar", sha, "cpp"], cwd=ROOT,
+                      capture_output=True).stdout
+        dest.mkdir(parents=True, exist_ok=True)
+        with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+            tar.extractall(dest)
+    return dest, sha
+
+
+def build_side(src: Path, side: str, march: str) -> list[Path]:
+    """The core of `src` under namespace zb_<side>, and side.cpp against it:
+    the object and library to link."""
+    out = BUILD / f"{side}-{march}"
+    cmake_opts, flags = MARCH[march]
+    if out.exists():
+        shutil.rmtree(out)
+    run(["cmake", "-S", str(src / "cpp"), "-B", str(out), "-DCMAKE_BUILD_TYPE=Release",
+         "-DZBUFFER_BUILD_TESTS=OFF", f"-DCMAKE_CXX_FLAGS=-Dzbuffer=zb_{side}", *cmake_opts],
+        stdout=subprocess.DEVNULL)
+    run(["cmake", "--build", str(out), "-j", str(os.cpu_count() or 2)], stdout=subprocess.DEVNULL)
+    obj = out / "side.o"
+    run([os.environ.get("CXX", "c++"), "-O2", "-std=c++17", *flags, f"-Dzbuffer=zb_{side}",
+         f"-DAB_SIDE=ab_render_{side}", "-I", str(src / "cpp" / "include"), "-c",
+         str(HERE / "ab" / "side.cpp"), "-o", str(obj)])
+    return [obj, out / "libzbuffer_core.a"]
+
+
+def write_scene(path: Path, model: str, width: int, height: int) -> None:
+    """A case as the runner reads it: the prepared mesh and the fitted camera."""
+    mesh = zbuffer.load(MODELS / model).prepare()
+    visit = mesh.faces_for_render()
+    mvp = zbuffer.Camera.fit(mesh, aspect=width / height).resolve(mesh).mvp(width, height)
+    ids = visit.ids if visit.ids is not None else np.arange(len(visit.faces), dtype=np.int32)
+    cells = visit.cell_start is not None
+    with open(path, "wb") as fh:
+        n_cells = len(visit.cell_start) - 1 if cells else 0
+        np.array([len(visit.vertices), len(visit.faces), n_cells, width, height],
+                 np.int64).tofile(fh)
+        np.ascontiguousarray(mvp, np.float64).tofile(fh)
+        np.ascontiguousarray(visit.vertices, np.float64).tofile(fh)
+        np.ascontiguousarray(visit.faces, np.int32).tofile(fh)
+        np.ascontiguousarray(ids, np.int32).tofile(fh)
+        if cells:
+            np.ascontiguousarray(visit.cell_start, np.int32).tofile(fh)
+            np.ascontiguousarray(visit.cell_centre, np.float64).tofile(fh)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("base", help="revision A (a git revision, or . for the working tree)")
+    ap.add_argument("head", nargs="?", default=".", help="revision B (default: the working tree)")
+    ap.add_argument("--algo", nargs="+", default=["zbuffer"], choices=zbuffer.algorithms())
+    ap.add_argument("--cases", nargs="+", default=DEFAULT_CASES,
+                    help="MODEL@WxH, models from ../shared/models (default: %(default)s)")
+    ap.add_argument("--frames", type=int, default=200, help="frames per side and case")
+    ap.add_argument("--march", choices=sorted(MARCH), default="native",
+                    help="instruction set of both builds (haswell: the AVX2 loops)")
+    ap.add_argument("--out", default=str(HERE / "results"), help="folder for the report")
+    ap.add_argument("--name", default="ab", help="the report's file names: NAME.json, NAME.md")
+    args = ap.parse_args(argv)
+    if args.frames < 1:
+        ap.error("--frames must be at least 1")
+
+    cases = []
+    for case in args.cases:
+        model, _, size = case.partition("@")
+        try:
+            width, height = (int(v) for v in size.split("x"))
+        except ValueError:
+            ap.error(f"case {case!r}: expected MODEL@WIDTHxHEIGHT")
+        if not (MODELS / model).is_file():
+            ap.error(f"case {case!r}: {MODELS / model} does not exist")
+        cases.append((model, width, height))
+
+    BUILD.mkdir(parents=True, exist_ok=True)
+    src_a, label_a = tree_of(args.base)
+    src_b, label_b = tree_of(args.head)
+    print(f"A = {label_a}, B = {label_b}, --march {args.march}: building ...", flush=True)
+    link = build_side(src_a, "a", args.march) + build_side(src_b, "b", args.march)
+    runner = BUILD / f"runner-{args.march}"
+    run([os.environ.get("CXX", "c++"), "-O2", "-std=c++17", *MARCH[args.march][1],
+         str(HERE / "ab" / "runner.cpp"), *map(str, link), "-o", str(runner)])
+
+    scenes = []
+    for model, width, height in cases:
+        path = BUILD / f"{Path(model).stem}-{width}x{height}.bin"
+        write_scene(path, model, width, height)
+        scenes.append(path)
+
+    report = new_report("ab.py", argv)
+    report.update({"a": label_a, "b": label_b, "march": args.march, "frames": args.frames,
+                   "results": []})
+    rows = []
+    for algo in args.algo:
+        out = run([str(runner), str(args.frames), algo, *map(str, scenes)],
+                  capture_output=True, text=True).stdout
+        for (model, width, height), line in zip(cases, out.splitlines()):
+            r = json.loads(line)
+            a, b = (statistics.median(ms) for ms in r["ms"])
+            r.update({"model": model, "a_ms_median": a, "b_ms_median": b, "ratio": b / a})
+            report["results"].append(r)
+            rows.append(f"| {model} | {width}x{height} | {algo} | {a:.3f} | {b:.3f} | "
+                        f"**{b / a:.3f}** | {'yes' if r['same_bits'] else '**no**'} |")
+            print(rows[-1], flush=True)
+
+    m = report["machine"]
+    text = "\n".join([
+        "# A/B: two builds of the core in one process", "",
+        f"- date: {report['date']}",
+        f"- machine: {m['cpu']}, {m['cores']} cores; --march {args.march}",
+        f"- A: {label_a}; B: {label_b}",
+        f"- command: `{report['command']}`",
+        f"- each cell: median of {args.frames} frames per side, A and B alternating "
+        "frame by frame (A B, B A, ...); ms is the core's `render_ms` (clearing the "
+        "planes included), one thread, depth only", "",
+        "| model | size | algo | A ms | B ms | B / A | same bits |",
+        "|---|---|---|---:|---:|---:|---|",
+        *rows, ""])
+    write_report(args.out, args.name, report, text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

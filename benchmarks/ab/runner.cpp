@@ -1,0 +1,122 @@
+// The A/B runner of benchmarks/ab.py: renders each scene with core A and
+// core B (side.cpp, built from two source trees) in alternating frames of
+// one process -- A B, then B A, and so on -- and prints, per scene, one JSON
+// line with every frame's time, the pixels tested and written, and whether
+// the two cores drew the same bits. On a shared, noisy machine both sides
+// see the same noise, so the ratio of their medians is what counts.
+//
+//   runner FRAMES ALGO SCENE.bin...   (scenes written by benchmarks/ab.py)
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+extern "C" int ab_render_a(const char*, const double*, int64_t, const int32_t*, const int32_t*,
+                           int64_t, const int32_t*, const double*, int64_t, const double*, float*,
+                           int32_t*, int, int, double*);
+extern "C" int ab_render_b(const char*, const double*, int64_t, const int32_t*, const int32_t*,
+                           int64_t, const int32_t*, const double*, int64_t, const double*, float*,
+                           int32_t*, int, int, double*);
+
+namespace {
+
+template <class T>
+std::vector<T> read(FILE* f, int64_t n, const char* path) {
+  std::vector<T> v(size_t(n > 0 ? n : 0));
+  if (n > 0 && std::fread(v.data(), sizeof(T), size_t(n), f) != size_t(n)) {
+    std::fprintf(stderr, "%s: truncated\n", path);
+    std::exit(2);
+  }
+  return v;
+}
+
+// A frame's two planes in one allocation, 2 KiB apart modulo 4 KiB as the
+// planes of a Python result are (python/zbuffer/api.py).
+struct Planes {
+  std::vector<char> memory;
+  float* depth;
+  int32_t* ids;
+  size_t n;
+  Planes(int w, int h) : n(size_t(w) * size_t(h)) {
+    const size_t bytes = ((n * 4 + 4095) & ~size_t(4095)) + 2048;
+    memory.resize(bytes + n * 4 + 4096);
+    char* base = reinterpret_cast<char*>((reinterpret_cast<uintptr_t>(memory.data()) + 4095) &
+                                         ~uintptr_t(4095));
+    depth = reinterpret_cast<float*>(base);
+    ids = reinterpret_cast<int32_t*>(base + bytes);
+  }
+  uint64_t hash() const {  // FNV-1a over both planes
+    uint64_t h = 1469598103934665603ull;
+    auto mix = [&](const void* p, size_t bytes) {
+      const unsigned char* c = static_cast<const unsigned char*>(p);
+      for (size_t k = 0; k < bytes; ++k) h = (h ^ c[k]) * 1099511628211ull;
+    };
+    mix(depth, n * 4);
+    mix(ids, n * 4);
+    return h;
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 4) {
+    std::fprintf(stderr, "usage: %s FRAMES ALGO SCENE.bin...\n", argv[0]);
+    return 2;
+  }
+  const int frames = std::atoi(argv[1]);
+  const char* algo = argv[2];
+  constexpr int kWarmup = 3;
+  for (int s = 3; s < argc; ++s) {
+    const char* path = argv[s];
+    FILE* f = std::fopen(path, "rb");
+    if (!f) {
+      std::fprintf(stderr, "%s: cannot open\n", path);
+      return 2;
+    }
+    const std::vector<int64_t> head = read<int64_t>(f, 5, path);
+    const int64_t nv = head[0], nf = head[1], nc = head[2];
+    const int w = int(head[3]), h = int(head[4]);
+    const std::vector<double> mvp = read<double>(f, 16, path);
+    const std::vector<double> positions = read<double>(f, 3 * nv, path);
+    const std::vector<int32_t> faces = read<int32_t>(f, 3 * nf, path);
+    const std::vector<int32_t> face_ids = read<int32_t>(f, nf, path);
+    const std::vector<int32_t> cell_start = read<int32_t>(f, nc > 0 ? nc + 1 : 0, path);
+    const std::vector<double> cell_centre = read<double>(f, 3 * nc, path);
+    std::fclose(f);
+
+    Planes planes(w, h);
+    std::vector<double> ms[2];
+    double out[2][3] = {};
+    uint64_t hash[2] = {0, 0};
+    for (int frame = 0; frame < kWarmup + frames; ++frame) {
+      for (int turn = 0; turn < 2; ++turn) {
+        const int side = (frame & 1) ? 1 - turn : turn;  // A B, B A, ...
+        auto render = side == 0 ? ab_render_a : ab_render_b;
+        if (render(algo, positions.data(), nv, faces.data(), face_ids.data(), nf,
+                   cell_start.empty() ? nullptr : cell_start.data(),
+                   cell_centre.empty() ? nullptr : cell_centre.data(), nc, mvp.data(),
+                   planes.depth, planes.ids, w, h, out[side]) != 0) {
+          std::fprintf(stderr, "unknown algorithm %s\n", algo);
+          return 2;
+        }
+        if (frame == 0) hash[side] = planes.hash();
+        if (frame >= kWarmup) ms[side].push_back(out[side][0]);
+      }
+    }
+    std::printf("{\"scene\": \"%s\", \"algo\": \"%s\", \"width\": %d, \"height\": %d, "
+                "\"faces\": %lld, \"same_bits\": %s, \"tested\": [%.0f, %.0f], "
+                "\"written\": [%.0f, %.0f], \"ms\": [[",
+                path, algo, w, h, static_cast<long long>(nf), hash[0] == hash[1] ? "true" : "false",
+                out[0][1], out[1][1], out[0][2], out[1][2]);
+    for (int side = 0; side < 2; ++side) {
+      for (size_t k = 0; k < ms[side].size(); ++k)
+        std::printf("%s%.6f", k ? ", " : "", ms[side][k]);
+      std::printf(side == 0 ? "], [" : "]]}\n");
+    }
+    std::fflush(stdout);
+  }
+  return 0;
+}
