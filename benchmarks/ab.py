@@ -4,6 +4,7 @@
     python benchmarks/ab.py HEAD~3 HEAD --algo zbuffer hiz
     python benchmarks/ab.py HEAD . --march haswell  # the AVX2 loops (any x86-64 with AVX2)
     python benchmarks/ab.py HEAD . --cases bunny_69k.obj@1024x1024 --frames 400
+    python benchmarks/ab.py HEAD . --algo hiz_bvh --cases grid20-orthographic@1024x1024
 
 The machines these benchmarks run on are shared and noisy: the same frame
 takes 2.4 ms in one minute and 3.5 ms in the next, so two builds timed one
@@ -93,11 +94,25 @@ def build_side(src: Path, side: str, march: str) -> list[Path]:
     return [obj, out / "libzbuffer_core.a"]
 
 
-def write_scene(path: Path, model: str, width: int, height: int) -> None:
-    """A case as the runner reads it: the prepared mesh and the fitted camera."""
+def case_mesh(model: str, width: int, height: int):
+    """(prepared mesh, camera) of a case: a shared model framed by
+    Camera.fit, or gridN-PROJECTION, the 5 x 5 x N spot grid and camera of
+    bench_hiz.py."""
+    if model.startswith("grid"):
+        from bench_hiz import grid_camera
+
+        n, _, projection = model[4:].partition("-")
+        mesh = zbuffer.scenes.instance_grid(zbuffer.load(MODELS / "spot.obj"), (5, 5, int(n)))
+        return mesh.prepare(), grid_camera(mesh, projection)
     mesh = zbuffer.load(MODELS / model).prepare()
+    return mesh, zbuffer.Camera.fit(mesh, aspect=width / height).resolve(mesh)
+
+
+def write_scene(path: Path, model: str, width: int, height: int) -> None:
+    """A case as the runner reads it: the prepared mesh and its camera."""
+    mesh, camera = case_mesh(model, width, height)
     visit = mesh.faces_for_render()
-    mvp = zbuffer.Camera.fit(mesh, aspect=width / height).resolve(mesh).mvp(width, height)
+    mvp = camera.mvp(width, height)
     ids = visit.ids if visit.ids is not None else np.arange(len(visit.faces), dtype=np.int32)
     cells = visit.cell_start is not None
     with open(path, "wb") as fh:
@@ -119,7 +134,9 @@ def main(argv=None) -> int:
     ap.add_argument("head", nargs="?", default=".", help="revision B (default: the working tree)")
     ap.add_argument("--algo", nargs="+", default=["zbuffer"], choices=zbuffer.algorithms())
     ap.add_argument("--cases", nargs="+", default=DEFAULT_CASES,
-                    help="MODEL@WxH, models from ../shared/models (default: %(default)s)")
+                    help="MODEL@WxH, models from ../shared/models, or gridN-perspective / "
+                    "gridN-orthographic for bench_hiz.py's 5 x 5 x N spot grid "
+                    "(default: %(default)s)")
     ap.add_argument("--frames", type=int, default=200, help="frames per side and case")
     ap.add_argument("--march", choices=sorted(MARCH), default="native",
                     help="instruction set of both builds (haswell: the AVX2 loops)")
@@ -136,8 +153,15 @@ def main(argv=None) -> int:
             width, height = (int(v) for v in size.split("x"))
         except ValueError:
             ap.error(f"case {case!r}: expected MODEL@WIDTHxHEIGHT")
-        if not (MODELS / model).is_file():
-            ap.error(f"case {case!r}: {MODELS / model} does not exist")
+        grid = model.partition("-")
+        if model.startswith("grid"):
+            if not (grid[0][4:].isdigit() and grid[2] in ("perspective", "orthographic")):
+                ap.error(f"case {case!r}: expected gridN-perspective or gridN-orthographic")
+            model_file = MODELS / "spot.obj"
+        else:
+            model_file = MODELS / model
+        if not model_file.is_file():
+            ap.error(f"case {case!r}: {model_file} does not exist")
         cases.append((model, width, height))
 
     BUILD.mkdir(parents=True, exist_ok=True)
@@ -151,7 +175,7 @@ def main(argv=None) -> int:
 
     scenes = []
     for model, width, height in cases:
-        path = BUILD / f"{Path(model).stem}-{width}x{height}.bin"
+        path = BUILD / f"{Path(model).stem}-{width}x{height}.bin"  # rewritten each run
         write_scene(path, model, width, height)
         scenes.append(path)
 
