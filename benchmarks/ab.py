@@ -96,8 +96,11 @@ def build_side(src: Path, side: str, march: str) -> list[Path]:
 
 def case_mesh(model: str, width: int, height: int):
     """(prepared mesh, camera) of a case: a shared model framed by
-    Camera.fit, or gridN-PROJECTION, the 5 x 5 x N spot grid and camera of
-    bench_hiz.py."""
+    Camera.fit, gridN-PROJECTION (the 5 x 5 x N spot grid and camera of
+    bench_hiz.py), or ``default`` (the built-in scene of ``zbuffer render``)."""
+    if model == "default":
+        mesh = zbuffer.scenes.default_scene().prepare()
+        return mesh, zbuffer.scenes.default_camera(aspect=width / height).resolve(mesh)
     if model.startswith("grid"):
         from bench_hiz import grid_camera
 
@@ -134,9 +137,9 @@ def main(argv=None) -> int:
     ap.add_argument("head", nargs="?", default=".", help="revision B (default: the working tree)")
     ap.add_argument("--algo", nargs="+", default=["zbuffer"], choices=zbuffer.algorithms())
     ap.add_argument("--cases", nargs="+", default=DEFAULT_CASES,
-                    help="MODEL@WxH, models from ../shared/models, or gridN-perspective / "
-                    "gridN-orthographic for bench_hiz.py's 5 x 5 x N spot grid "
-                    "(default: %(default)s)")
+                    help="MODEL@WxH, models from ../shared/models, gridN-perspective / "
+                    "gridN-orthographic for bench_hiz.py's 5 x 5 x N spot grid, or "
+                    "default@WxH for the built-in scene (default: %(default)s)")
     ap.add_argument("--frames", type=int, default=200, help="frames per side and case")
     ap.add_argument("--march", choices=sorted(MARCH), default="native",
                     help="instruction set of both builds (haswell: the AVX2 loops)")
@@ -154,6 +157,9 @@ def main(argv=None) -> int:
         except ValueError:
             ap.error(f"case {case!r}: expected MODEL@WIDTHxHEIGHT")
         grid = model.partition("-")
+        if model == "default":
+            cases.append((model, width, height))
+            continue
         if model.startswith("grid"):
             if not (grid[0][4:].isdigit() and grid[2] in ("perspective", "orthographic")):
                 ap.error(f"case {case!r}: expected gridN-perspective or gridN-orthographic")

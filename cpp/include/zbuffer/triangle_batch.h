@@ -22,9 +22,12 @@ namespace zbuffer {
 // fixed length with int32 edge values: triangles less than 8 pixels wide by
 // passes of 8 x 2 pixels, less than 16 pixels wide by passes of 16 x 1, in
 // both cases with boxes up to 16 rows tall, grouped by their number of row
-// pairs. Any other triangle keeps its full TriangleSetup and goes through
-// rasterize_rect. With AVX-512, sixteen faces are assembled and set up per
-// instruction. Good: no branch mispredicted per triangle (a per-triangle box
+// pairs. A box whose passes' columns lie in the image (all but those at
+// its right edge) needs no masks of its own: a pixel centre outside it is
+// outside the triangle, so coverage alone masks the lanes. Any other
+// triangle keeps its full TriangleSetup and goes through rasterize_rect.
+// With AVX-512, sixteen faces are assembled and set up per instruction.
+// Good: no branch mispredicted per triangle (a per-triangle box
 // loop has a varying trip count, and in a detailed mesh about half the faces
 // are front faces and half back faces), and setting up one triangle never
 // waits for the previous one to be drawn. Bad: triangles are drawn in another
@@ -185,9 +188,11 @@ class TriangleBatch {
   uint16_t group_[kGroups][kCapacity + kSlack];
   int group_size_[kGroups] = {};
 
-  // Where the passes of a box point rows that lie past its end: masked-off
-  // loads and stores then touch neither memory outside the image nor lines
-  // that real pixels use. A ring of lines keeps them apart from each other.
+  // Where the passes of a box at the image's right edge point rows that lie
+  // past its end: masked-off loads and stores then touch neither memory
+  // outside the image nor lines that real pixels use. A ring of lines keeps
+  // them apart from each other. (Other boxes point such a row at one of
+  // their own, which the pass touches anyway.)
   static constexpr int kSpareRows = 16;
   alignas(64) float spare_depth_[kSpareRows][16] = {};
   alignas(64) int32_t spare_ids_[kSpareRows][16] = {};
