@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "zbuffer/mesh_order.h"
 
@@ -504,156 +505,110 @@ void TriangleBatch::update_pyramid() {
 
 #ifdef ZBUFFER_AVX512
 
+// One small triangle in the lanes of a pass: edge values (w0 biased, w1 and
+// w2 not) at the pass's pixels, stepped pass by pass, and what the depth
+// formula and the depth write need. `col` and `row` place each lane in the
+// pass, which covers `rows` rows.
+struct TriangleBatch::Lanes16 {
+  __m512i w0b, w1, w2, step0, step1, step2, bias1, bias2, id;
+  simd::DepthPlane16 plane;
+  float* depth;   // the box's first pixel
+  int32_t* ids;
+  Lanes16(const TriangleBatch& b, int i, __m512i col, __m512i row, int rows)
+      : plane(b.z0_[i], b.a1_[i], b.a2_[i], b.z_lo_[i], b.z_hi_[i]) {
+    w1 = _mm512_add_epi32(_mm512_set1_epi32(b.w1_[i]),
+                          _mm512_add_epi32(_mm512_mullo_epi32(col, _mm512_set1_epi32(b.sx1_[i])),
+                                           _mm512_mullo_epi32(row, _mm512_set1_epi32(b.sy1_[i]))));
+    w2 = _mm512_add_epi32(_mm512_set1_epi32(b.w2_[i]),
+                          _mm512_add_epi32(_mm512_mullo_epi32(col, _mm512_set1_epi32(b.sx2_[i])),
+                                           _mm512_mullo_epi32(row, _mm512_set1_epi32(b.sy2_[i]))));
+    w0b = _mm512_sub_epi32(_mm512_sub_epi32(_mm512_set1_epi32(b.area_b0_[i]), w1), w2);
+    step1 = _mm512_set1_epi32(rows * b.sy1_[i]);
+    step2 = _mm512_set1_epi32(rows * b.sy2_[i]);
+    step0 = _mm512_sub_epi32(_mm512_setzero_si512(), _mm512_add_epi32(step1, step2));
+    bias1 = _mm512_set1_epi32(b.bias1_[i]);
+    bias2 = _mm512_set1_epi32(b.bias2_[i]);
+    id = _mm512_set1_epi32(b.id_[i]);
+    const size_t first = size_t(b.x0_[i]) + size_t(b.y0_[i]) * size_t(b.target_.width);
+    depth = b.target_.depth + first;
+    ids = b.target_.triangle_id + first;
+  }
+  // Coverage of the lanes of `lanes` (all three biased edge values >= 0)
+  // and the depth formula, at this pass.
+  __mmask16 covered(__mmask16 lanes) const { return simd::covered16(lanes, w0b, w1, w2, bias1, bias2); }
+  __m512 z() const { return simd::depth16(plane, w1, w2); }
+  void next() {
+    w0b = _mm512_add_epi32(w0b, step0);
+    w1 = _mm512_add_epi32(w1, step1);
+    w2 = _mm512_add_epi32(w2, step2);
+  }
+};
+
 // kPasses passes of 8 x 2 pixels cover every box of a group: lanes 0-7 are
-// row y, lanes 8-15 row y + 1. Rows past the box are masked off and point at
-// a spare row of the batch, so no address outside the image is formed and no
-// masked-off access touches a line that real pixels use.
+// row y, lanes 8-15 row y + 1.
+//
+// Masks: a pixel centre outside a triangle's box is outside the triangle,
+// and a small triangle's edge values stay far inside int32 over its passes,
+// so coverage alone masks the lanes wherever the 8 columns of a pass lie in
+// the image; only a box at the image's right edge has its lanes masked to
+// its columns (their neighbours would be the next row's pixels). A box of an
+// odd number of rows has its last pass's second row masked off, at the
+// first row's address: no address outside the image is formed, and no
+// masked-off access touches a line the pass does not use anyway.
 template <int kPasses>
 void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& written_out) {
-  int64_t covered = 0, written = 0;  // in registers, not behind the references
   const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   const __m512i col = _mm512_and_si512(lane, _mm512_set1_epi32(7));
   const __m512i second_row = _mm512_srli_epi32(lane, 3);
   const size_t pitch = size_t(target_.width);
-  __m512i covered_v = _mm512_setzero_si512(), written_v = _mm512_setzero_si512();
+  __m512i covered = _mm512_setzero_si512(), written = _mm512_setzero_si512();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
-    // Edge values of the 16 lanes at the first pass.
-    __m512i w1 = _mm512_add_epi32(
-        _mm512_set1_epi32(w1_[i]),
-        _mm512_add_epi32(_mm512_mullo_epi32(col, _mm512_set1_epi32(sx1_[i])),
-                         _mm512_mullo_epi32(second_row, _mm512_set1_epi32(sy1_[i]))));
-    __m512i w2 = _mm512_add_epi32(
-        _mm512_set1_epi32(w2_[i]),
-        _mm512_add_epi32(_mm512_mullo_epi32(col, _mm512_set1_epi32(sx2_[i])),
-                         _mm512_mullo_epi32(second_row, _mm512_set1_epi32(sy2_[i]))));
-    const __m512i area_b0 = _mm512_set1_epi32(area_b0_[i]);
-    const __m512i step1 = _mm512_set1_epi32(2 * sy1_[i]), step2 = _mm512_set1_epi32(2 * sy2_[i]);
-    const __m512i bias1 = _mm512_set1_epi32(bias1_[i]), bias2 = _mm512_set1_epi32(bias2_[i]);
-    const simd::DepthPlane16 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
-    const __m512i id = _mm512_set1_epi32(id_[i]);
-    const int rows = box_h_[i];
-    float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
-    int32_t* const ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
-    if (x0_[i] + 8 <= target_.width) {
-      // The 8 columns of the passes lie in the image: coverage alone masks
-      // the lanes (a pixel centre outside the box is outside the triangle,
-      // and a small triangle's edge values stay far inside int32 over the
-      // passes), without the box's row and column masks or spare rows. A
-      // box of an odd number of rows has its last pass's second row
-      // masked off, at the first row's address.
-      __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
-      const __m512i step0 = _mm512_sub_epi32(_mm512_setzero_si512(), _mm512_add_epi32(step1, step2));
-      const bool odd = rows & 1;
-      for (int p = 0; p < kPasses; ++p) {
-        const bool half = p == kPasses - 1 && odd;
-        const __mmask16 inside =
-            simd::covered16(half ? __mmask16(0x00FF) : __mmask16(0xFFFF), w0b, w1, w2, bias1, bias2);
-        const __m512 z = simd::depth16(plane, w1, w2);
-        const size_t row0 = 2 * p * pitch, row1 = half ? row0 : row0 + pitch;
-        const __mmask16 win =
-            simd::write16_rows(inside, z, id, depth + row0, depth + row1, ids + row0, ids + row1);
-        covered_v = simd::count16(covered_v, inside);
-        written_v = simd::count16(written_v, win);
-        w0b = _mm512_add_epi32(w0b, step0);
-        w1 = _mm512_add_epi32(w1, step1);
-        w2 = _mm512_add_epi32(w2, step2);
-      }
-      continue;
-    }
-    // Near the image's right edge: lanes masked to the box, and rows past it
-    // pointed at spare rows.
-    const unsigned one_row = (1u << box_w_[i]) - 1;
+    Lanes16 t(*this, i, col, second_row, 2);
+    const unsigned columns = x0_[i] + 8 <= target_.width ? 0xFFu : (1u << box_w_[i]) - 1;
+    const __mmask16 box = __mmask16(columns | columns << 8);
+    const bool odd = box_h_[i] & 1;
     for (int p = 0; p < kPasses; ++p) {
-      const int r = 2 * p;
-      const bool first = r < rows, second = r + 1 < rows;
-      const __mmask16 in_box = __mmask16((first ? one_row : 0u) | (second ? one_row << 8 : 0u));
-      // Coverage of the biased edge values (w0's bias is in area_b0), depth
-      // of the unbiased ones, and the depth write of both rows at once.
-      const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
-      const __mmask16 inside = simd::covered16(in_box, w0b, _mm512_sub_epi32(w1, bias1),
-                                               _mm512_sub_epi32(w2, bias2));
-      const __m512 z = simd::depth16(plane, w1, w2);
-      float* const d0 = first ? depth + r * pitch : spare_depth_[(n + r) % kSpareRows];
-      float* const d1 = second ? depth + (r + 1) * pitch : spare_depth_[(n + r + 1) % kSpareRows];
-      int32_t* const i0 = first ? ids + r * pitch : spare_ids_[(n + r) % kSpareRows];
-      int32_t* const i1 = second ? ids + (r + 1) * pitch : spare_ids_[(n + r + 1) % kSpareRows];
-      const __mmask16 win = simd::write16_rows(inside, z, id, d0, d1, i0, i1);
-      covered += __builtin_popcount(inside);
-      written += __builtin_popcount(win);
-      w1 = _mm512_add_epi32(w1, step1);
-      w2 = _mm512_add_epi32(w2, step2);
+      const bool half = p == kPasses - 1 && odd;
+      const __mmask16 inside = t.covered(half ? __mmask16(box & 0x00FF) : box);
+      const size_t row0 = 2 * p * pitch, row1 = half ? row0 : row0 + pitch;
+      const __mmask16 win = simd::write16_rows(inside, t.z(), t.id, t.depth + row0, t.depth + row1,
+                                               t.ids + row0, t.ids + row1);
+      covered = simd::count16(covered, inside);
+      written = simd::count16(written, win);
+      t.next();
     }
   }
-  covered_out += covered + _mm512_reduce_add_epi32(covered_v);
-  written_out += written + _mm512_reduce_add_epi32(written_v);
+  covered_out += _mm512_reduce_add_epi32(covered);
+  written_out += _mm512_reduce_add_epi32(written);
 }
 
-// kRows passes of 16 x 1 pixels: lane k is pixel k of a row. Rows past the
-// box are masked off and point at a spare row.
+// kRows passes of 16 x 1 pixels: lane k is pixel k of a row. Masks as in
+// draw_narrow; a box of an odd number of rows has its last pass masked off,
+// at the row before.
 template <int kRows>
 void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_out) {
-  int64_t covered = 0, written = 0;  // in registers, not behind the references
   const __m512i col = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   const size_t pitch = size_t(target_.width);
-  __m512i covered_v = _mm512_setzero_si512(), written_v = _mm512_setzero_si512();
+  __m512i covered = _mm512_setzero_si512(), written = _mm512_setzero_si512();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
-    __m512i w1 = _mm512_add_epi32(_mm512_set1_epi32(w1_[i]),
-                                  _mm512_mullo_epi32(col, _mm512_set1_epi32(sx1_[i])));
-    __m512i w2 = _mm512_add_epi32(_mm512_set1_epi32(w2_[i]),
-                                  _mm512_mullo_epi32(col, _mm512_set1_epi32(sx2_[i])));
-    const __m512i area_b0 = _mm512_set1_epi32(area_b0_[i]);
-    const __m512i step1 = _mm512_set1_epi32(sy1_[i]), step2 = _mm512_set1_epi32(sy2_[i]);
-    const __m512i bias1 = _mm512_set1_epi32(bias1_[i]), bias2 = _mm512_set1_epi32(bias2_[i]);
-    const simd::DepthPlane16 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
-    const __m512i id = _mm512_set1_epi32(id_[i]);
-    const int rows = box_h_[i];
-    float* const depth = target_.depth + x0_[i] + size_t(y0_[i]) * pitch;
-    int32_t* const ids = target_.triangle_id + x0_[i] + size_t(y0_[i]) * pitch;
-    if (x0_[i] + 16 <= target_.width) {
-      // In the image: coverage alone masks the lanes (as in draw_narrow). A
-      // box of an odd number of rows has its last pass masked off, at the
-      // row before.
-      __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
-      const __m512i step0 = _mm512_sub_epi32(_mm512_setzero_si512(), _mm512_add_epi32(step1, step2));
-      const bool odd = rows & 1;
-      for (int r = 0; r < kRows; ++r) {
-        const bool off = r == kRows - 1 && odd;
-        const size_t row = size_t(off ? r - 1 : r) * pitch;
-        const __mmask16 inside =
-            simd::covered16(off ? __mmask16(0) : __mmask16(0xFFFF), w0b, w1, w2, bias1, bias2);
-        const __m512 z = simd::depth16(plane, w1, w2);
-        const __mmask16 win = simd::write16(inside, z, id, depth + row, ids + row);
-        covered_v = simd::count16(covered_v, inside);
-        written_v = simd::count16(written_v, win);
-        w0b = _mm512_add_epi32(w0b, step0);
-        w1 = _mm512_add_epi32(w1, step1);
-        w2 = _mm512_add_epi32(w2, step2);
-      }
-      continue;
-    }
-    // Near the image's right edge: lanes masked to the box, and rows past it
-    // pointed at spare rows.
-    const __mmask16 one_row = __mmask16((1u << box_w_[i]) - 1);
+    Lanes16 t(*this, i, col, _mm512_setzero_si512(), 1);
+    const __mmask16 box =
+        x0_[i] + 16 <= target_.width ? __mmask16(0xFFFF) : __mmask16((1u << box_w_[i]) - 1);
+    const bool odd = box_h_[i] & 1;
     for (int r = 0; r < kRows; ++r) {
-      const bool real = r < rows;
-      const __m512i w0b = _mm512_sub_epi32(_mm512_sub_epi32(area_b0, w1), w2);
-      const __mmask16 inside = simd::covered16(real ? one_row : __mmask16(0), w0b,
-                                               _mm512_sub_epi32(w1, bias1),
-                                               _mm512_sub_epi32(w2, bias2));
-      const __m512 z = simd::depth16(plane, w1, w2);
-      const __mmask16 win =
-          simd::write16(inside, z, id, real ? depth + r * pitch : spare_depth_[(n + r) % kSpareRows],
-                        real ? ids + r * pitch : spare_ids_[(n + r) % kSpareRows]);
-      covered += __builtin_popcount(inside);
-      written += __builtin_popcount(win);
-      w1 = _mm512_add_epi32(w1, step1);
-      w2 = _mm512_add_epi32(w2, step2);
+      const bool off = r == kRows - 1 && odd;
+      const size_t row = size_t(off ? r - 1 : r) * pitch;
+      const __mmask16 inside = t.covered(off ? __mmask16(0) : box);
+      const __mmask16 win = simd::write16(inside, t.z(), t.id, t.depth + row, t.ids + row);
+      covered = simd::count16(covered, inside);
+      written = simd::count16(written, win);
+      t.next();
     }
   }
-  covered_out += covered + _mm512_reduce_add_epi32(covered_v);
-  written_out += written + _mm512_reduce_add_epi32(written_v);
+  covered_out += _mm512_reduce_add_epi32(covered);
+  written_out += _mm512_reduce_add_epi32(written);
 }
 
 void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
@@ -720,16 +675,19 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
 
 // The groups drawn 8 pixels per instruction. Narrow boxes (at most 8
 // pixels wide): at most 4 pixels wide, kPasses passes of two rows of 4
-// (lanes 0-3 row r, lanes 4-7 row r + 1); wider, 2 * kPasses passes of one
-// row. Rows past the box are masked off and point at a spare row, as in the
-// AVX-512 loops; whole-vector loads and stores (simd::write8) except at the
-// end of the image.
+// (lanes 0-3 row r, lanes 4-7 row r + 1); wider, one row a pass. Masks as
+// in the AVX-512 loops: coverage alone where the pass's columns lie in the
+// image, else lanes masked to the box's columns; a row past the box (the
+// last of an odd number) is neither loaded nor stored. Loads and stores are
+// of whole vectors (simd::write8: lanes that do not win store back what
+// they loaded), except at the end of the planes.
 template <int kPasses>
 void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i col4 = _mm256_and_si256(lane, _mm256_set1_epi32(3));
   const __m256i row4 = _mm256_srli_epi32(lane, 2);
   const __m256i low_half = _mm256_cmpgt_epi32(_mm256_set1_epi32(4), lane);
+  const __m256i all = _mm256_set1_epi32(-1);
   const size_t pitch = size_t(target_.width), pixels = pitch * size_t(target_.height);
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
@@ -741,24 +699,24 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
     const __m256i sy1 = _mm256_set1_epi32(sy1_[i]), sy2 = _mm256_set1_epi32(sy2_[i]);
     const int rows = box_h_[i];
     const size_t first = size_t(x0_[i]) + size_t(y0_[i]) * pitch;
-    if (x0_[i] + 8 <= target_.width) {
-      // The 8 columns of the passes lie in the image: coverage alone masks
-      // the lanes (a pixel centre outside the box is outside the triangle),
-      // rows are loaded and stored whole, and a row past the box (the last
-      // of an odd number) is neither loaded nor stored.
-      float* const depth = target_.depth + first;
-      int32_t* const ids = target_.triangle_id + first;
-      const __m256i all = _mm256_set1_epi32(-1);
-      auto pass = [&](__m256i& w0b, __m256i& w1, __m256i& w2, size_t row, bool second,
-                      __m256i step0, __m256i step1, __m256i step2, bool two_rows) {
-        const __m256i inside = simd::covered8x32(
-            two_rows && !second ? low_half : all, w0b, _mm256_sub_epi32(w1, bias1),
-            _mm256_sub_epi32(w2, bias2));
+    // The loop twice over, with the passes' columns in the image or not
+    // (`in_image`, a compile-time constant in each).
+    auto draw = [&](auto in_image_t) {
+      constexpr bool in_image = decltype(in_image_t)::value;
+      // One pass at pixel `p`: coverage within `lanes`, depth, the depth
+      // write (of one row of 8, or two of 4 with `second`), and the step.
+      auto pass = [&](__m256i lanes, __m256i& w0b, __m256i& w1, __m256i& w2, size_t p,
+                      bool two_rows, bool second, __m256i step0, __m256i step1, __m256i step2) {
+        const __m256i inside = simd::covered8x32(lanes, w0b, _mm256_sub_epi32(w1, bias1),
+                                                 _mm256_sub_epi32(w2, bias2));
         const __m256 z = simd::depth8x32(plane, w1, w2);
+        float* const d = target_.depth + p;
+        int32_t* const ids = target_.triangle_id + p;
+        const size_t next = second ? pitch : 0;
         const __m256i win =
-            two_rows ? simd::write8_rows(inside, z, id, depth + row, depth + row + pitch, ids + row,
-                                         ids + row + pitch, second, true)
-                     : simd::write8(inside, z, id, depth + row, ids + row, true);
+            two_rows ? simd::write8_rows(inside, z, id, d, d + next, ids, ids + next, second,
+                                         in_image || p + next + 4 <= pixels)
+                     : simd::write8(inside, z, id, d, ids, in_image || p + 8 <= pixels);
         covered += simd::lanes8(inside);
         written += simd::lanes8(win);
         w0b = _mm256_add_epi32(w0b, step0);
@@ -775,74 +733,35 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
         __m256i w0b = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1), w2);
         const __m256i step1 = _mm256_add_epi32(sy1, sy1), step2 = _mm256_add_epi32(sy2, sy2);
         const __m256i step0 = _mm256_sub_epi32(_mm256_setzero_si256(), _mm256_add_epi32(step1, step2));
-        for (int r = 0; r < 2 * kPasses; r += 2)
-          pass(w0b, w1, w2, size_t(r) * pitch, r + 1 < rows, step0, step1, step2, true);
+        const __m256i in_row =
+            in_image ? all : _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), col4);
+        for (int r = 0; r < 2 * kPasses; r += 2) {
+          const bool second = r + 1 < rows;
+          pass(second ? in_row : _mm256_and_si256(in_row, low_half), w0b, w1, w2,
+               first + size_t(r) * pitch, true, second, step0, step1, step2);
+        }
       } else {
         __m256i w1 = _mm256_add_epi32(_mm256_set1_epi32(w1_[i]), _mm256_mullo_epi32(lane, sx1));
         __m256i w2 = _mm256_add_epi32(_mm256_set1_epi32(w2_[i]), _mm256_mullo_epi32(lane, sx2));
         __m256i w0b = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1), w2);
         const __m256i step0 = _mm256_sub_epi32(_mm256_setzero_si256(), _mm256_add_epi32(sy1, sy2));
+        const __m256i in_row =
+            in_image ? all : _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), lane);
         for (int r = 0; r < 2 * kPasses; ++r) {
           if (r == rows) break;  // the last row of an odd number: past the box
-          pass(w0b, w1, w2, size_t(r) * pitch, false, step0, sy1, sy2, false);
+          pass(in_row, w0b, w1, w2, first + size_t(r) * pitch, false, false, step0, sy1, sy2);
         }
       }
-      continue;
-    }
-    // Near the image's right edge: lanes masked to the box, and rows past it
-    // pointed at spare rows.
-    // Coverage and depth of one pass, its depth write, and the step.
-    auto pass = [&](__m256i in_box, __m256i& w1, __m256i& w2, float* d0, float* d1, int32_t* i0,
-                    int32_t* i1, bool whole, __m256i step1, __m256i step2) {
-      const __m256i w0b = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1), w2);
-      const __m256i inside = simd::covered8x32(in_box, w0b, _mm256_sub_epi32(w1, bias1),
-                                               _mm256_sub_epi32(w2, bias2));
-      const __m256 z = simd::depth8x32(plane, w1, w2);
-      const __m256i win = simd::write8_rows(inside, z, id, d0, d1, i0, i1, true, whole);
-      covered += simd::lanes8(inside);
-      written += simd::lanes8(win);
-      w1 = _mm256_add_epi32(w1, step1);
-      w2 = _mm256_add_epi32(w2, step2);
     };
-    if (box_w_[i] <= 4) {
-      __m256i w1 = _mm256_add_epi32(
-          _mm256_set1_epi32(w1_[i]),
-          _mm256_add_epi32(_mm256_mullo_epi32(col4, sx1), _mm256_mullo_epi32(row4, sy1)));
-      __m256i w2 = _mm256_add_epi32(
-          _mm256_set1_epi32(w2_[i]),
-          _mm256_add_epi32(_mm256_mullo_epi32(col4, sx2), _mm256_mullo_epi32(row4, sy2)));
-      const __m256i in_row = _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), col4);
-      const __m256i step1 = _mm256_add_epi32(sy1, sy1), step2 = _mm256_add_epi32(sy2, sy2);
-      for (int r = 0; r < 2 * kPasses; r += 2) {
-        const bool top = r < rows, bottom = r + 1 < rows;
-        const __m256i in_box = _mm256_and_si256(
-            in_row, top ? (bottom ? _mm256_set1_epi32(-1) : low_half)
-                        : (bottom ? _mm256_andnot_si256(low_half, _mm256_set1_epi32(-1))
-                                  : _mm256_setzero_si256()));
-        const size_t p0 = first + size_t(r) * pitch, p1 = p0 + pitch;
-        pass(in_box, w1, w2, top ? target_.depth + p0 : spare_depth_[(n + r) % kSpareRows],
-             bottom ? target_.depth + p1 : spare_depth_[(n + r + 1) % kSpareRows],
-             top ? target_.triangle_id + p0 : spare_ids_[(n + r) % kSpareRows],
-             bottom ? target_.triangle_id + p1 : spare_ids_[(n + r + 1) % kSpareRows],
-             (!top || p0 + 4 <= pixels) && (!bottom || p1 + 4 <= pixels), step1, step2);
-      }
-    } else {
-      __m256i w1 = _mm256_add_epi32(_mm256_set1_epi32(w1_[i]), _mm256_mullo_epi32(lane, sx1));
-      __m256i w2 = _mm256_add_epi32(_mm256_set1_epi32(w2_[i]), _mm256_mullo_epi32(lane, sx2));
-      const __m256i in_row = _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), lane);
-      for (int r = 0; r < 2 * kPasses; ++r) {
-        const bool real = r < rows;
-        const size_t p = first + size_t(r) * pitch;
-        float* const d = real ? target_.depth + p : spare_depth_[(n + r) % kSpareRows];
-        int32_t* const ids = real ? target_.triangle_id + p : spare_ids_[(n + r) % kSpareRows];
-        pass(real ? in_row : _mm256_setzero_si256(), w1, w2, d, d + 4, ids, ids + 4,
-             !real || p + 8 <= pixels, sy1, sy2);
-      }
-    }
+    if (x0_[i] + 8 <= target_.width)
+      draw(std::true_type{});
+    else
+      draw(std::false_type{});
   }
 }
 
-// Wide boxes (9 to 16 pixels wide): kRows passes of a row as two halves.
+// Wide boxes (9 to 16 pixels wide): kRows passes of a row as two halves;
+// masks as in draw_narrow.
 template <int kRows>
 void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
   const __m256i col = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -850,35 +769,39 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
     const __m256i sx1 = _mm256_set1_epi32(sx1_[i]), sx2 = _mm256_set1_epi32(sx2_[i]);
-    __m256i w1[2], w2[2];
+    __m256i w0b[2], w1[2], w2[2];
     w1[0] = _mm256_add_epi32(_mm256_set1_epi32(w1_[i]), _mm256_mullo_epi32(col, sx1));
     w2[0] = _mm256_add_epi32(_mm256_set1_epi32(w2_[i]), _mm256_mullo_epi32(col, sx2));
     w1[1] = _mm256_add_epi32(w1[0], _mm256_slli_epi32(sx1, 3));  // 8 pixels on
     w2[1] = _mm256_add_epi32(w2[0], _mm256_slli_epi32(sx2, 3));
     const __m256i area_b0 = _mm256_set1_epi32(area_b0_[i]);
+    for (int half = 0; half < 2; ++half)
+      w0b[half] = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1[half]), w2[half]);
     const __m256i step1 = _mm256_set1_epi32(sy1_[i]), step2 = _mm256_set1_epi32(sy2_[i]);
+    const __m256i step0 = _mm256_sub_epi32(_mm256_setzero_si256(), _mm256_add_epi32(step1, step2));
     const __m256i bias1 = _mm256_set1_epi32(bias1_[i]), bias2 = _mm256_set1_epi32(bias2_[i]);
     const simd::DepthPlane8 plane(z0_[i], a1_[i], a2_[i], z_lo_[i], z_hi_[i]);
     const __m256i id = _mm256_set1_epi32(id_[i]);
     const int rows = box_h_[i];
     const size_t first = size_t(x0_[i]) + size_t(y0_[i]) * pitch;
-    if (x0_[i] + 16 <= target_.width) {
-      // In the image: coverage alone masks the lanes, rows are loaded and
-      // stored whole, and a row past the box is not drawn (as in draw_narrow).
-      __m256i w0b[2];
-      for (int half = 0; half < 2; ++half)
-        w0b[half] = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1[half]), w2[half]);
-      const __m256i step0 = _mm256_sub_epi32(_mm256_setzero_si256(), _mm256_add_epi32(step1, step2));
+    // The loop twice over, as in draw_narrow.
+    auto draw = [&](auto in_image_t) {
+      constexpr bool in_image = decltype(in_image_t)::value;
+      const __m256i all = _mm256_set1_epi32(-1);
+      const __m256i in_row[2] = {
+          in_image ? all : _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), col),
+          in_image ? all : _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i] - 8), col)};
       for (int r = 0; r < kRows; ++r) {
         if (r == rows) break;  // the last row of an odd number: past the box
         const size_t p = first + size_t(r) * pitch;
+        const bool whole = in_image || p + 16 <= pixels;
         for (int half = 0; half < 2; ++half) {
-          const __m256i inside =
-              simd::covered8x32(_mm256_set1_epi32(-1), w0b[half], _mm256_sub_epi32(w1[half], bias1),
-                                _mm256_sub_epi32(w2[half], bias2));
+          const __m256i inside = simd::covered8x32(in_row[half], w0b[half],
+                                                   _mm256_sub_epi32(w1[half], bias1),
+                                                   _mm256_sub_epi32(w2[half], bias2));
           const __m256 z = simd::depth8x32(plane, w1[half], w2[half]);
           const __m256i win = simd::write8(inside, z, id, target_.depth + p + 8 * half,
-                                           target_.triangle_id + p + 8 * half, true);
+                                           target_.triangle_id + p + 8 * half, whole);
           covered += simd::lanes8(inside);
           written += simd::lanes8(win);
           w0b[half] = _mm256_add_epi32(w0b[half], step0);
@@ -886,29 +809,11 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
           w2[half] = _mm256_add_epi32(w2[half], step2);
         }
       }
-      continue;
-    }
-    const __m256i in_row[2] = {_mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i]), col),
-                               _mm256_cmpgt_epi32(_mm256_set1_epi32(box_w_[i] - 8), col)};
-    for (int r = 0; r < kRows; ++r) {
-      const bool real = r < rows;
-      const size_t p = first + size_t(r) * pitch;
-      float* const d = real ? target_.depth + p : spare_depth_[(n + r) % kSpareRows];
-      int32_t* const ids = real ? target_.triangle_id + p : spare_ids_[(n + r) % kSpareRows];
-      const bool whole = !real || p + 16 <= pixels;
-      for (int half = 0; half < 2; ++half) {
-        const __m256i w0b = _mm256_sub_epi32(_mm256_sub_epi32(area_b0, w1[half]), w2[half]);
-        const __m256i inside = simd::covered8x32(real ? in_row[half] : _mm256_setzero_si256(), w0b,
-                                                 _mm256_sub_epi32(w1[half], bias1),
-                                                 _mm256_sub_epi32(w2[half], bias2));
-        const __m256 z = simd::depth8x32(plane, w1[half], w2[half]);
-        const __m256i win = simd::write8(inside, z, id, d + 8 * half, ids + 8 * half, whole);
-        covered += simd::lanes8(inside);
-        written += simd::lanes8(win);
-        w1[half] = _mm256_add_epi32(w1[half], step1);
-        w2[half] = _mm256_add_epi32(w2[half], step2);
-      }
-    }
+    };
+    if (x0_[i] + 16 <= target_.width)
+      draw(std::true_type{});
+    else
+      draw(std::false_type{});
   }
 }
 

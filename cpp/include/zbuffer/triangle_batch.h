@@ -24,8 +24,10 @@ namespace zbuffer {
 // both cases with boxes up to 16 rows tall, grouped by their number of row
 // pairs. A box whose passes' columns lie in the image (all but those at
 // its right edge) needs no masks of its own: a pixel centre outside it is
-// outside the triangle, so coverage alone masks the lanes. Any other
-// triangle keeps its full TriangleSetup and goes through rasterize_rect.
+// outside the triangle, so coverage alone masks the lanes; a row a pass
+// covers past the box is masked off at an address of the box's own. Any
+// other triangle keeps its full TriangleSetup and goes through
+// rasterize_rect.
 // With AVX-512, sixteen faces are assembled and set up per instruction.
 // Good: no branch mispredicted per triangle (a per-triangle box
 // loop has a varying trip count, and in a detailed mesh about half the faces
@@ -100,6 +102,7 @@ class TriangleBatch {
   void draw_narrow(int group, int64_t& covered, int64_t& written);
   template <int kRows>
   void draw_wide(int group, int64_t& covered, int64_t& written);
+  struct Lanes16;  // a small triangle in the lanes of a pass (AVX-512 builds)
   // Whether the batch must be drawn before `incoming` more faces are added:
   // its small triangles stored and culled reach `capacity`, or its large
   // ones (tested when drawn) would pass it.
@@ -187,15 +190,6 @@ class TriangleBatch {
   alignas(64) int32_t id_[kCapacity + kSlack];
   uint16_t group_[kGroups][kCapacity + kSlack];
   int group_size_[kGroups] = {};
-
-  // Where the passes of a box at the image's right edge point rows that lie
-  // past its end: masked-off loads and stores then touch neither memory
-  // outside the image nor lines that real pixels use. A ring of lines keeps
-  // them apart from each other. (Other boxes point such a row at one of
-  // their own, which the pass touches anyway.)
-  static constexpr int kSpareRows = 16;
-  alignas(64) float spare_depth_[kSpareRows][16] = {};
-  alignas(64) int32_t spare_ids_[kSpareRows][16] = {};
 
   // Everything else: large or wide boxes, int64 edge values.
   std::vector<TriangleSetup> large_;
