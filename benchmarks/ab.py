@@ -64,8 +64,11 @@ def tree_of(rev: str) -> tuple[Path, str]:
     the revision's cpp/ exported into build/ab/tree-<sha>."""
     if rev == ".":
         return ROOT, "working tree"
-    sha = run(["git", "rev-parse", "--short", rev], cwd=ROOT, capture_output=True,
-              text=True).stdout.strip()
+    found = subprocess.run(["git", "rev-parse", "--short", "--verify", f"{rev}^{{commit}}"],
+                           cwd=ROOT, capture_output=True, text=True)
+    if found.returncode != 0:
+        raise SystemExit(f"ab.py: {rev!r} is not a revision of {ROOT} (or . for the working tree)")
+    sha = found.stdout.strip()
     dest = BUILD / f"tree-{sha}"
     if not (dest / "cpp" / "CMakeLists.txt").is_file():
         archive = run(["git", "archive", "--format=tar", sha, "cpp"], cwd=ROOT,
@@ -156,6 +159,8 @@ def main(argv=None) -> int:
             width, height = (int(v) for v in size.split("x"))
         except ValueError:
             ap.error(f"case {case!r}: expected MODEL@WIDTHxHEIGHT")
+        if not (0 < width <= 16384 and 0 < height <= 16384):
+            ap.error(f"case {case!r}: width and height must be in 1 .. 16384")
         grid = model.partition("-")
         if model == "default":
             cases.append((model, width, height))
@@ -190,8 +195,11 @@ def main(argv=None) -> int:
                    "results": []})
     rows = []
     for algo in args.algo:
-        out = run([str(runner), str(args.frames), algo, *map(str, scenes)],
-                  capture_output=True, text=True).stdout
+        done = subprocess.run([str(runner), str(args.frames), algo, *map(str, scenes)],
+                              capture_output=True, text=True)
+        if done.returncode != 0:
+            raise SystemExit(f"ab.py: the runner failed on {algo}:\n{done.stderr}")
+        out = done.stdout
         for (model, width, height), line in zip(cases, out.splitlines()):
             r = json.loads(line)
             a, b = (statistics.median(ms) for ms in r["ms"])
