@@ -209,8 +209,8 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
   if (pairs) {
     const unsigned one_row = (1u << width) - 1;
     // Rows y and y + 1, each only if it is <= y1. A missing row gets an
-    // empty mask and the address of row y1, so nothing outside the image is
-    // even addressed.
+    // empty mask and the address of row y1, so only rows of the image are
+    // addressed (and masked-off lanes are never touched: simd::write16_rows).
     float* const depth_base = target.depth + x0;
     int32_t* const id_base = target.triangle_id + x0;
     auto row_pair = [&](int y) {

@@ -84,6 +84,18 @@ ZBUFFER_INLINE __mmask16 covered16(__mmask16 lanes, __m512i w0b, __m512i w1b, __
   return _mm512_mask_cmpge_epi32_mask(lanes, any, _mm512_setzero_si512());
 }
 
+// An optimisation barrier: v is in a register here, so that the compiler
+// cannot fold the instruction that made it into a later store (see
+// write16_rows). Costs no instruction.
+template <class V>
+ZBUFFER_INLINE void keep_in_register(V& v) {
+#if defined(__GNUC__)
+  asm("" : "+v"(v));
+#else
+  (void)v;
+#endif
+}
+
 // The same from the unbiased values w1, w2 and their biases (0 or 1): w_k
 // - bias_k >= 0 is w_k >= bias_k, tested by masked compares.
 ZBUFFER_INLINE __mmask16 covered16(__mmask16 lanes, __m512i w0b, __m512i w1, __m512i w2,
@@ -229,7 +241,13 @@ ZBUFFER_INLINE __mmask16 write16_rows(__mmask16 inside, __m512 z, __m512i id, fl
   }
   const __m256i id8 = _mm512_castsi512_si256(id);
   _mm256_mask_storeu_ps(d0, __mmask8(win), _mm512_castps512_ps256(z));
-  _mm256_mask_storeu_ps(d1, __mmask8(win >> 8), _mm512_extractf32x8_ps(z, 1));
+  // The second row's depths extracted into a register first: compilers
+  // fuse an extract and a masked store into vextractf32x8 to memory under a
+  // mask, which faults on Zen 4 where its masked-off bytes cross into an
+  // unmapped page (past the end of a plane); a masked move does not.
+  __m256 z1 = _mm512_extractf32x8_ps(z, 1);
+  keep_in_register(z1);
+  _mm256_mask_storeu_ps(d1, __mmask8(win >> 8), z1);
   _mm256_mask_storeu_epi32(i0, __mmask8(win), id8);
   _mm256_mask_storeu_epi32(i1, __mmask8(win >> 8), id8);
   return win;
