@@ -553,8 +553,9 @@ struct TriangleBatch::Lanes16 {
 // the image; only a box at the image's right edge has its lanes masked to
 // its columns (their neighbours would be the next row's pixels). A box of an
 // odd number of rows has its last pass's second row masked off, at the
-// first row's address: no address outside the image is formed, and no
-// masked-off access touches a line the pass does not use anyway.
+// first row's address, so that only rows of the box are addressed. Lanes
+// past a row's end at the image's right edge (past the plane, on its last
+// row) are masked off: masked moves never touch them (simd::write16_rows).
 template <int kPasses>
 void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& written_out) {
   const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
@@ -653,8 +654,8 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     const __m512i slots = _mm512_add_epi32(
         _mm512_set1_epi32(n), _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0));
     const __m512i packed = _mm512_maskz_compress_epi32(m, group);
-    const int count = __builtin_popcount(m);
-    for (__mmask16 left = __mmask16((1u << count) - 1); left;) {
+    const int n_set_up = __builtin_popcount(m);
+    for (__mmask16 left = __mmask16((1u << n_set_up) - 1); left;) {
       const int g = _mm_cvtsi128_si32(_mm512_castsi512_si128(
           _mm512_maskz_compress_epi32(left, packed)));
       const __mmask16 in_g = _mm512_mask_cmpeq_epi32_mask(left, packed, _mm512_set1_epi32(g));
@@ -663,7 +664,7 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
       group_size_[g] += __builtin_popcount(in_g);
       left &= __mmask16(~in_g);
     }
-    n_small_ += count;
+    n_small_ += n_set_up;
   }
 
   add_unbatched<simd::Lanes16>(f, scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
