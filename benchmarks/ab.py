@@ -166,7 +166,8 @@ def main(argv=None) -> int:
             cases.append((model, width, height))
             continue
         if model.startswith("grid"):
-            if not (grid[0][4:].isdigit() and grid[2] in ("perspective", "orthographic")):
+            if not (grid[0][4:].isdigit() and int(grid[0][4:]) >= 1
+                    and grid[2] in ("perspective", "orthographic")):
                 ap.error(f"case {case!r}: expected gridN-perspective or gridN-orthographic")
             model_file = MODELS / "spot.obj"
         else:
@@ -185,8 +186,8 @@ def main(argv=None) -> int:
          str(HERE / "ab" / "runner.cpp"), *map(str, link), "-o", str(runner)])
 
     scenes = []
-    for model, width, height in cases:
-        path = BUILD / f"{Path(model).stem}-{width}x{height}.bin"  # rewritten each run
+    for k, (model, width, height) in enumerate(cases):
+        path = BUILD / f"case{k}-{Path(model).stem}-{width}x{height}.bin"  # rewritten each run
         write_scene(path, model, width, height)
         scenes.append(path)
 

@@ -33,7 +33,7 @@ std::vector<T> read(FILE* f, int64_t n, const char* path) {
 }
 
 // A frame's two planes in one allocation, 2 KiB apart modulo 4 KiB as the
-// planes of a Python result are (python/zbuffer/api.py).
+// planes of a Python result are (src/render_common.cpp, allocate_planes).
 struct Planes {
   std::vector<char> memory;
   float* depth;
