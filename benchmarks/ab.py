@@ -30,6 +30,7 @@ Nothing is asserted.
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import os
 import shutil
@@ -37,7 +38,6 @@ import statistics
 import subprocess
 import sys
 import tarfile
-import io
 from pathlib import Path
 
 import numpy as np
@@ -95,6 +95,20 @@ def build_side(src: Path, side: str, march: str) -> list[Path]:
          f"-DAB_SIDE=ab_render_{side}", "-I", str(src / "cpp" / "include"), "-c",
          str(HERE / "ab" / "side.cpp"), "-o", str(obj)])
     return [obj, out / "libzbuffer_core.a"]
+
+
+def model_file(model: str):
+    """The file a case's model is made from (None for the built-in scene);
+    ValueError for a grid case that is not gridN-perspective or
+    gridN-orthographic."""
+    if model == "default":
+        return None
+    if model.startswith("grid"):
+        n, _, projection = model[4:].partition("-")
+        if not (n.isdigit() and int(n) >= 1 and projection in ("perspective", "orthographic")):
+            raise ValueError("expected gridN-perspective or gridN-orthographic")
+        return MODELS / "spot.obj"
+    return MODELS / model
 
 
 def case_mesh(model: str, width: int, height: int):
@@ -161,19 +175,12 @@ def main(argv=None) -> int:
             ap.error(f"case {case!r}: expected MODEL@WIDTHxHEIGHT")
         if not (0 < width <= 16384 and 0 < height <= 16384):
             ap.error(f"case {case!r}: width and height must be in 1 .. 16384")
-        grid = model.partition("-")
-        if model == "default":
-            cases.append((model, width, height))
-            continue
-        if model.startswith("grid"):
-            if not (grid[0][4:].isdigit() and int(grid[0][4:]) >= 1
-                    and grid[2] in ("perspective", "orthographic")):
-                ap.error(f"case {case!r}: expected gridN-perspective or gridN-orthographic")
-            model_file = MODELS / "spot.obj"
-        else:
-            model_file = MODELS / model
-        if not model_file.is_file():
-            ap.error(f"case {case!r}: {model_file} does not exist")
+        try:
+            path = model_file(model)
+        except ValueError as err:
+            ap.error(f"case {case!r}: {err}")
+        if path is not None and not path.is_file():
+            ap.error(f"case {case!r}: {path} does not exist")
         cases.append((model, width, height))
 
     BUILD.mkdir(parents=True, exist_ok=True)

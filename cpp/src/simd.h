@@ -84,6 +84,26 @@ ZBUFFER_INLINE __mmask16 covered16(__mmask16 lanes, __m512i w0b, __m512i w1b, __
   return _mm512_mask_cmpge_epi32_mask(lanes, any, _mm512_setzero_si512());
 }
 
+// The same from the unbiased values w1, w2 and their biases (0 or 1): w_k
+// - bias_k >= 0 is w_k >= bias_k, tested by masked compares.
+ZBUFFER_INLINE __mmask16 covered16(__mmask16 lanes, __m512i w0b, __m512i w1, __m512i w2,
+                                   __m512i bias1, __m512i bias2) {
+  const __mmask16 k = _mm512_mask_cmpge_epi32_mask(lanes, w0b, _mm512_setzero_si512());
+  return _mm512_mask_cmpge_epi32_mask(_mm512_mask_cmpge_epi32_mask(k, w1, bias1), w2, bias2);
+}
+
+// The same for 8 lanes of int64 edge values (triangles too big for int32).
+ZBUFFER_INLINE __mmask8 covered8(__mmask8 lanes, __m512i w0b, __m512i w1b, __m512i w2b) {
+  const __m512i any = _mm512_ternarylogic_epi64(w0b, w1b, w2b, 0xFE);  // a | b | c
+  return _mm512_mask_cmpge_epi64_mask(lanes, any, _mm512_setzero_si512());
+}
+
+// Adds 1 to the lanes of `count` in `lanes` (per-lane counters of pixels,
+// summed once a loop is done: cheaper than a popcount per mask).
+ZBUFFER_INLINE __m512i count16(__m512i count, __mmask16 lanes) {
+  return _mm512_mask_sub_epi32(count, lanes, count, _mm512_set1_epi32(-1));
+}
+
 // An optimisation barrier: v is in a register here, so that the compiler
 // cannot fold the instruction that made it into a later store (see
 // write16_rows). Costs no instruction.
@@ -94,26 +114,6 @@ ZBUFFER_INLINE void keep_in_register(V& v) {
 #else
   (void)v;
 #endif
-}
-
-// The same from the unbiased values w1, w2 and their biases (0 or 1): w_k
-// - bias_k >= 0 is w_k >= bias_k, tested by masked compares.
-ZBUFFER_INLINE __mmask16 covered16(__mmask16 lanes, __m512i w0b, __m512i w1, __m512i w2,
-                                   __m512i bias1, __m512i bias2) {
-  const __mmask16 k = _mm512_mask_cmpge_epi32_mask(lanes, w0b, _mm512_setzero_si512());
-  return _mm512_mask_cmpge_epi32_mask(_mm512_mask_cmpge_epi32_mask(k, w1, bias1), w2, bias2);
-}
-
-// Adds 1 to the lanes of `count` in `lanes` (per-lane counters of pixels,
-// summed once a loop is done: cheaper than a popcount per mask).
-ZBUFFER_INLINE __m512i count16(__m512i count, __mmask16 lanes) {
-  return _mm512_mask_sub_epi32(count, lanes, count, _mm512_set1_epi32(-1));
-}
-
-// The same for 8 lanes of int64 edge values (triangles too big for int32).
-ZBUFFER_INLINE __mmask8 covered8(__mmask8 lanes, __m512i w0b, __m512i w1b, __m512i w2b) {
-  const __m512i any = _mm512_ternarylogic_epi64(w0b, w1b, w2b, 0xFE);  // a | b | c
-  return _mm512_mask_cmpge_epi64_mask(lanes, any, _mm512_setzero_si512());
 }
 
 // One triangle's depth plane (raster.h: TriangleSetup) in every lane.

@@ -25,7 +25,8 @@ namespace zbuffer {
 // pairs. A box whose passes' columns lie in the image (all but those at
 // its right edge) needs no masks of its own: a pixel centre outside it is
 // outside the triangle, so coverage alone masks the lanes; a row a pass
-// covers past the box is masked off at an address of the box's own. Any
+// covers past the box is masked off at an address of the box's own (AVX2
+// builds skip it). Any
 // other triangle keeps its full TriangleSetup and goes through
 // rasterize_rect.
 // With AVX-512, sixteen faces are assembled and set up per instruction.
