@@ -5,6 +5,7 @@
     python benchmarks/ab.py HEAD . --march haswell  # the AVX2 loops (any x86-64 with AVX2)
     python benchmarks/ab.py HEAD . --cases bunny_69k.obj@1024x1024 --frames 400
     python benchmarks/ab.py HEAD . --algo hiz_bvh --cases grid20-orthographic@1024x1024
+    python benchmarks/ab.py HEAD . --shading flat smooth  # the shading pass after each render
 
 The machines these benchmarks run on are shared and noisy: the same frame
 takes 2.4 ms in one minute and 3.5 ms in the next, so two builds timed one
@@ -20,7 +21,12 @@ itself gives 0.995-1.005). It also checks that the two drew the same bits.
 The inputs are the Python side's, made once by the installed ``zbuffer``
 (the mesh's prepared visiting order, the fitted camera's matrix): the
 comparison is of the compiled core alone, from the vertex stage to the last
-pixel, with the output planes cleared in the call (``render_ms``).
+pixel, with the output planes cleared in the call (``render_ms``). With
+``--shading flat`` or ``smooth``, every frame is also shaded (the mesh, its
+normals and the default light as ``zbuffer.render`` passes them), and the
+time compared is the shading call's alone; the images are compared too
+(shading is allowed to differ by a level between builds: the report gives
+the largest difference).
 Builds go to ``build/ab/``; the report (every frame's time, medians,
 ratios, machine, command, date) to ``--out`` (default
 ``benchmarks/results``) as ``--name`` ``.json`` and ``.md`` (default ``ab``).
@@ -31,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import itertools
 import json
 import os
 import shutil
@@ -133,6 +140,7 @@ def write_scene(path: Path, model: str, width: int, height: int) -> None:
     mesh, camera = case_mesh(model, width, height)
     visit = mesh.faces_for_render()
     mvp = camera.mvp(width, height)
+    normals = mesh.vertex_normals
     ids = visit.ids if visit.ids is not None else np.arange(len(visit.faces), dtype=np.int32)
     cells = visit.cell_start is not None
     with open(path, "wb") as fh:
@@ -146,6 +154,13 @@ def write_scene(path: Path, model: str, width: int, height: int) -> None:
         if cells:
             np.ascontiguousarray(visit.cell_start, np.int32).tofile(fh)
             np.ascontiguousarray(visit.cell_centre, np.float64).tofile(fh)
+        # For shading: the viewer, the default light, and the mesh the ids index.
+        np.ascontiguousarray(camera.viewer(), np.float64).tofile(fh)
+        np.ascontiguousarray(camera.forward(), np.float64).tofile(fh)
+        np.array([len(mesh.vertices), len(mesh.faces)], np.int64).tofile(fh)
+        np.ascontiguousarray(mesh.vertices, np.float64).tofile(fh)
+        np.ascontiguousarray(mesh.faces, np.int32).tofile(fh)
+        np.ascontiguousarray(normals, np.float64).tofile(fh)
 
 
 def main(argv=None) -> int:
@@ -158,6 +173,9 @@ def main(argv=None) -> int:
                     "gridN-orthographic for bench_hiz.py's 5 x 5 x N spot grid, or "
                     "default@WxH for the built-in scene (default: %(default)s)")
     ap.add_argument("--frames", type=int, default=200, help="frames per side and case")
+    ap.add_argument("--shading", nargs="+", choices=["none", "flat", "smooth"], default=["none"],
+                    help="none: compare renders; flat, smooth: shade every frame and compare "
+                    "the shading call's time")
     ap.add_argument("--march", choices=sorted(MARCH), default="native",
                     help="instruction set of both builds (haswell: the AVX2 loops)")
     ap.add_argument("--out", default=str(HERE / "results"), help="folder for the report")
@@ -200,21 +218,24 @@ def main(argv=None) -> int:
 
     report = new_report("ab.py", argv)
     report.update({"a": label_a, "b": label_b, "march": args.march, "frames": args.frames,
-                   "results": []})
+                   "shading": args.shading, "results": []})
     rows = []
-    for algo in args.algo:
-        done = subprocess.run([str(runner), str(args.frames), algo, *map(str, scenes)],
+    for algo, shading in itertools.product(args.algo, args.shading):
+        done = subprocess.run([str(runner), str(args.frames), algo, shading, *map(str, scenes)],
                               capture_output=True, text=True)
         if done.returncode != 0:
-            raise SystemExit(f"ab.py: the runner failed on {algo}:\n{done.stderr}")
+            raise SystemExit(f"ab.py: the runner failed on {algo}, shading {shading}:\n{done.stderr}")
         out = done.stdout
         for (model, width, height), line in zip(cases, out.splitlines()):
             r = json.loads(line)
             a, b = (statistics.median(ms) for ms in r["ms"])
             r.update({"model": model, "a_ms_median": a, "b_ms_median": b, "ratio": b / a})
             report["results"].append(r)
-            rows.append(f"| {model} | {width}x{height} | {algo} | {a:.3f} | {b:.3f} | "
-                        f"**{b / a:.3f}** | {'yes' if r['same_bits'] else '**no**'} |")
+            same = "yes" if r["same_bits"] else "**no**"
+            if shading != "none":
+                same += f" ({r['image_max_diff']})"
+            rows.append(f"| {model} | {width}x{height} | {algo} | {shading} | {a:.3f} | {b:.3f} | "
+                        f"**{b / a:.3f}** | {same} |")
             print(rows[-1], flush=True)
 
     m = report["machine"]
@@ -225,10 +246,12 @@ def main(argv=None) -> int:
         f"- A: {label_a}; B: {label_b}",
         f"- command: `{report['command']}`",
         f"- each cell: median of {args.frames} frames per side, A and B alternating "
-        "frame by frame (A B, B A, ...); ms is the core's `render_ms` (clearing the "
-        "planes included), one thread, depth only", "",
-        "| model | size | algo | A ms | B ms | B / A | same bits |",
-        "|---|---|---|---:|---:|---:|---|",
+        "frame by frame (A B, B A, ...); one thread. Shading none: ms is the core's "
+        "`render_ms` (clearing the planes included), depth only; flat or smooth: ms is "
+        "the shading call alone, after each render, and *same bits* compares the image "
+        "too (the largest difference of a channel in brackets)", "",
+        "| model | size | algo | shading | A ms | B ms | B / A | same bits |",
+        "|---|---|---|---|---:|---:|---:|---|",
         *rows, ""])
     write_report(args.out, args.name, report, text)
     return 0

@@ -3,9 +3,13 @@
 // one process -- A B, then B A, and so on -- and prints, per scene, one JSON
 // line with every frame's time, the pixels tested and written, and whether
 // the two cores drew the same bits. On a shared, noisy machine both sides
-// see the same noise, so the ratio of their medians is what counts.
+// see the same noise, so the ratio of their medians is what counts. With
+// SHADING flat or smooth, each frame is shaded after it is rendered, and
+// the time is the shading call's (the image is compared too).
 //
-//   runner FRAMES ALGO SCENE.bin...   (scenes written by benchmarks/ab.py)
+//   runner FRAMES ALGO SHADING SCENE.bin...   (scenes written by benchmarks/ab.py;
+//                                              SHADING: none, flat or smooth)
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -13,12 +17,22 @@
 #include <string>
 #include <vector>
 
+struct AbShading {  // as side.cpp declares it
+  const double* positions;
+  int64_t n_vertices;
+  const int32_t* faces;
+  int64_t n_faces;
+  const double* normals;
+  const double* viewer;
+  const double* light;
+  uint8_t* image;
+};
 extern "C" int ab_render_a(const char*, const double*, int64_t, const int32_t*, const int32_t*,
                            int64_t, const int32_t*, const double*, int64_t, const double*, float*,
-                           int32_t*, int, int, double*);
+                           int32_t*, int, int, const AbShading*, double*);
 extern "C" int ab_render_b(const char*, const double*, int64_t, const int32_t*, const int32_t*,
                            int64_t, const int32_t*, const double*, int64_t, const double*, float*,
-                           int32_t*, int, int, double*);
+                           int32_t*, int, int, const AbShading*, double*);
 
 namespace {
 
@@ -47,7 +61,7 @@ struct Planes {
     depth = reinterpret_cast<float*>(base);
     ids = reinterpret_cast<int32_t*>(base + bytes);
   }
-  uint64_t hash() const {  // FNV-1a over both planes
+  uint64_t hash(const std::vector<uint8_t>& image) const {  // FNV-1a over both planes and the image
     uint64_t h = 1469598103934665603ull;
     auto mix = [&](const void* p, size_t bytes) {
       const unsigned char* c = static_cast<const unsigned char*>(p);
@@ -55,6 +69,7 @@ struct Planes {
     };
     mix(depth, n * 4);
     mix(ids, n * 4);
+    mix(image.data(), image.size());
     return h;
   }
 };
@@ -62,14 +77,19 @@ struct Planes {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 4) {
-    std::fprintf(stderr, "usage: %s FRAMES ALGO SCENE.bin...\n", argv[0]);
+  if (argc < 5) {
+    std::fprintf(stderr, "usage: %s FRAMES ALGO SHADING SCENE.bin...\n", argv[0]);
     return 2;
   }
   const int frames = std::atoi(argv[1]);
   const char* algo = argv[2];
+  const std::string shading = argv[3];
+  if (shading != "none" && shading != "flat" && shading != "smooth") {
+    std::fprintf(stderr, "SHADING must be none, flat or smooth, not %s\n", shading.c_str());
+    return 2;
+  }
   constexpr int kWarmup = 3;
-  for (int s = 3; s < argc; ++s) {
+  for (int s = 4; s < argc; ++s) {
     const char* path = argv[s];
     FILE* f = std::fopen(path, "rb");
     if (!f) {
@@ -85,8 +105,23 @@ int main(int argc, char** argv) {
     const std::vector<int32_t> face_ids = read<int32_t>(f, nf, path);
     const std::vector<int32_t> cell_start = read<int32_t>(f, nc > 0 ? nc + 1 : 0, path);
     const std::vector<double> cell_centre = read<double>(f, 3 * nc, path);
+    // The mesh as the caller holds it (what the ids index), for shading.
+    const std::vector<double> viewer = read<double>(f, 4, path);
+    const std::vector<double> light = read<double>(f, 3, path);
+    const std::vector<int64_t> sizes = read<int64_t>(f, 2, path);
+    const std::vector<double> shade_positions = read<double>(f, 3 * sizes[0], path);
+    const std::vector<int32_t> shade_faces = read<int32_t>(f, 3 * sizes[1], path);
+    const std::vector<double> normals = read<double>(f, 3 * sizes[0], path);
     std::fclose(f);
 
+    std::vector<uint8_t> images[2];
+    AbShading shade[2];
+    for (int side = 0; side < 2; ++side) {
+      images[side].assign(shading == "none" ? 0 : size_t(w) * size_t(h) * 3, 0);
+      shade[side] = {shade_positions.data(), sizes[0], shade_faces.data(), sizes[1],
+                     shading == "smooth" ? normals.data() : nullptr, viewer.data(), light.data(),
+                     images[side].data()};
+    }
     Planes planes(w, h);
     std::vector<double> ms[2];
     double out[2][3] = {};
@@ -98,19 +133,24 @@ int main(int argc, char** argv) {
         if (render(algo, positions.data(), nv, faces.data(), face_ids.data(), nf,
                    cell_start.empty() ? nullptr : cell_start.data(),
                    cell_centre.empty() ? nullptr : cell_centre.data(), nc, mvp.data(),
-                   planes.depth, planes.ids, w, h, out[side]) != 0) {
+                   planes.depth, planes.ids, w, h, shading == "none" ? nullptr : &shade[side],
+                   out[side]) != 0) {
           std::fprintf(stderr, "unknown algorithm %s\n", algo);
           return 2;
         }
-        if (frame == 0) hash[side] = planes.hash();
+        if (frame == 0) hash[side] = planes.hash(images[side]);
         if (frame >= kWarmup) ms[side].push_back(out[side][0]);
       }
     }
-    std::printf("{\"scene\": \"%s\", \"algo\": \"%s\", \"width\": %d, \"height\": %d, "
-                "\"faces\": %lld, \"same_bits\": %s, \"tested\": [%.0f, %.0f], "
-                "\"written\": [%.0f, %.0f], \"ms\": [[",
-                path, algo, w, h, static_cast<long long>(nf), hash[0] == hash[1] ? "true" : "false",
-                out[0][1], out[1][1], out[0][2], out[1][2]);
+    int image_diff = 0;  // the largest difference of a channel between the two images
+    for (size_t k = 0; k < images[0].size(); ++k)
+      image_diff = std::max(image_diff, std::abs(int(images[0][k]) - int(images[1][k])));
+    std::printf("{\"scene\": \"%s\", \"algo\": \"%s\", \"shading\": \"%s\", \"width\": %d, "
+                "\"height\": %d, \"faces\": %lld, \"same_bits\": %s, \"image_max_diff\": %d, "
+                "\"tested\": [%.0f, %.0f], \"written\": [%.0f, %.0f], \"ms\": [[",
+                path, algo, shading.c_str(), w, h, static_cast<long long>(nf),
+                hash[0] == hash[1] ? "true" : "false", image_diff, out[0][1], out[1][1], out[0][2],
+                out[1][2]);
     for (int side = 0; side < 2; ++side) {
       for (size_t k = 0; k < ms[side].size(); ++k)
         std::printf("%s%.6f", k ? ", " : "", ms[side][k]);

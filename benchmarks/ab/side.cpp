@@ -1,18 +1,37 @@
 // One side of an A/B comparison (benchmarks/ab.py): compiled once per source
 // tree with -Dzbuffer=zb_a or -Dzbuffer=zb_b and -DAB_SIDE=ab_render_a or
 // ab_render_b, so that the two cores live in one process under two
-// namespaces. It builds its own RenderInput and DepthTarget from plain
-// arrays, so the two trees' structs may differ.
+// namespaces. It builds its own RenderInput, DepthTarget and ShadingInput
+// from plain arrays, so the two trees' structs may differ.
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 
 #include "zbuffer/algorithms.h"
+#include "zbuffer/shading.h"
 
+// What shade() reads besides the ids: the mesh as the caller holds it (the
+// ids index its faces), the camera and the light; normals for smooth
+// shading, nullptr for flat.
+struct AbShading {
+  const double* positions;
+  int64_t n_vertices;
+  const int32_t* faces;
+  int64_t n_faces;
+  const double* normals;
+  const double* viewer;  // 4
+  const double* light;   // 3
+  uint8_t* image;        // (height, width, 3)
+};
+
+// Renders one frame; with `shading`, shades it too. out: the time measured
+// (the render's total_ms, or with `shading` the shading call's), pixels
+// tested, pixels written.
 extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vertices,
                        const int32_t* faces, const int32_t* face_ids, int64_t n_faces,
                        const int32_t* cell_start, const double* cell_centre, int64_t n_cells,
                        const double* mvp, float* depth, int32_t* ids, int width, int height,
-                       double* out /* total_ms, pixels_tested, pixels_written */) {
+                       const AbShading* shading, double* out) {
   const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
   if (!algorithm) return 1;
   zbuffer::RenderInput in;
@@ -35,5 +54,21 @@ extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vert
   out[0] = stats.total_ms;
   out[1] = double(stats.pixels_tested);
   out[2] = double(stats.pixels_written);
+  if (shading) {
+    zbuffer::ShadingInput s;
+    s.mesh.positions = shading->positions;
+    s.mesh.n_vertices = shading->n_vertices;
+    s.mesh.faces = shading->faces;
+    s.mesh.n_faces = shading->n_faces;
+    s.width = width;
+    s.height = height;
+    s.vertex_normals = shading->normals;
+    std::memcpy(s.mvp, mvp, sizeof(s.mvp));
+    std::memcpy(s.viewer, shading->viewer, sizeof(s.viewer));
+    std::memcpy(s.light_dir, shading->light, sizeof(s.light_dir));
+    const auto start = std::chrono::steady_clock::now();
+    zbuffer::shade(s, ids, shading->image);
+    out[0] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
   return 0;
 }
