@@ -28,10 +28,14 @@ struct Buckets {
   std::vector<int32_t> of_face;
   std::vector<int64_t> start;  // n_buckets + 1 entries after scatter()
   std::vector<uint16_t> box;   // 6 per bucket: lo xyz, hi xyz (grid cells)
+  // The first and last face of each bucket (first > last: none).
+  std::vector<int64_t> first_face, last_face;
 
   void reset(size_t n_buckets, size_t n_faces) {
     of_face.resize(n_faces);
     start.assign(n_buckets + 1, 0);
+    first_face.assign(n_buckets, std::numeric_limits<int64_t>::max());
+    last_face.assign(n_buckets, -1);
     box.resize(6 * n_buckets);
     for (size_t b = 0; b < n_buckets; ++b) {
       std::fill_n(&box[6 * b], 3, uint16_t(VertexGrid::kMask));
@@ -45,7 +49,7 @@ struct Buckets {
     of_face[size_t(f)] = b;
     in_order_ &= b >= last_;
     last_ = b;
-    add_run(b, 1, lo, hi);
+    add_run(b, 1, f, f, lo, hi);
   }
 #ifdef ZBUFFER_AVX512
   // add() for faces f .. f + 15, buckets b and grid boxes lo/hi by axis: the
@@ -68,7 +72,8 @@ struct Buckets {
         l[a] = _mm512_mask_reduce_min_epu32(same, lo[a]);
         h[a] = _mm512_mask_reduce_max_epu32(same, hi[a]);
       }
-      add_run(bucket, __builtin_popcount(same), l, h);
+      add_run(bucket, __builtin_popcount(same), f + __builtin_ctz(same), f + 31 - __builtin_clz(same),
+              l, h);
       left &= __mmask16(~same);
     }
   }
@@ -129,20 +134,33 @@ struct Buckets {
       }
     }
   }
+  // The first and last face of buckets [b, e) (first > last: none).
+  void face_span(size_t b, size_t e, int64_t& first, int64_t& last) const {
+    first = std::numeric_limits<int64_t>::max();
+    last = -1;
+    for (size_t k = b; k < e; ++k) {
+      first = std::min(first, first_face[k]);
+      last = std::max(last, last_face[k]);
+    }
+  }
 
  private:
-  // `count` more faces in bucket b, with the grid box lo .. hi.
-  void add_run(int32_t b, int64_t count, const uint32_t* lo, const uint32_t* hi) {
+  // `count` more faces in bucket b, the first `first` and the last `last`,
+  // with the grid box lo .. hi.
+  void add_run(int32_t b, int64_t count, int64_t first, int64_t last, const uint32_t* lo,
+               const uint32_t* hi) {
     if (b != run_) {
       end_run();
       run_ = b;
       run_count_ = 0;
+      run_first_ = first;
       for (int a = 0; a < 3; ++a) {
         run_lo_[a] = lo[a];
         run_hi_[a] = hi[a];
       }
     }
     run_count_ += count;
+    run_last_ = last;
     for (int a = 0; a < 3; ++a) {
       run_lo_[a] = std::min(run_lo_[a], lo[a]);
       run_hi_[a] = std::max(run_hi_[a], hi[a]);
@@ -151,6 +169,8 @@ struct Buckets {
   void end_run() {
     if (run_ < 0) return;
     start[size_t(run_) + 1] += run_count_;
+    first_face[size_t(run_)] = std::min(first_face[size_t(run_)], run_first_);
+    last_face[size_t(run_)] = std::max(last_face[size_t(run_)], run_last_);
     uint16_t* bx = &box[6 * size_t(run_)];
     for (int a = 0; a < 3; ++a) {
       bx[a] = std::min<uint16_t>(bx[a], uint16_t(run_lo_[a]));
@@ -162,6 +182,7 @@ struct Buckets {
   int32_t last_ = -1;      // the bucket of the latest face
   bool in_order_ = true;   // the faces so far came in bucket order
   int64_t run_count_ = 0;
+  int64_t run_first_ = 0, run_last_ = 0;  // the run's first and last face
   uint32_t run_lo_[3] = {}, run_hi_[3] = {};
 };
 
@@ -227,6 +248,26 @@ int32_t add_cluster(ObjectTree& tree, int32_t node, int64_t b, int64_t e) {
   return c;
 }
 
+// Cluster c of an indexed tree holds the faces of buckets [lo, hi): where
+// they lie among few others in the mesh's order, it is drawn from there
+// (TriangleCluster::range_begin) instead of gathering its rows. A mesh in
+// spatial order (Mesh.prepare: the Morton order on the trees' grid) lists a
+// cell's faces together, interleaved with the few that straddle its border
+// and belong to a coarser node; those are skipped, at most kRangeSlack - 1
+// of the cluster's size.
+constexpr int64_t kRangeSlack = 2;
+void draw_from_mesh(ObjectTree& tree, int32_t c, const Buckets& buckets, size_t lo, size_t hi) {
+  if (tree.order.empty()) return;  // its rows are runs of the mesh's arrays already
+  TriangleCluster& cl = tree.clusters[size_t(c)];
+  int64_t first, last;
+  buckets.face_span(lo, hi, first, last);
+  if (last < first || last - first + 1 > kRangeSlack * (cl.face_end - cl.face_begin)) return;
+  cl.range_begin = first;
+  cl.range_end = last + 1;
+  cl.bucket_begin = int32_t(lo);
+  cl.bucket_end = int32_t(hi);
+}
+
 void begin(const MeshView& mesh, ObjectTree& tree) {
   tree.clear();
   tree.shared = false;
@@ -273,6 +314,9 @@ class FrameOctree {
     b_.scatter(mesh_, tree_, vector);
     tree_.nodes.emplace_back();
     build_node(0, 0, 0);
+    // The clusters drawn from the mesh read the faces' buckets (the arrays
+    // trade places: the next build reuses the tree's old one).
+    if (!tree_.order.empty()) std::swap(tree_.face_bucket, b_.of_face);
   }
 
  private:
@@ -332,11 +376,12 @@ class FrameOctree {
     if (e - b <= params_.leaf_size || level == depth_) {  // a leaf: the whole subtree
       b_.unite(size_t(index), size_t(end_index), lo, hi);
       set_bounds(tree_.nodes[size_t(i)], grid_, lo, hi);
-      add_cluster(tree_, i, b, e);
+      draw_from_mesh(tree_, add_cluster(tree_, i, b, e), b_, size_t(index), size_t(end_index));
       return;
     }
     const int64_t own_end = b_.start[size_t(index) + 1];
-    if (own_end > b) add_cluster(tree_, i, b, own_end);
+    if (own_end > b)
+      draw_from_mesh(tree_, add_cluster(tree_, i, b, own_end), b_, size_t(index), size_t(index) + 1);
     b_.unite(size_t(index), size_t(index) + 1, lo, hi);
     int64_t child_index[8];
     int n = 0;

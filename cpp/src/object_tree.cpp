@@ -23,7 +23,7 @@ int64_t ObjectTree::memory_bytes() const {
   return int64_t(nodes.size() * sizeof(TreeNode) + clusters.size() * sizeof(TriangleCluster) +
                  positions.size() * sizeof(double) + faces.size() * sizeof(int32_t) +
                  ids.size() * sizeof(int32_t) + source.size() * sizeof(int32_t) +
-                 order.size() * sizeof(int32_t) +
+                 order.size() * sizeof(int32_t) + face_bucket.size() * sizeof(int32_t) +
                  cluster_of_id.size() * sizeof(int32_t));
 }
 
@@ -40,6 +40,8 @@ void ObjectTree::clear() {
   mesh_vertices = 0;
   mesh_faces = mesh_ids = nullptr;
   order.clear();
+  // (face_bucket is kept: the next per-frame octree's build trades it for
+  // its own, whole, as it stands -- only clusters with a range read it.)
 }
 
 // Cluster Construction
@@ -631,6 +633,24 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     mesh.faces = tree.face_rows() + 3 * cl.face_begin;
     mesh.face_ids = tree.id_rows() + cl.face_begin;
     mesh.n_faces = cl.face_end - cl.face_begin;
+    if (cl.range_end > cl.range_begin) {
+      // Faces of the mesh among a few others (TriangleCluster::range_begin):
+      // drawn from the mesh's arrays, the others skipped.
+      reached += mesh.n_faces;
+      const MeshView whole{tree.mesh_positions, tree.mesh_vertices, tree.mesh_faces,
+                           tree.n_input_faces, tree.mesh_ids};
+      const auto t0 = Clock::now();
+      lazy.need(tree.mesh_faces + 3 * cl.range_begin, cl.range_end - cl.range_begin);
+      const auto t1 = Clock::now();
+      batch.add_faces_in_buckets(whole, input.mvp, vp, screen, cl.range_begin, cl.range_end,
+                                 input.cull_backfaces, tree.face_bucket.data(), cl.bucket_begin,
+                                 cl.bucket_end);
+      const auto t2 = Clock::now();
+      stats.vertex_ms += ms_between(t0, t1);
+      stats.raster_ms += ms_between(t1, t2);
+      draw_ms += ms_between(t0, t2);
+      return;
+    }
     if (!tree.order.empty()) {
       // An indexed tree's rows name faces of the mesh: gather them.
       gather_rows(tree, cl, kept_faces, kept_ids);

@@ -98,14 +98,15 @@ struct Faces16 {
   __m512i area_lo, area_hi;   // |twice the area|, int64, lanes 0-7 and 8-15
 };
 
-// Assemble faces first .. first + count - 1 (count <= 16), counting the
-// culled ones and the rasterized ones in stats as assemble_triangle does
-// (clipped faces are left to the caller).
+// Assemble faces first .. first + count - 1 (count <= 16) of `keep` (bit k:
+// face first + k), counting the culled ones and the rasterized ones in
+// stats as assemble_triangle does (clipped faces are left to the caller).
 ZBUFFER_INLINE void assemble16(const MeshView& mesh, const ScreenVertices& sv, int64_t first,
-                               int count, bool cull_backfaces, RenderStats& stats, Faces16& f) {
+                               int count, bool cull_backfaces, RenderStats& stats, Faces16& f,
+                               unsigned keep = 0xFFFFu) {
   // Gather the three vertices of `count` faces; lanes past them load index 0
-  // (a valid vertex) and are masked off below.
-  f.live = __mmask16((1u << count) - 1);
+  // (a valid vertex) and are masked off below, as are those not kept.
+  f.live = __mmask16(((1u << count) - 1) & keep);
   const __mmask16 live = f.live;
   __m512i corner[3];
   deinterleave16(mesh.faces + 3 * first, count, corner);

@@ -87,13 +87,15 @@ ZBUFFER_INLINE __m256i abs64(__m256i v) {
   return _mm256_blendv_epi8(v, _mm256_sub_epi64(_mm256_setzero_si256(), v), negative);
 }
 
-// Assemble faces first .. first + count - 1 (count <= 8), counting the
-// culled ones and the rasterized ones in stats as assemble_triangle does
-// (clipped faces are left to the caller). The mesh has at least one vertex:
-// lanes past `count` use vertex 0 and are masked off.
+// Assemble faces first .. first + count - 1 (count <= 8) of `keep` (bit k:
+// face first + k), counting the culled ones and the rasterized ones in
+// stats as assemble_triangle does (clipped faces are left to the caller).
+// The mesh has at least one vertex: lanes past `count` and those not kept
+// use vertex 0 and are masked off.
 ZBUFFER_INLINE void assemble8(const MeshView& mesh, const ScreenVertices& sv, int64_t first,
-                              int count, bool cull_backfaces, RenderStats& stats, Faces8& f) {
-  f.live = (1u << count) - 1;
+                              int count, bool cull_backfaces, RenderStats& stats, Faces8& f,
+                              unsigned keep = 0xFFu) {
+  f.live = ((1u << count) - 1) & keep;
   const __m256i live = mask8(f.live);
   const __m256i lane3 = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
   const int32_t* fp = mesh.faces + 3 * first;

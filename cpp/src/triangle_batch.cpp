@@ -7,6 +7,7 @@
 // whichever path set it up.
 #include "zbuffer/triangle_batch.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <limits>
@@ -173,6 +174,37 @@ void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Vie
   }
 #endif
   for (; f < end; ++f) add_face(mesh, mvp, vp, sv, f, cull_backfaces);
+}
+
+void TriangleBatch::add_faces_in_buckets(const MeshView& mesh, const double* mvp,
+                                         const Viewport& vp, const ScreenVertices& sv,
+                                         int64_t begin, int64_t end, bool cull_backfaces,
+                                         const int32_t* bucket, int32_t lo, int32_t hi) {
+  int64_t f = begin;
+#ifdef ZBUFFER_AVX512
+  const __m512i vlo = _mm512_set1_epi32(lo), vhi = _mm512_set1_epi32(hi);
+  for (; f < end && mesh.n_vertices > 0; f += 16) {
+    const int count = int(std::min<int64_t>(16, end - f));
+    if (f + 48 <= end) prefetch_corners(mesh, sv, f + 32, 16);
+    const __m512i b = _mm512_maskz_loadu_epi32(__mmask16((1u << count) - 1), bucket + f);
+    const unsigned keep = _mm512_cmpge_epi32_mask(b, vlo) & _mm512_cmplt_epi32_mask(b, vhi) &
+                          ((1u << count) - 1);
+    if (keep) add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, count, keep);
+  }
+#elif defined(ZBUFFER_AVX2)
+  const __m256i below = _mm256_set1_epi32(lo - 1), above = _mm256_set1_epi32(hi);
+  for (; f < end && mesh.n_vertices > 0; f += 8) {
+    const int count = int(std::min<int64_t>(8, end - f));
+    if (f + 24 <= end) prefetch_corners(mesh, sv, f + 16, 8);
+    const __m256i lanes = _mm256_cmpgt_epi32(_mm256_set1_epi32(count), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    const __m256i b = _mm256_maskload_epi32(bucket + f, lanes);
+    const __m256i in = _mm256_and_si256(_mm256_and_si256(_mm256_cmpgt_epi32(b, below), _mm256_cmpgt_epi32(above, b)), lanes);
+    const unsigned keep = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(in)));
+    if (keep) add_8_faces(mesh, mvp, vp, sv, f, cull_backfaces, count, keep);
+  }
+#endif
+  for (; f < end; ++f)
+    if (bucket[f] >= lo && bucket[f] < hi) add_face(mesh, mvp, vp, sv, f, cull_backfaces);
 }
 
 void TriangleBatch::add_face(const MeshView& mesh, const double* mvp, const Viewport& vp,
@@ -638,14 +670,14 @@ void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_
 
 void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                                  const ScreenVertices& sv, int64_t first, bool cull_backfaces,
-                                 int count) {
+                                 int count, unsigned keep) {
   static_assert(kSmallFx == simd::kSmallFx && kNarrowFx == simd::kNarrowFx,
                 "the scalar and vector paths sort faces into the same groups");
   if (full(16)) flush();
 
   // Assembly and pixel boxes (setup16.h)
   simd::Faces16 f;
-  simd::assemble16(mesh, sv, first, count, cull_backfaces, stats_, f);
+  simd::assemble16(mesh, sv, first, count, cull_backfaces, stats_, f, keep);
   simd::Box16 box;
   simd::box16(f, target_.width, target_.height, box);
   __mmask16 vector_setup = f.draw & box.nonempty & box.small;
@@ -844,12 +876,12 @@ void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
 
 void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                                 const ScreenVertices& sv, int64_t first, bool cull_backfaces,
-                                int count) {
+                                int count, unsigned keep) {
   if (full(8)) flush();
 
   // Assembly and pixel boxes (setup8.h)
   simd::Faces8 f;
-  simd::assemble8(mesh, sv, first, count, cull_backfaces, stats_, f);
+  simd::assemble8(mesh, sv, first, count, cull_backfaces, stats_, f, keep);
   simd::Box8 box;
   simd::box8(f, target_.width, target_.height, box, kSmallFx, kNarrowFx);
   unsigned vector_setup = f.draw & box.nonempty & box.small;
@@ -904,13 +936,13 @@ void TriangleBatch::draw_wide(int, int64_t&, int64_t&) {}
 #endif
 
 void TriangleBatch::add_16_faces(const MeshView&, const double*, const Viewport&,
-                                 const ScreenVertices&, int64_t, bool, int) {}
+                                 const ScreenVertices&, int64_t, bool, int, unsigned) {}
 
 #endif
 
 #ifndef ZBUFFER_AVX2
 void TriangleBatch::add_8_faces(const MeshView&, const double*, const Viewport&,
-                                const ScreenVertices&, int64_t, bool, int) {}
+                                const ScreenVertices&, int64_t, bool, int, unsigned) {}
 #endif
 
 }  // namespace zbuffer

@@ -225,6 +225,26 @@ void test_frame_trees() {
           }
         }
         for (int count : seen) CHECK(count == 1);
+        // A cluster drawn from the mesh's arrays (TriangleCluster::range_begin)
+        // holds exactly the faces of its range in its buckets; the octree of
+        // a mesh in spatial order draws most of its faces so.
+        int64_t ranged = 0;
+        for (const TriangleCluster& cl : tree.clusters) {
+          if (cl.range_end <= cl.range_begin) continue;
+          CHECK(kind == 0 && !tree.order.empty());
+          CHECK(cl.range_begin >= 0 && cl.range_end <= mesh.n_faces);
+          CHECK(tree.face_bucket.size() == size_t(mesh.n_faces));
+          std::vector<int32_t> rows(tree.order.data() + cl.face_begin, tree.order.data() + cl.face_end);
+          std::vector<int32_t> in_buckets;
+          for (int64_t f = cl.range_begin; f < cl.range_end; ++f) {
+            const int32_t b = tree.face_bucket[size_t(f)];
+            if (b >= cl.bucket_begin && b < cl.bucket_end) in_buckets.push_back(int32_t(f));
+          }
+          std::sort(rows.begin(), rows.end());
+          CHECK(rows == in_buckets);
+          ranged += cl.face_end - cl.face_begin;
+        }
+        if (ordered && kind == 0 && leaf == 64) CHECK(ranged > mesh.n_faces / 2);
         // Vertices all up front, and as clusters need them -- after a frame
         // from another camera with every vertex transformed, so that no
         // vertex left over from before is right by luck.

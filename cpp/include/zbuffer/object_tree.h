@@ -35,6 +35,12 @@ struct TriangleCluster {
   int64_t face_begin, face_end;      // rows of ObjectTree::faces and ids
   int64_t vertex_begin, vertex_end;  // rows of ObjectTree::positions (0, 0 if indexed)
   int32_t node;
+  // An indexed tree's cluster may also be drawn from the mesh's own arrays:
+  // the faces range_begin .. range_end - 1 whose ObjectTree::face_bucket is
+  // in bucket_begin .. bucket_end - 1 are exactly its rows (empty range:
+  // not so; its rows are gathered).
+  int64_t range_begin = 0, range_end = 0;
+  int32_t bucket_begin = 0, bucket_end = 0;
 };
 
 // Design decision: a tree built to last (zbuffer.Scene) is self-contained.
@@ -78,6 +84,9 @@ struct ObjectTree {
   // An indexed tree's rows: the mesh's face index of each; empty when the
   // rows are the mesh's own (the faces came in cluster order, with ids).
   Buffer<int32_t> order;
+  // A per-frame octree's bucket of each mesh face (frame_tree.h), for the
+  // clusters drawn as ranges of the mesh (TriangleCluster::range_begin).
+  std::vector<int32_t> face_bucket;
 
   // Row r of the clusters: its three vertex indices, and its id.
   const int32_t* face(int64_t r) const {

@@ -64,6 +64,11 @@ class TriangleBatch {
   // clipping, orientation) and add what survives, counting it in stats.
   void add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                  const ScreenVertices& sv, int64_t begin, int64_t end, bool cull_backfaces);
+  // The same for the faces f in [begin, end) with bucket[f] in [lo, hi)
+  // (the others are skipped, neither assembled nor counted).
+  void add_faces_in_buckets(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                            const ScreenVertices& sv, int64_t begin, int64_t end,
+                            bool cull_backfaces, const int32_t* bucket, int32_t lo, int32_t hi);
 
   // Add one assembled triangle (area > 0); the caller counts it.
   void add(const ScreenTriangle& t);
@@ -139,12 +144,14 @@ class TriangleBatch {
   void mark_blocks(int x0, int y0, int x1, int y1);
   void update_pyramid();
   // Vector assembly and setup of faces first .. first + count - 1, count
-  // <= 16 (AVX-512 builds).
+  // <= 16 (AVX-512 builds); only those of `keep` (bit k: face first + k).
   void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
-                    const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count);
+                    const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count,
+                    unsigned keep = 0xFFFFu);
   // The same for count <= 8 faces (AVX2 builds).
   void add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
-                   const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count);
+                   const ScreenVertices& sv, int64_t first, bool cull_backfaces, int count,
+                   unsigned keep = 0xFFu);
   // Vector-set-up faces appended to the structure of arrays (both of the above).
   template <class Put, class PutF, class Box, class Setup, class Vec>
   void store_small(Put put, PutF put_f, const Box& box, const Setup& s, Vec area_b0, Vec ids);
