@@ -72,8 +72,8 @@ struct Buckets {
         l[a] = _mm512_mask_reduce_min_epu32(same, lo[a]);
         h[a] = _mm512_mask_reduce_max_epu32(same, hi[a]);
       }
-      add_run(bucket, __builtin_popcount(same), f + __builtin_ctz(same), f + 31 - __builtin_clz(same),
-              l, h);
+      add_run(bucket, __builtin_popcount(same), f + __builtin_ctz(same),
+              f + 31 - __builtin_clz(same), l, h);
       left &= __mmask16(~same);
     }
   }
@@ -381,7 +381,8 @@ class FrameOctree {
     }
     const int64_t own_end = b_.start[size_t(index) + 1];
     if (own_end > b)
-      draw_from_mesh(tree_, add_cluster(tree_, i, b, own_end), b_, size_t(index), size_t(index) + 1);
+      draw_from_mesh(tree_, add_cluster(tree_, i, b, own_end), b_, size_t(index),
+                     size_t(index) + 1);
     b_.unite(size_t(index), size_t(index) + 1, lo, hi);
     int64_t child_index[8];
     int n = 0;

@@ -186,9 +186,10 @@ void TriangleBatch::add_faces_in_buckets(const MeshView& mesh, const double* mvp
   for (; f < end && mesh.n_vertices > 0; f += 16) {
     const int count = int(std::min<int64_t>(16, end - f));
     if (f + 48 <= end) prefetch_corners(mesh, sv, f + 32, 16);
-    const __m512i b = _mm512_maskz_loadu_epi32(__mmask16((1u << count) - 1), bucket + f);
-    const unsigned keep = _mm512_cmpge_epi32_mask(b, vlo) & _mm512_cmplt_epi32_mask(b, vhi) &
-                          ((1u << count) - 1);
+    const __mmask16 lanes = __mmask16((1u << count) - 1);
+    const __m512i b = _mm512_maskz_loadu_epi32(lanes, bucket + f);
+    const unsigned keep =
+        _mm512_mask_cmpge_epi32_mask(lanes, b, vlo) & _mm512_cmplt_epi32_mask(b, vhi);
     if (keep) add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, count, keep);
   }
 #elif defined(ZBUFFER_AVX2)
@@ -196,9 +197,11 @@ void TriangleBatch::add_faces_in_buckets(const MeshView& mesh, const double* mvp
   for (; f < end && mesh.n_vertices > 0; f += 8) {
     const int count = int(std::min<int64_t>(8, end - f));
     if (f + 24 <= end) prefetch_corners(mesh, sv, f + 16, 8);
-    const __m256i lanes = _mm256_cmpgt_epi32(_mm256_set1_epi32(count), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    const __m256i lanes =
+        _mm256_cmpgt_epi32(_mm256_set1_epi32(count), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
     const __m256i b = _mm256_maskload_epi32(bucket + f, lanes);
-    const __m256i in = _mm256_and_si256(_mm256_and_si256(_mm256_cmpgt_epi32(b, below), _mm256_cmpgt_epi32(above, b)), lanes);
+    const __m256i in = _mm256_and_si256(
+        _mm256_and_si256(_mm256_cmpgt_epi32(b, below), _mm256_cmpgt_epi32(above, b)), lanes);
     const unsigned keep = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(in)));
     if (keep) add_8_faces(mesh, mvp, vp, sv, f, cull_backfaces, count, keep);
   }

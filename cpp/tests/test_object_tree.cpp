@@ -234,7 +234,8 @@ void test_frame_trees() {
           CHECK(kind == 0 && !tree.order.empty());
           CHECK(cl.range_begin >= 0 && cl.range_end <= mesh.n_faces);
           CHECK(tree.face_bucket.size() == size_t(mesh.n_faces));
-          std::vector<int32_t> rows(tree.order.data() + cl.face_begin, tree.order.data() + cl.face_end);
+          std::vector<int32_t> rows(tree.order.data() + cl.face_begin,
+                                    tree.order.data() + cl.face_end);
           std::vector<int32_t> in_buckets;
           for (int64_t f = cl.range_begin; f < cl.range_end; ++f) {
             const int32_t b = tree.face_bucket[size_t(f)];
