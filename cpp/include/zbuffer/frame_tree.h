@@ -22,7 +22,8 @@ namespace zbuffer {
 // lists the faces' indices in bucket order (the tree's `order`), and the
 // nodes are read off the bucket counts. The tree is `indexed`
 // (object_tree.h): its clusters are runs of that list, over the mesh's own
-// faces and vertices; drawing a cluster gathers its faces. T grows with the
+// faces and vertices; drawing a cluster gathers its faces (or, for most of
+// an octree's, reads them where they lie in the mesh: below). T grows with the
 // mesh (about leaf_size triangles per cell a closed surface crosses), up to
 // 6. Good: two passes over the faces, nothing sorted, 4 bytes written per
 // face -- and when the faces already come in bucket order with their ids
