@@ -25,14 +25,15 @@ constexpr int kMaxFrameDepth = 6;
 // written once: updating the same counter and box in memory face after face
 // would chain every face to the previous one's store.
 struct Buckets {
-  std::vector<int32_t> of_face;
+  int32_t* of_face = nullptr;  // the tree's face_bucket (reset)
   std::vector<int64_t> start;  // n_buckets + 1 entries after scatter()
   std::vector<uint16_t> box;   // 6 per bucket: lo xyz, hi xyz (grid cells)
   // The first and last face of each bucket (first > last: none).
   std::vector<int64_t> first_face, last_face;
 
-  void reset(size_t n_buckets, size_t n_faces) {
-    of_face.resize(n_faces);
+  void reset(size_t n_buckets, size_t n_faces, std::vector<int32_t>& face_bucket) {
+    face_bucket.resize(n_faces);
+    of_face = face_bucket.data();
     start.assign(n_buckets + 1, 0);
     first_face.assign(n_buckets, std::numeric_limits<int64_t>::max());
     last_face.assign(n_buckets, -1);
@@ -290,7 +291,7 @@ class FrameOctree {
 
   void build(bool vector) {
     const int coarsen = VertexGrid::kBits - depth_;
-    b_.reset(size_t(size_[0]), size_t(mesh_.n_faces));
+    b_.reset(size_t(size_[0]), size_t(mesh_.n_faces), tree_.face_bucket);
     int64_t f = 0;
 #ifdef ZBUFFER_AVX512
     if (vector)
@@ -314,9 +315,6 @@ class FrameOctree {
     b_.scatter(mesh_, tree_, vector);
     tree_.nodes.emplace_back();
     build_node(0, 0, 0);
-    // The clusters drawn from the mesh read the faces' buckets (the arrays
-    // trade places: the next build reuses the tree's old one).
-    if (!tree_.order.empty()) std::swap(tree_.face_bucket, b_.of_face);
   }
 
  private:
@@ -415,7 +413,7 @@ class FrameBvh {
   }
 
   void build(bool vector) {
-    b_.reset(size_t(1) << bits_, size_t(mesh_.n_faces));
+    b_.reset(size_t(1) << bits_, size_t(mesh_.n_faces), tree_.face_bucket);
     int64_t f = 0;
 #ifdef ZBUFFER_AVX512
     if (vector) {

@@ -40,8 +40,7 @@ void ObjectTree::clear() {
   mesh_vertices = 0;
   mesh_faces = mesh_ids = nullptr;
   order.clear();
-  // (face_bucket is kept: the next per-frame octree's build trades it for
-  // its own, whole, as it stands -- only clusters with a range read it.)
+  // (face_bucket is kept: the next per-frame build writes it whole.)
 }
 
 // Cluster Construction

@@ -84,8 +84,9 @@ struct ObjectTree {
   // An indexed tree's rows: the mesh's face index of each; empty when the
   // rows are the mesh's own (the faces came in cluster order, with ids).
   Buffer<int32_t> order;
-  // A per-frame octree's bucket of each mesh face (frame_tree.h), for the
-  // clusters drawn as ranges of the mesh (TriangleCluster::range_begin).
+  // A per-frame tree's bucket of each mesh face (frame_tree.h), written by
+  // its build; the octree's clusters drawn as ranges of the mesh read it
+  // (TriangleCluster::range_begin).
   std::vector<int32_t> face_bucket;
 
   // Row r of the clusters: its three vertex indices, and its id.
