@@ -263,8 +263,8 @@ void draw_from_mesh(ObjectTree& tree, int32_t c, const Buckets& buckets, size_t 
   int64_t first, last;
   buckets.face_span(lo, hi, first, last);
   if (last < first || last - first + 1 > kRangeSlack * (cl.face_end - cl.face_begin)) return;
-  cl.range_begin = first;
-  cl.range_end = last + 1;
+  cl.range_begin = int32_t(first);  // (face indices fit `order`'s int32)
+  cl.range_end = int32_t(last + 1);
   cl.bucket_begin = int32_t(lo);
   cl.bucket_end = int32_t(hi);
 }

@@ -639,7 +639,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
       const MeshView whole{tree.mesh_positions, tree.mesh_vertices, tree.mesh_faces,
                            tree.n_input_faces, tree.mesh_ids};
       const auto t0 = Clock::now();
-      lazy.need(tree.mesh_faces + 3 * cl.range_begin, cl.range_end - cl.range_begin);
+      lazy.need(tree.mesh_faces + 3 * int64_t(cl.range_begin), cl.range_end - cl.range_begin);
       const auto t1 = Clock::now();
       batch.add_faces_in_buckets(whole, input.mvp, vp, screen, cl.range_begin, cl.range_end,
                                  input.cull_backfaces, tree.face_bucket.data(), cl.bucket_begin,

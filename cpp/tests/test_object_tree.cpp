@@ -350,11 +350,14 @@ void test_frame_tree_vector_pass_equals_scalar() {
                   a.cluster == b.cluster && a.depth == b.depth && a.n_triangles == b.n_triangles);
             CHECK(std::memcmp(a.lo, b.lo, sizeof a.lo) == 0 && std::memcmp(a.hi, b.hi, sizeof a.hi) == 0);
           }
-          for (size_t c = 0; c < std::min(fast.clusters.size(), slow.clusters.size()); ++c)
-            CHECK(fast.clusters[c].face_begin == slow.clusters[c].face_begin &&
-                  fast.clusters[c].face_end == slow.clusters[c].face_end &&
-                  fast.clusters[c].node == slow.clusters[c].node);
+          for (size_t c = 0; c < std::min(fast.clusters.size(), slow.clusters.size()); ++c) {
+            const TriangleCluster &a = fast.clusters[c], &b = slow.clusters[c];
+            CHECK(a.face_begin == b.face_begin && a.face_end == b.face_end && a.node == b.node);
+            CHECK(a.range_begin == b.range_begin && a.range_end == b.range_end &&
+                  a.bucket_begin == b.bucket_begin && a.bucket_end == b.bucket_end);
+          }
           CHECK(fast.order == slow.order && fast.mesh_faces == mesh.faces && slow.mesh_faces == mesh.faces);
+          CHECK(fast.face_bucket == slow.face_bucket && fast.face_bucket.size() == n);
           // In spatial order, the BVH's buckets come in order; out of order,
           // or without ids, the tree lists the faces in its order.
           if (kind == 1 && variant == 1) CHECK(fast.order.empty());

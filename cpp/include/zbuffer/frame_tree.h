@@ -37,8 +37,8 @@ namespace zbuffer {
 // So an octree's cluster whose faces lie in a stretch of the mesh's own
 // order at most twice its size -- a cell of a mesh in spatial order, among
 // the few faces that straddle the cell's border -- is drawn from that
-// stretch, the faces of other buckets skipped by a compare per 16 (the tree
-// keeps each face's bucket): on the spot grids 2-4% less per frame
+// stretch, the faces of other buckets masked off by a compare per 16 (8
+// in AVX2 builds; the tree keeps each face's bucket): on the spot grids 2-4% less per frame
 // (benchmarks/ab.py; 0-2% in AVX2 builds), single meshes within noise.
 // Each bucket's first and last face are counted with it.
 // Bad: leaves can only be as fine as depth T (a dense cell is one large

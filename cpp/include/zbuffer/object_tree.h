@@ -35,11 +35,12 @@ struct TriangleCluster {
   int64_t face_begin, face_end;      // rows of ObjectTree::faces and ids
   int64_t vertex_begin, vertex_end;  // rows of ObjectTree::positions (0, 0 if indexed)
   int32_t node;
-  // An indexed tree's cluster may also be drawn from the mesh's own arrays:
-  // the faces range_begin .. range_end - 1 whose ObjectTree::face_bucket is
-  // in bucket_begin .. bucket_end - 1 are exactly its rows (empty range:
-  // not so; its rows are gathered).
-  int64_t range_begin = 0, range_end = 0;
+  // A per-frame octree's cluster may also be drawn from the mesh's own
+  // arrays: the faces range_begin .. range_end - 1 whose
+  // ObjectTree::face_bucket is in bucket_begin .. bucket_end - 1 are exactly
+  // its rows (empty range: not so; its rows are gathered). int32, as an
+  // indexed tree's `order` is.
+  int32_t range_begin = 0, range_end = 0;
   int32_t bucket_begin = 0, bucket_end = 0;
 };
 
@@ -85,8 +86,8 @@ struct ObjectTree {
   // rows are the mesh's own (the faces came in cluster order, with ids).
   Buffer<int32_t> order;
   // A per-frame tree's bucket of each mesh face (frame_tree.h), written by
-  // its build; the octree's clusters drawn as ranges of the mesh read it
-  // (TriangleCluster::range_begin).
+  // every per-frame build; the octree's clusters drawn as ranges of the mesh
+  // read it (TriangleCluster::range_begin). Other trees leave it empty.
   std::vector<int32_t> face_bucket;
 
   // Row r of the clusters: its three vertex indices, and its id.
