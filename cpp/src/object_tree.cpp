@@ -632,25 +632,19 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     mesh.faces = tree.face_rows() + 3 * cl.face_begin;
     mesh.face_ids = tree.id_rows() + cl.face_begin;
     mesh.n_faces = cl.face_end - cl.face_begin;
+    // The faces drawn: rows begin .. end - 1 of `mesh`, with `bucket` only
+    // those of the cluster's buckets.
+    int64_t begin = 0;
+    const int32_t* bucket = nullptr;
     if (cl.range_end > cl.range_begin) {
       // Faces of the mesh among a few others (TriangleCluster::range_begin):
       // drawn from the mesh's arrays, the others skipped.
-      reached += mesh.n_faces;
-      const MeshView whole{tree.mesh_positions, tree.mesh_vertices, tree.mesh_faces,
-                           tree.n_input_faces, tree.mesh_ids};
-      const auto t0 = Clock::now();
-      lazy.need(tree.mesh_faces + 3 * int64_t(cl.range_begin), cl.range_end - cl.range_begin);
-      const auto t1 = Clock::now();
-      batch.add_faces_in_buckets(whole, input.mvp, vp, screen, cl.range_begin, cl.range_end,
-                                 input.cull_backfaces, tree.face_bucket.data(), cl.bucket_begin,
-                                 cl.bucket_end);
-      const auto t2 = Clock::now();
-      stats.vertex_ms += ms_between(t0, t1);
-      stats.raster_ms += ms_between(t1, t2);
-      draw_ms += ms_between(t0, t2);
-      return;
-    }
-    if (!tree.order.empty()) {
+      mesh.faces = tree.mesh_faces;
+      mesh.face_ids = tree.mesh_ids;
+      mesh.n_faces = cl.range_end;
+      begin = cl.range_begin;
+      bucket = tree.face_bucket.data();
+    } else if (!tree.order.empty()) {
       // An indexed tree's rows name faces of the mesh: gather them.
       gather_rows(tree, cl, kept_faces, kept_ids);
       mesh.faces = kept_faces.data();
@@ -671,15 +665,17 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
       mesh.face_ids = kept_ids.data();
       mesh.n_faces = int64_t(kept_ids.size());
     }
-    reached += mesh.n_faces;
-    if (mesh.n_faces == 0) return;
+    const int64_t end = mesh.n_faces;
+    reached += bucket ? cl.face_end - cl.face_begin : end;
+    if (end == begin) return;
     const auto t0 = Clock::now();
     if (tree.mesh_positions)
-      lazy.need(mesh.faces, mesh.n_faces);
+      lazy.need(mesh.faces + 3 * begin, end - begin);
     else
       transform_vertices(mesh, input.mvp, vp, screen);
     const auto t1 = Clock::now();
-    batch.add_faces(mesh, input.mvp, vp, screen, 0, mesh.n_faces, input.cull_backfaces);
+    batch.add_faces_in_buckets(mesh, input.mvp, vp, screen, begin, end, input.cull_backfaces,
+                               bucket, cl.bucket_begin, cl.bucket_end);
     const auto t2 = Clock::now();
     stats.vertex_ms += ms_between(t0, t1);
     stats.raster_ms += ms_between(t1, t2);

@@ -149,31 +149,7 @@ inline void prefetch_corners(const MeshView& mesh, const ScreenVertices& sv, int
 void TriangleBatch::add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                               const ScreenVertices& sv, int64_t begin, int64_t end,
                               bool cull_backfaces) {
-  int64_t f = begin;
-#ifdef ZBUFFER_AVX512
-  for (; f + 16 <= end; f += 16) {
-    if (f + 48 <= end) prefetch_corners(mesh, sv, f + 32, 16);
-    add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, 16);
-  }
-  // The last few faces through the same vector path, with lanes masked off
-  // (small clusters of object-space trees end in such a remainder).
-  if (f < end && mesh.n_vertices > 0) {
-    add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, int(end - f));
-    f = end;
-  }
-#elif defined(ZBUFFER_AVX2)
-  if (mesh.n_vertices > 0) {
-    for (; f + 8 <= end; f += 8) {
-      if (f + 24 <= end) prefetch_corners(mesh, sv, f + 16, 8);
-      add_8_faces(mesh, mvp, vp, sv, f, cull_backfaces, 8);
-    }
-    if (f < end) {
-      add_8_faces(mesh, mvp, vp, sv, f, cull_backfaces, int(end - f));
-      f = end;
-    }
-  }
-#endif
-  for (; f < end; ++f) add_face(mesh, mvp, vp, sv, f, cull_backfaces);
+  add_faces_in_buckets(mesh, mvp, vp, sv, begin, end, cull_backfaces, nullptr, 0, 0);
 }
 
 void TriangleBatch::add_faces_in_buckets(const MeshView& mesh, const double* mvp,
@@ -181,33 +157,44 @@ void TriangleBatch::add_faces_in_buckets(const MeshView& mesh, const double* mvp
                                          int64_t begin, int64_t end, bool cull_backfaces,
                                          const int32_t* bucket, int32_t lo, int32_t hi) {
   int64_t f = begin;
+  // Steps of 16 (8) faces through the vector path, the last few with lanes
+  // masked off (small clusters of object-space trees end in such a
+  // remainder), and with a bucket filter those outside [lo, hi).
 #ifdef ZBUFFER_AVX512
   const __m512i vlo = _mm512_set1_epi32(lo), vhi = _mm512_set1_epi32(hi);
   for (; f < end && mesh.n_vertices > 0; f += 16) {
     const int count = int(std::min<int64_t>(16, end - f));
     if (f + 48 <= end) prefetch_corners(mesh, sv, f + 32, 16);
     const __mmask16 lanes = __mmask16((1u << count) - 1);
-    const __m512i b = _mm512_maskz_loadu_epi32(lanes, bucket + f);
-    const unsigned keep =
-        _mm512_mask_cmpge_epi32_mask(lanes, b, vlo) & _mm512_cmplt_epi32_mask(b, vhi);
-    if (keep) add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, count, keep);
+    unsigned keep = lanes;
+    if (bucket) {
+      const __m512i b = _mm512_maskz_loadu_epi32(lanes, bucket + f);
+      keep = _mm512_mask_cmpge_epi32_mask(lanes, b, vlo) & _mm512_cmplt_epi32_mask(b, vhi);
+      if (!keep) continue;
+    }
+    add_16_faces(mesh, mvp, vp, sv, f, cull_backfaces, count, keep);
   }
 #elif defined(ZBUFFER_AVX2)
   const __m256i below = _mm256_set1_epi32(lo - 1), above = _mm256_set1_epi32(hi);
   for (; f < end && mesh.n_vertices > 0; f += 8) {
     const int count = int(std::min<int64_t>(8, end - f));
     if (f + 24 <= end) prefetch_corners(mesh, sv, f + 16, 8);
-    const __m256i lanes =
-        _mm256_cmpgt_epi32(_mm256_set1_epi32(count), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-    const __m256i b = _mm256_maskload_epi32(bucket + f, lanes);
-    const __m256i in = _mm256_and_si256(
-        _mm256_and_si256(_mm256_cmpgt_epi32(b, below), _mm256_cmpgt_epi32(above, b)), lanes);
-    const unsigned keep = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(in)));
-    if (keep) add_8_faces(mesh, mvp, vp, sv, f, cull_backfaces, count, keep);
+    unsigned keep = (1u << count) - 1;
+    if (bucket) {
+      const __m256i lanes =
+          _mm256_cmpgt_epi32(_mm256_set1_epi32(count), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+      const __m256i b = _mm256_maskload_epi32(bucket + f, lanes);
+      const __m256i in = _mm256_and_si256(
+          _mm256_and_si256(_mm256_cmpgt_epi32(b, below), _mm256_cmpgt_epi32(above, b)), lanes);
+      keep = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(in)));
+      if (!keep) continue;
+    }
+    add_8_faces(mesh, mvp, vp, sv, f, cull_backfaces, count, keep);
   }
 #endif
   for (; f < end; ++f)
-    if (bucket[f] >= lo && bucket[f] < hi) add_face(mesh, mvp, vp, sv, f, cull_backfaces);
+    if (!bucket || (bucket[f] >= lo && bucket[f] < hi))
+      add_face(mesh, mvp, vp, sv, f, cull_backfaces);
 }
 
 void TriangleBatch::add_face(const MeshView& mesh, const double* mvp, const Viewport& vp,

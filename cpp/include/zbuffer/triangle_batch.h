@@ -65,7 +65,8 @@ class TriangleBatch {
   void add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                  const ScreenVertices& sv, int64_t begin, int64_t end, bool cull_backfaces);
   // The same for the faces f in [begin, end) with bucket[f] in [lo, hi)
-  // (the others are masked off in the vector steps and never counted).
+  // (the others are masked off in the vector steps and never counted);
+  // add_faces is this without a bucket filter (bucket null).
   void add_faces_in_buckets(const MeshView& mesh, const double* mvp, const Viewport& vp,
                             const ScreenVertices& sv, int64_t begin, int64_t end,
                             bool cull_backfaces, const int32_t* bucket, int32_t lo, int32_t hi);
