@@ -17,22 +17,7 @@
 #include <string>
 #include <vector>
 
-struct AbShading {  // as side.cpp declares it
-  const double* positions;
-  int64_t n_vertices;
-  const int32_t* faces;
-  int64_t n_faces;
-  const double* normals;
-  const double* viewer;
-  const double* light;
-  uint8_t* image;
-};
-extern "C" int ab_render_a(const char*, const double*, int64_t, const int32_t*, const int32_t*,
-                           int64_t, const int32_t*, const double*, int64_t, const double*, float*,
-                           int32_t*, int, int, const AbShading*, double*);
-extern "C" int ab_render_b(const char*, const double*, int64_t, const int32_t*, const int32_t*,
-                           int64_t, const int32_t*, const double*, int64_t, const double*, float*,
-                           int32_t*, int, int, const AbShading*, double*);
+#include "side.h"
 
 namespace {
 

@@ -9,24 +9,11 @@
 
 #include "zbuffer/algorithms.h"
 #include "zbuffer/shading.h"
+#include "side.h"
 
-// What shade() reads besides the ids: the mesh as the caller holds it (the
-// ids index its faces), the camera and the light; normals for smooth
-// shading, nullptr for flat.
-struct AbShading {
-  const double* positions;
-  int64_t n_vertices;
-  const int32_t* faces;
-  int64_t n_faces;
-  const double* normals;
-  const double* viewer;  // 4
-  const double* light;   // 3
-  uint8_t* image;        // (height, width, 3)
-};
+// The declaration the definition below must match (side.h: AbRender).
+extern "C" AbRender AB_SIDE;
 
-// Renders one frame; with `shading`, shades it too. out: the time measured
-// (the render's total_ms, or with `shading` the shading call's), pixels
-// tested, pixels written.
 extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vertices,
                        const int32_t* faces, const int32_t* face_ids, int64_t n_faces,
                        const int32_t* cell_start, const double* cell_centre, int64_t n_cells,

@@ -37,10 +37,10 @@ namespace zbuffer {
 // So an octree's cluster whose faces lie in a stretch of the mesh's own
 // order at most twice its size -- a cell of a mesh in spatial order, among
 // the few faces that straddle the cell's border -- is drawn from that
-// stretch, the faces of other buckets masked off by a compare per 16 (8
-// in AVX2 builds; the tree keeps each face's bucket): on the spot grids 2-4% less per frame
-// (benchmarks/ab.py; 0-2% in AVX2 builds), single meshes within noise.
-// Each bucket's first and last face are counted with it.
+// stretch, the faces of other buckets masked off by a compare per 16 (8 in
+// AVX2 builds): on the spot grids 2-4% less per frame (benchmarks/ab.py;
+// 0-2% in AVX2 builds), single meshes within noise. The tree keeps each
+// face's bucket, and the build counts each bucket's first and last face.
 // Bad: leaves can only be as fine as depth T (a dense cell is one large
 // leaf), and bounds are those of grid cells, up to two cells looser than the
 // triangles'.
