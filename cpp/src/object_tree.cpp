@@ -442,6 +442,16 @@ void gather_rows(const ObjectTree& tree, const TriangleCluster& cl, std::vector<
 // under 2^18 vertices are transformed up front, and past half of the blocks
 // the rest are done at once and the lookups stop (N = 20: octree, which
 // reaches 90% of the blocks, 1.02x; BVH 0.99x; orthographic 1.00-1.02x).
+// And where the frame before, of the same vertices, drew at least
+// TreeFrame::kUpFrontShare of the tree's faces (those not culled in nodes),
+// they all go through the vertex stage up front: frames of a mesh from one
+// camera, or from nearby ones, draw about the same share, and drawing most
+// of the mesh, the lookups cost more than the blocks they spare (spot grid
+// in perspective, N = 10 and 20, octree 97% and 82% drawn, 0.96-0.98x the
+// lazy frame's time; orthographic, all drawn, 0.97-0.98x; BVH N = 10, 76%,
+// 0.96x -- but with a share of 0.4, the octree at N = 40, 49% drawn, 1.03x).
+// The first frame of a mesh, and those after one that drew less, go as
+// needed.
 // The screen vertices do not depend on when (or in which block) they are
 // computed, and the outcodes' OR, which lets assembly skip reading outcodes
 // when it is 0, only grows by vertices not used before: the output is the
@@ -450,7 +460,7 @@ class LazyVertices {
  public:
   static constexpr int kShift = 8;  // 256 vertices a block
 
-  LazyVertices(const double* positions, int64_t n_vertices, int64_t lazy_from, const double* mvp,
+  LazyVertices(const double* positions, int64_t n_vertices, bool up_front, const double* mvp,
                const Viewport& vp, ScreenVertices& out, std::vector<uint32_t>& done)
       : mvp_(mvp), vp_(vp), out_(out), done_(done) {
     mesh_.positions = positions;
@@ -459,7 +469,7 @@ class LazyVertices {
     out_.any_outcode = 0;
     n_blocks_ = (n_vertices >> kShift) + 1;
     done_.assign(size_t(n_blocks_), 0);
-    if (n_vertices < lazy_from) transform_rest();
+    if (up_front) transform_rest();
   }
 
   // Every vertex of the n faces (vertex indices, 3 a face) transformed.
@@ -609,10 +619,16 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   std::vector<int32_t>& kept_ids = tls_kept_ids;
   int64_t reached = 0;         // faces handed to the batch (each once)
   double draw_ms = 0.0;        // vertex stage, cluster drawing and batch flushes
-  // An indexed tree's vertices: through the vertex stage as clusters need them.
+  // An indexed tree's vertices: through the vertex stage as clusters need
+  // them, or all up front where that is cheaper (LazyVertices).
   const auto lazy_start = Clock::now();
-  LazyVertices lazy(tree.mesh_positions, tree.mesh_positions ? tree.mesh_vertices : 0,
-                    frame.lazy_vertices_from, input.mvp, vp, screen, tls_blocks_done);
+  const int64_t n_vertices = tree.mesh_positions ? tree.mesh_vertices : 0;
+  frame.vertices_up_front = n_vertices > 0 && (n_vertices < frame.lazy_vertices_from ||
+                                               (frame.drawn_positions == tree.mesh_positions &&
+                                                frame.drawn_vertices == n_vertices &&
+                                                frame.drawn_share >= TreeFrame::kUpFrontShare));
+  LazyVertices lazy(tree.mesh_positions, n_vertices, frame.vertices_up_front, input.mvp, vp,
+                    screen, tls_blocks_done);
   {
     const double ms = ms_between(lazy_start, Clock::now());
     stats.vertex_ms += ms;
@@ -769,6 +785,9 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   flush();
   stats.culled_in_nodes += tree.n_input_faces - reached;
   stats.depth_storage_bytes = pyramid.storage_bytes();
+  frame.drawn_positions = tree.mesh_positions;
+  frame.drawn_vertices = n_vertices;
+  frame.drawn_share = tree.n_input_faces > 0 ? double(reached) / double(tree.n_input_faces) : 0.0;
 
   // Temporal coherence: record the clusters with a pixel in this frame.
   // Rows 1/128 of the image apart (every row of a small image) are enough:

@@ -267,6 +267,36 @@ void test_frame_trees() {
           CHECK(std::memcmp(depth.data(), ref_depth.data(), depth.size() * sizeof(float)) == 0);
           CHECK(ids == ref_ids);
           CHECK(stats.nodes_hidden > 0 || leaf == 64);
+          if (lazy_from != 0) continue;
+          // Frames after it: every vertex up front where the frame before,
+          // of the same vertices, drew at least kUpFrontShare of the faces
+          // (a view zoomed on the middle draws few), else as needed -- the
+          // same bits either way.
+          RenderInput zoom = input;
+          zoom.mvp[0] *= 8;
+          zoom.mvp[5] *= 8;
+          bool saw_up_front = false, saw_lazy = false;
+          for (const RenderInput* in : {&zoom, &other, &zoom, &input, &other}) {
+            std::vector<float> want_depth(depth.size(), std::numeric_limits<float>::infinity());
+            std::vector<int32_t> want_ids(ids.size(), -1);
+            DepthTarget want{want_depth.data(), want_ids.data(), w, h};
+            RenderStats want_stats;
+            render(*find_algorithm("zbuffer"), *in, want, want_stats);
+            const bool up_front = frame.drawn_positions == mesh.positions &&
+                                  frame.drawn_share >= TreeFrame::kUpFrontShare;
+            std::fill(depth.begin(), depth.end(), std::numeric_limits<float>::infinity());
+            std::fill(ids.begin(), ids.end(), -1);
+            stats = RenderStats();
+            stats.triangles_in = mesh.n_faces;
+            render_object_tree(tree, *in, target, stats, frame);
+            CHECK(frame.vertices_up_front == up_front);
+            CHECK(frame.drawn_share ==
+                  double(mesh.n_faces - stats.culled_in_nodes) / double(mesh.n_faces));
+            (up_front ? saw_up_front : saw_lazy) = true;
+            CHECK(std::memcmp(depth.data(), want_depth.data(), depth.size() * sizeof(float)) == 0);
+            CHECK(ids == want_ids);
+          }
+          CHECK(saw_up_front && saw_lazy);
         }
       }
     }

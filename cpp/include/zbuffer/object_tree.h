@@ -175,8 +175,17 @@ struct TreeFrame {
   bool has_visible = false;             // visible_clusters belongs to the tree's last frame
   // An indexed tree over at least this many vertices has them transformed
   // as the clusters drawn need them (object_tree.cpp: LazyVertices), a
-  // smaller one all up front. Tests lower it.
+  // smaller one all up front -- and so is a larger one when the frame
+  // before, over the same vertices, drew most of the tree's faces. Tests
+  // lower it.
   int64_t lazy_vertices_from = int64_t(1) << 18;
+  static constexpr double kUpFrontShare = 0.6;
+  // The indexed tree's vertices in the last frame, and the share of the
+  // tree's faces that frame drew (handed to the batch, not culled in nodes).
+  const double* drawn_positions = nullptr;
+  int64_t drawn_vertices = 0;
+  double drawn_share = 0.0;
+  bool vertices_up_front = false;  // the last frame transformed every vertex first
 };
 
 // Renders one frame of the tree into the cleared target (depth +inf, ids -1)
