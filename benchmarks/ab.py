@@ -5,6 +5,7 @@
     python benchmarks/ab.py HEAD . --march haswell  # the AVX2 loops (any x86-64 with AVX2)
     python benchmarks/ab.py HEAD . --cases bunny_69k.obj@1024x1024 --frames 400
     python benchmarks/ab.py HEAD . --algo hiz_bvh --cases grid20-orthographic@1024x1024
+    python benchmarks/ab.py HEAD . --algo hiz_octree@once   # zbuffer.Scene's tree, built once
     python benchmarks/ab.py HEAD . --shading flat smooth  # the shading pass after each render
 
 The machines these benchmarks run on are shared and noisy: the same frame
@@ -167,7 +168,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("base", help="revision A (a git revision, or . for the working tree)")
     ap.add_argument("head", nargs="?", default=".", help="revision B (default: the working tree)")
-    ap.add_argument("--algo", nargs="+", default=["zbuffer"], choices=zbuffer.algorithms())
+    ap.add_argument("--algo", nargs="+", default=["zbuffer"],
+                    choices=zbuffer.algorithms() + ["hiz_octree@once", "hiz_bvh@once"],
+                    help="registry algorithms (built per frame), or hiz_octree@once / "
+                    "hiz_bvh@once: the tree zbuffer.Scene builds, built at the first frame "
+                    "and rendered from then on (default: %(default)s)")
     ap.add_argument("--cases", nargs="+", default=DEFAULT_CASES,
                     help="MODEL@WxH, models from ../shared/models, gridN-perspective / "
                     "gridN-orthographic for bench_hiz.py's 5 x 5 x N spot grid, or "

@@ -6,10 +6,41 @@
 #include <chrono>
 #include <cstdint>
 #include <cstring>
+#include <string>
 
 #include "zbuffer/algorithms.h"
+#include "zbuffer/bvh.h"
+#include "zbuffer/object_tree.h"
+#include "zbuffer/octree.h"
 #include "zbuffer/shading.h"
 #include "side.h"
+
+namespace {
+// `hiz_octree@once`, `hiz_bvh@once`: the tree zbuffer.Scene builds (default
+// parameters), built at the first frame of a mesh and rendered from then on
+// with its frame state, as Scene.render does.
+bool render_built_once(const std::string& algo, const zbuffer::RenderInput& in,
+                       zbuffer::DepthTarget& target, zbuffer::RenderStats& stats) {
+  static std::string built_for;
+  static const double* built_positions = nullptr;
+  static int64_t built_faces = -1;
+  static zbuffer::ObjectTree tree;
+  static zbuffer::TreeFrame frame;
+  if (algo != "hiz_octree@once" && algo != "hiz_bvh@once") return false;
+  if (algo != built_for || in.mesh.positions != built_positions || in.mesh.n_faces != built_faces) {
+    if (algo == "hiz_octree@once")
+      tree = zbuffer::build_octree(in.mesh, zbuffer::OctreeParams());
+    else
+      tree = zbuffer::build_bvh(in.mesh, zbuffer::BvhParams());
+    frame = zbuffer::TreeFrame();
+    built_for = algo;
+    built_positions = in.mesh.positions;
+    built_faces = in.mesh.n_faces;
+  }
+  zbuffer::render_tree_frame(tree, in, target, stats, frame);
+  return true;
+}
+}  // namespace
 
 // The declaration the definition below must match (side.h: AbRender).
 extern "C" AbRender AB_SIDE;
@@ -20,7 +51,9 @@ extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vert
                        const double* mvp, float* depth, int32_t* ids, int width, int height,
                        const AbShading* shading, double* out) {
   const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
-  if (!algorithm) return 1;
+  const bool once = std::string(algo).size() > 5 &&
+                    std::string(algo).compare(std::string(algo).size() - 5, 5, "@once") == 0;
+  if (!algorithm && !once) return 1;
   zbuffer::RenderInput in;
   in.mesh.positions = positions;
   in.mesh.n_vertices = n_vertices;
@@ -37,7 +70,11 @@ extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vert
   target.width = width;
   target.height = height;
   zbuffer::RenderStats stats;
-  zbuffer::render(*algorithm, in, target, stats);
+  if (once) {
+    if (!render_built_once(algo, in, target, stats)) return 1;
+  } else {
+    zbuffer::render(*algorithm, in, target, stats);
+  }
   out[0] = stats.total_ms;
   out[1] = double(stats.pixels_tested);
   out[2] = double(stats.pixels_written);
