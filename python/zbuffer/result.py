@@ -37,7 +37,7 @@ class RenderResult:
         were culled by occlusion tests that read each cell (a triangle
         culled by the maximum of several cells -- up to 3 x 3 for a small
         triangle, 2 x 2 for a large one -- counts in each; a tree node
-        culled whole counts its triangles in the up to 4 x 4 cells it was
+        culled whole counts its triangles in the up to 16 x 16 cells it was
         tested against). None otherwise.
     """
 
