@@ -182,6 +182,8 @@ struct TreeFrame {
   static constexpr double kUpFrontShare = 0.6;
   // The indexed tree's vertices in the last frame, and the share of the
   // tree's faces that frame drew (handed to the batch, not culled in nodes).
+  // Only a guess for the next frame: a new array at the address of a freed
+  // one is taken for it, which changes the frame's speed, never its bits.
   const double* drawn_positions = nullptr;
   int64_t drawn_vertices = 0;
   double drawn_share = 0.0;
