@@ -366,10 +366,10 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
 // it spans at most 16 cells a side (ZPyramid::max_over stops at two, which
 // for the small boxes of leaves reads up to four times the area). A finer
 // test hides more nodes; its reads (up to 16 x 16 cells, a row 16 or 8 at
-// a time) cost far less than drawing a cluster. Against four cells a side
-// (benchmarks/ab.py, spot grid in perspective, N = 20 and 40): per-frame
-// trees 0.94-0.96x, trees built once 0.89-0.90x, bunny_69k 0.97-0.99x;
-// 32 cells a side gained no more.
+// a time: ZPyramid::max_over_cells) cost far less than drawing a cluster.
+// Against four cells a side (benchmarks/ab.py, spot grid in perspective,
+// N = 20 and 40): per-frame trees 0.94-0.96x, trees built once 0.89-0.90x,
+// bunny_69k 0.97-0.99x; 32 cells a side gained no more.
 int node_level(const ZPyramid& pyramid, const ProjectedNode& r) {
   if (pyramid.levels() <= pyramid.first_level())  // a tiny image: no coarse levels
     return pyramid.query_level(r.x0, r.y0, r.x1, r.y1);
@@ -383,39 +383,7 @@ int node_level(const ZPyramid& pyramid, const ProjectedNode& r) {
 // The farthest depth the pyramid holds over a node's rectangle: the maximum
 // of the cells covering it at node_level.
 float farthest_under(const ZPyramid& pyramid, const ProjectedNode& r) {
-  const int k = node_level(pyramid, r);
-  const float* cells = pyramid.level(k);
-  const int w = pyramid.width(k);
-  const int i0 = r.x0 >> k, i1 = r.x1 >> k;
-  float m = -std::numeric_limits<float>::infinity();
-#ifdef ZBUFFER_AVX512
-  // 16 cells of a row per instruction (the lanes past the rectangle masked).
-  __m512 v = _mm512_set1_ps(m);
-  for (int j = r.y0 >> k; j <= (r.y1 >> k); ++j) {
-    const float* row = cells + size_t(j) * w;
-    for (int i = i0; i <= i1; i += 16) {
-      const int n = std::min(16, i1 - i + 1);
-      v = _mm512_max_ps(v, _mm512_mask_loadu_ps(v, __mmask16((1u << n) - 1u), row + i));
-    }
-  }
-  m = _mm512_reduce_max_ps(v);
-#elif defined(ZBUFFER_AVX2)
-  // 8 cells a row per instruction, the rest one by one.
-  __m256 v = _mm256_set1_ps(m);
-  for (int j = r.y0 >> k; j <= (r.y1 >> k); ++j) {
-    const float* row = cells + size_t(j) * w;
-    int i = i0;
-    for (; i + 8 <= i1 + 1; i += 8) v = _mm256_max_ps(v, _mm256_loadu_ps(row + i));
-    for (; i <= i1; ++i) m = std::max(m, row[i]);
-  }
-  alignas(32) float lanes[8];
-  _mm256_store_ps(lanes, v);
-  for (float x : lanes) m = std::max(m, x);
-#else
-  for (int j = r.y0 >> k; j <= (r.y1 >> k); ++j)
-    for (int i = i0; i <= i1; ++i) m = std::max(m, cells[size_t(j) * w + i]);
-#endif
-  return m;
+  return pyramid.max_over_cells(node_level(pyramid, r), r.x0, r.y0, r.x1, r.y1);
 }
 
 // The faces and ids of an indexed tree's cluster `cl`, gathered from the

@@ -216,6 +216,41 @@ int64_t ZPyramid::climb(int k, std::vector<int32_t>& cells) {
   return count;
 }
 
+float ZPyramid::max_over_cells(int k, int x0, int y0, int x1, int y1) const {
+  const float* cells = level(k);
+  const size_t w = size_t(widths_[k]);
+  const int i0 = x0 >> k, i1 = x1 >> k, j0 = y0 >> k, j1 = y1 >> k;
+  float m = -std::numeric_limits<float>::infinity();
+#ifdef ZBUFFER_AVX512
+  // (The lanes past the rectangle masked off.)
+  __m512 v = _mm512_set1_ps(m);
+  for (int j = j0; j <= j1; ++j) {
+    const float* row = cells + size_t(j) * w;
+    for (int i = i0; i <= i1; i += 16) {
+      const int n = std::min(16, i1 - i + 1);
+      v = _mm512_max_ps(v, _mm512_mask_loadu_ps(v, __mmask16((1u << n) - 1u), row + i));
+    }
+  }
+  m = _mm512_reduce_max_ps(v);
+#elif defined(ZBUFFER_AVX2)
+  // (The cells past the last 8 of a row one by one.)
+  __m256 v = _mm256_set1_ps(m);
+  for (int j = j0; j <= j1; ++j) {
+    const float* row = cells + size_t(j) * w;
+    int i = i0;
+    for (; i + 8 <= i1 + 1; i += 8) v = _mm256_max_ps(v, _mm256_loadu_ps(row + i));
+    for (; i <= i1; ++i) m = std::max(m, row[i]);
+  }
+  alignas(32) float lanes[8];
+  _mm256_store_ps(lanes, v);
+  for (float x : lanes) m = std::max(m, x);
+#else
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) m = std::max(m, cells[size_t(j) * w + size_t(i)]);
+#endif
+  return m;
+}
+
 float ZPyramid::max_over(int x0, int y0, int x1, int y1) const {
   const int k = query_level(x0, y0, x1, y1);
   const float* cells = level(k);

@@ -109,10 +109,50 @@ void test_block_updates_keep_every_cell_the_max_of_its_children() {
     }
 }
 
+// max_over_cells reads exactly the cells of its level under the rectangle:
+// with every other cell of the level +inf, it returns the maximum of those
+// (a read past a row's end, or of another row, would return +inf), for
+// rectangles of 1 to 40 cells a side, at each level, on images whose widths
+// are and are not multiples of the cells and of the 16 (8) lanes.
+void test_max_over_cells_reads_exactly_its_rectangle() {
+  Lcg next{7};
+  for (const auto& [w, h] : std::vector<std::pair<int, int>>{
+           {1, 1}, {3, 2}, {17, 5}, {64, 64}, {93, 61}, {640, 33}, {1029, 7}, {4099, 3}}) {
+    std::vector<float> depth(size_t(w) * h, std::numeric_limits<float>::infinity());
+    ZPyramid p(depth.data(), w, h, 2);
+    std::vector<int> levels = {0};
+    for (int k = p.first_level(); k < p.levels(); ++k) levels.push_back(k);
+    for (int k : levels) {
+      float* cells = k == 0 ? depth.data() : const_cast<float*>(p.level(k));
+      const int cw = p.width(k), ch = p.height(k);
+      for (int t = 0; t < 200; ++t) {
+        const int i0 = int(next(0, cw - 1)), j0 = int(next(0, ch - 1));
+        const int i1 = int(next(i0, std::min(cw - 1, i0 + 39)));
+        const int j1 = int(next(j0, std::min(ch - 1, j0 + 39)));
+        std::fill(cells, cells + size_t(cw) * ch, std::numeric_limits<float>::infinity());
+        float want = -std::numeric_limits<float>::infinity();
+        for (int j = j0; j <= j1; ++j)
+          for (int i = i0; i <= i1; ++i) {
+            const float v = next(0, 9) == 0 ? -0.0f : float(next.uniform(0.0, 1.0));
+            cells[size_t(j) * cw + i] = v;
+            want = std::max(want, v);
+          }
+        // Any pixel rectangle whose cells at k are i0..i1 x j0..j1.
+        const int x0 = std::min(w - 1, (i0 << k) + int(next(0, (1 << k) - 1)));
+        const int y0 = std::min(h - 1, (j0 << k) + int(next(0, (1 << k) - 1)));
+        const int x1 = std::min(w - 1, (i1 << k) + int(next(0, (1 << k) - 1)));
+        const int y1 = std::min(h - 1, (j1 << k) + int(next(0, (1 << k) - 1)));
+        CHECK(p.max_over_cells(k, std::max(x0, i0 << k), std::max(y0, j0 << k), x1, y1) == want);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 int main() {
   test_updates_keep_every_cell_the_max_of_its_children();
   test_block_updates_keep_every_cell_the_max_of_its_children();
+  test_max_over_cells_reads_exactly_its_rectangle();
   return check_report("test_zpyramid");
 }

@@ -100,6 +100,11 @@ class ZPyramid {
   bool recording_culls() const { return culls_ != nullptr; }
   inline void count_culled(int level, int x0, int y0, int x1, int y1, int64_t triangles) const;
 
+  // The maximum of every cell of level k (0 or a kept level) under pixels
+  // [x0, x1] x [y0, y1] (inside the image), a row of cells 16 (AVX2: 8) at a
+  // time: for rectangles of many cells (the tree algorithms' node tests).
+  float max_over_cells(int k, int x0, int y0, int x1, int y1) const;
+
   // The same bound from the cells of kept level k (>= first_level) alone,
   // for a rectangle spanning at most 3 cells a side there.
   float max_over_at(int k, int x0, int y0, int x1, int y1) const {
@@ -140,7 +145,7 @@ class ZPyramid {
 // triangles culled by tests that read the cell -- a triangle culled by the
 // maximum of several cells (up to 3 x 3 for a small triangle, 2 x 2 for a
 // large one) counts in each of them, a tree node culled whole counts its
-// triangles in each of the up to 4 x 4 cells it was tested against. Filled
+// triangles in each of the up to 16 x 16 cells it was tested against. Filled
 // only when a render asks for it
 // (record_culls): the hot loops test one pointer and otherwise do nothing.
 class CullMap {
