@@ -16,9 +16,10 @@
 #include "side.h"
 
 namespace {
-// `hiz_octree@once`, `hiz_bvh@once`: the tree zbuffer.Scene builds (default
-// parameters), built at the first frame of a mesh and rendered from then on
-// with its frame state, as Scene.render does.
+// `hiz_octree@once`, `hiz_bvh@once`: the kind of tree zbuffer.Scene builds
+// (default parameters; here over the case's prepared arrays), built at the
+// first frame of a mesh and rendered from then on with its frame state, as
+// Scene.render does. False for any other name.
 bool render_built_once(const std::string& algo, const zbuffer::RenderInput& in,
                        zbuffer::DepthTarget& target, zbuffer::RenderStats& stats) {
   static std::string built_for;
@@ -50,10 +51,6 @@ extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vert
                        const int32_t* cell_start, const double* cell_centre, int64_t n_cells,
                        const double* mvp, float* depth, int32_t* ids, int width, int height,
                        const AbShading* shading, double* out) {
-  const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo);
-  const bool once = std::string(algo).size() > 5 &&
-                    std::string(algo).compare(std::string(algo).size() - 5, 5, "@once") == 0;
-  if (!algorithm && !once) return 1;
   zbuffer::RenderInput in;
   in.mesh.positions = positions;
   in.mesh.n_vertices = n_vertices;
@@ -70,11 +67,10 @@ extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vert
   target.width = width;
   target.height = height;
   zbuffer::RenderStats stats;
-  if (once) {
-    if (!render_built_once(algo, in, target, stats)) return 1;
-  } else {
+  if (const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo))
     zbuffer::render(*algorithm, in, target, stats);
-  }
+  else if (!render_built_once(algo, in, target, stats))
+    return 1;
   out[0] = stats.total_ms;
   out[1] = double(stats.pixels_tested);
   out[2] = double(stats.pixels_written);

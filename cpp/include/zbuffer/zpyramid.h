@@ -100,11 +100,6 @@ class ZPyramid {
   bool recording_culls() const { return culls_ != nullptr; }
   inline void count_culled(int level, int x0, int y0, int x1, int y1, int64_t triangles) const;
 
-  // The maximum of every cell of level k (0 or a kept level) under pixels
-  // [x0, x1] x [y0, y1] (inside the image), a row of cells 16 (AVX2: 8) at a
-  // time: for rectangles of many cells (the tree algorithms' node tests).
-  float max_over_cells(int k, int x0, int y0, int x1, int y1) const;
-
   // The same bound from the cells of kept level k (>= first_level) alone,
   // for a rectangle spanning at most 3 cells a side there.
   float max_over_at(int k, int x0, int y0, int x1, int y1) const {
@@ -116,6 +111,11 @@ class ZPyramid {
       for (int i = i0; i <= i1; ++i) m = m < cells[size_t(j) * w + i] ? cells[size_t(j) * w + i] : m;
     return m;
   }
+  // The same maximum for rectangles of many cells (the tree algorithms' node
+  // tests: up to 16 a side), at level 0 or a kept level, a row of cells 16
+  // (AVX2: 8) at a time. (max_over_at stays inline and scalar: it tests
+  // every small triangle of the AVX2 and scalar builds.)
+  float max_over_cells(int k, int x0, int y0, int x1, int y1) const;
 
  private:
   // Recompute cell (i, j) of kept level k >= first_level from the kept
