@@ -82,6 +82,46 @@ def test_polygons_and_temporal_frames_render_into_arrays(tmp_path):
         assert res.triangle_id is ids
 
 
+def planes_sharing_cache_sets(width, height, apart):
+    """A depth and an id plane in one block, the id plane starting `apart`
+    bytes past a multiple of 4 KiB from the depth plane's start: at widths
+    that are multiples of 1024 the core then draws the ids into a scratch
+    plane of its own and copies them over (algorithms.h, PlacedIds)."""
+    n = width * height * 4
+    block = np.empty(2 * n + 3 * 4096, np.uint8)
+    start = -block.ctypes.data % 4096
+    ids_at = start + n + 4096 - n % 4096 + apart
+    depth = block[start:start + n].view(np.float32).reshape(height, width)
+    ids = block[ids_at:ids_at + n].view(np.int32).reshape(height, width)
+    depth.fill(0.25)
+    ids.fill(7)
+    return depth, ids
+
+
+@pytest.mark.parametrize("apart", [0, 64, 4032, 2048])
+def test_planes_sharing_cache_sets_get_the_same_bits(apart):
+    # Every algorithm, the Scene's trees (temporal frames too), each into
+    # planes whose rows share L1 cache sets (apart 0, 64, 4032) and into
+    # planes that do not.
+    mesh = scenes.instance_grid(scenes.default_scene(), (2, 2, 2))
+    w, h = 1024, 40
+    cam = zbuffer.Camera.fit(mesh, aspect=w / h)
+    scene = zbuffer.Scene(mesh)
+    ref = zbuffer.reference.render(mesh, cam, w, h)
+    renders = [lambda out, a=a: zbuffer.render(mesh, a, cam, w, h, shading="none", out=out)
+               for a in ALGOS]
+    renders += [lambda out, a=a: scene.render(cam, a, w, h, shading="none", out=out)
+                for a in ("hiz_octree", "hiz_bvh")]
+    renders += [lambda out: scene.render(cam, "hiz_octree", w, h, shading="none", out=out,
+                                         temporal=True)] * 2
+    for render in renders:
+        depth, ids = planes_sharing_cache_sets(w, h, apart)
+        res = render((depth, ids))
+        assert res.depth is depth and res.triangle_id is ids
+        np.testing.assert_array_equal(depth, ref.depth)
+        np.testing.assert_array_equal(ids, ref.triangle_id)
+
+
 def test_arrays_that_cannot_be_rendered_into_are_refused():
     mesh, cam = mesh_and_camera()
     depth, ids, image = stale()

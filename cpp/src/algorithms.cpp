@@ -3,7 +3,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <limits>
+
+#include "zbuffer/buffer.h"
 
 namespace zbuffer {
 
@@ -14,7 +17,7 @@ const std::vector<Algorithm>& algorithms() {
        &render_hiz, /*polygons=*/false, /*pyramid=*/true},
       {"scanline",
        "scanline Z-buffer: sorted polygon and edge tables, active lists, one row of depth",
-       &render_scanline, /*polygons=*/true},
+       &render_scanline, /*polygons=*/true, /*pyramid=*/false, /*row_by_row=*/true},
       {"hiz_octree", "hierarchical Z-buffer over an object-space octree, front to back",
        &render_hiz_octree, /*polygons=*/false, /*pyramid=*/true},
       {"hiz_bvh", "hierarchical Z-buffer over a bounding volume hierarchy, nearest child first",
@@ -46,12 +49,48 @@ void clear_target(DepthTarget& target) {
   std::fill_n(target.triangle_id, n, int32_t(-1));
 }
 
+bool planes_share_cache_sets(const DepthTarget& target) {
+  constexpr uintptr_t kPage = 4096, kNear = 512;
+  if (target.width % 1024 != 0) return false;
+  const uintptr_t apart = (reinterpret_cast<uintptr_t>(target.triangle_id) -
+                           reinterpret_cast<uintptr_t>(target.depth)) % kPage;
+  return apart < kNear || apart > kPage - kNear;
+}
+
+namespace {
+// PlacedIds' scratch plane: kept for the next frame up to 16 M ids (a
+// 4096 x 4096 image), freed after a larger one.
+thread_local Buffer<int32_t> id_scratch;
+constexpr size_t kKeptScratch = size_t(1) << 24;
+}  // namespace
+
+PlacedIds::PlacedIds(const DepthTarget& target, bool allow_scratch)
+    : ids_(target.triangle_id), plane_(target.triangle_id),
+      pixels_(size_t(target.width) * size_t(target.height)) {
+  if (!allow_scratch || pixels_ == 0 || !planes_share_cache_sets(target)) return;
+  Buffer<int32_t>& scratch = id_scratch;
+  constexpr size_t kPage = 4096 / sizeof(int32_t);  // (in ids)
+  if (scratch.size() < pixels_ + kPage) scratch.resize(pixels_ + kPage);
+  // The first id 2 KiB past the depth plane's start, modulo 4 KiB (both
+  // are 4-byte aligned).
+  const uintptr_t depth = reinterpret_cast<uintptr_t>(target.depth);
+  const uintptr_t base = reinterpret_cast<uintptr_t>(scratch.data());
+  const uintptr_t skip = (depth + 2048 - base) % 4096;
+  plane_ = scratch.data() + skip / sizeof(int32_t);
+}
+
+void PlacedIds::finish() const {
+  if (!scratch()) return;
+  std::memcpy(ids_, plane_, pixels_ * sizeof(int32_t));
+  if (id_scratch.size() > kKeptScratch) Buffer<int32_t>().swap(id_scratch);
+}
+
 void render(const Algorithm& algorithm, const RenderInput& input,
             DepthTarget& target, RenderStats& stats) {
   const auto start = std::chrono::steady_clock::now();
-  clear_target(target);
   stats.triangles_in += input.mesh.n_faces;
-  algorithm.render(input, target, stats);
+  draw_cleared(target, !algorithm.row_by_row,
+               [&](DepthTarget& drawn) { algorithm.render(input, drawn, stats); });
   // Algorithms that keep less (or more) than the W x H depth buffer say so.
   if (stats.depth_storage_bytes == 0)
     stats.depth_storage_bytes = int64_t(target.width) * target.height * int64_t(sizeof(float));

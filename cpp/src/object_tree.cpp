@@ -823,9 +823,10 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
 void render_tree_frame(const ObjectTree& tree, const RenderInput& input, DepthTarget& target,
                        RenderStats& stats, TreeFrame& frame, bool temporal) {
   const auto start = Clock::now();
-  clear_target(target);
   stats.triangles_in += tree.n_input_faces;
-  render_object_tree(tree, input, target, stats, frame, temporal);
+  draw_cleared(target, /*allow_scratch=*/true, [&](DepthTarget& drawn) {
+    render_object_tree(tree, input, drawn, stats, frame, temporal);
+  });
   stats.total_ms += ms_between(start, Clock::now());
 }
 

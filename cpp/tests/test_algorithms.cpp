@@ -212,7 +212,40 @@ void test_scanline_polygons_cover_their_triangulation() {
 
 }  // namespace
 
+// Planes whose rows share L1 cache sets (algorithms.h): only at widths that
+// are multiples of 1024, with the id plane less than 512 bytes from the
+// depth plane modulo 4 KiB. There the ids go to a scratch plane 2 KiB off
+// the depth plane, large enough for them, and finish() copies them over.
+void test_ids_are_placed_apart_from_depth() {
+  alignas(4096) static float block[4 * 1024 * 2 + 4 * 1024];
+  auto target = [&](int width, size_t ids_at) {
+    return DepthTarget{block, reinterpret_cast<int32_t*>(reinterpret_cast<char*>(block) + ids_at),
+                       width, 2};
+  };
+  CHECK(planes_share_cache_sets(target(1024, 8192)));
+  CHECK(planes_share_cache_sets(target(2048, 16384 + 508)));
+  CHECK(planes_share_cache_sets(target(1024, 8192 + 4096 - 4)));
+  CHECK(!planes_share_cache_sets(target(1024, 8192 + 512)));
+  CHECK(!planes_share_cache_sets(target(1024, 8192 + 2048)));
+  CHECK(!planes_share_cache_sets(target(1000, 8192)));
+  CHECK(!planes_share_cache_sets(target(512, 8192)));
+  for (int width : {1024, 2048}) {
+    const DepthTarget t = target(width, size_t(width) * 2 * sizeof(float));
+    const PlacedIds kept(t, /*allow_scratch=*/false);
+    CHECK(!kept.scratch() && kept.plane() == t.triangle_id);
+    const PlacedIds placed(t, /*allow_scratch=*/true);
+    CHECK(placed.scratch());
+    const uintptr_t apart =
+        (reinterpret_cast<uintptr_t>(placed.plane()) - reinterpret_cast<uintptr_t>(t.depth)) % 4096;
+    CHECK(apart == 2048);
+    for (int i = 0; i < 2 * width; ++i) placed.plane()[i] = i;  // (ASan: in bounds)
+    placed.finish();
+    for (int i = 0; i < 2 * width; ++i) CHECK(t.triangle_id[i] == i);
+  }
+}
+
 int main() {
+  test_ids_are_placed_apart_from_depth();
   test_scanline_polygons_cover_their_triangulation();
   test_every_algorithm_equals_the_plain_zbuffer();
   return check_report("test_algorithms");
