@@ -121,6 +121,34 @@ def test_compiled_shading_matches_numpy_from_inside_a_closed_mesh(source, shadin
         assert np.abs(res.image.astype(int) - ref.image.astype(int)).max() <= 1
 
 
+@pytest.mark.parametrize("source", ["uniform", "vertex", "face"])
+@pytest.mark.parametrize("shading", ["flat", "smooth"])
+def test_a_prepared_mesh_shades_to_the_same_bits(source, shading):
+    # Once prepared, a mesh is shaded from its renumbered vertices (with
+    # their normals and colours) and its faces renumbered to them
+    # (Mesh.for_shading): the same image as from its own arrays. Faces and
+    # vertices shuffled, so that the renumbering moves nearly everything.
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=4)  # 5,120 faces
+    rng = np.random.default_rng(3)
+    shuffle = rng.permutation(len(sphere.vertices))
+    vertices = sphere.vertices[shuffle] * [1.0, 0.7, 1.3]
+    faces = np.argsort(shuffle)[sphere.faces][rng.permutation(len(sphere.faces))]
+    colours = {"vertex": {"vertex_colors": rng.random((len(vertices), 3))},
+               "face": {"face_colors": rng.random((len(faces), 3))}}
+    prepared = zbuffer.Mesh(vertices, faces, **colours.get(source, {})).prepare()
+    shaded = prepared.for_shading(normals=True, vertex_colors=source == "vertex")
+    assert shaded[0] is not prepared.vertices and not np.array_equal(shaded[1], prepared.faces)
+    for size in [(64, 48), (200, 150)]:  # faces found in the image, and all of them
+        own = zbuffer.Mesh(vertices, faces, **colours.get(source, {}))  # first render: unprepared
+        cam = zbuffer.Camera.fit(own, direction=(0.3, 0.5, 1.0), aspect=4 / 3)
+        a = zbuffer.render(own, camera=cam, width=size[0], height=size[1], shading=shading)
+        b = zbuffer.render(prepared, camera=cam, width=size[0], height=size[1], shading=shading)
+        np.testing.assert_array_equal(a.triangle_id, b.triangle_id)
+        np.testing.assert_array_equal(a.image, b.image)
+
+
 @pytest.mark.models
 @pytest.mark.parametrize("shading", ["flat", "smooth"])
 @pytest.mark.parametrize("name", ["bunny_10k.obj", "spot.obj", "cow_6k.obj"])

@@ -40,15 +40,16 @@ def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
     ``polygons``: the ids came from polygons drawn natively (each pixel
     carries its polygon's first triangle, which it may lie outside)."""
     source, colors, uniform = color_source(mesh, params)
+    vertices, faces, normals, vertex_colors = mesh.for_shading(
+        normals=params.mode == "smooth", vertex_colors=source == "vertex")
     return _core.shade(
-        triangle_id, mesh.vertices, mesh.faces,
+        triangle_id, vertices, faces,
         mvp=mvp,
         viewer=camera.viewer(), light_dir=params.light_dir,
         ambient=params.ambient, diffuse=params.diffuse,
         background=params.background, uniform_color=uniform,
-        color_source=source, colors=colors,
-        vertex_normals=mesh.vertex_normals if params.mode == "smooth" else None,
-        out=out, pixels_beyond_faces=polygons,
+        color_source=source, colors=vertex_colors if source == "vertex" else colors,
+        vertex_normals=normals, out=out, pixels_beyond_faces=polygons,
     )
 
 

