@@ -58,10 +58,10 @@ bool planes_share_cache_sets(const DepthTarget& target) {
 }
 
 namespace {
-// PlacedIds' scratch plane: kept for the next frame up to 16 M ids (a
-// 4096 x 4096 image), freed after a larger one.
+// PlacedIds' scratch plane: kept for the next frame after images of up to
+// 2^24 pixels (4096 x 4096), freed after larger ones.
 thread_local Buffer<int32_t> id_scratch;
-constexpr size_t kKeptScratch = size_t(1) << 24;
+constexpr size_t kKeptPixels = size_t(1) << 24;
 }  // namespace
 
 PlacedIds::PlacedIds(const DepthTarget& target, bool allow_scratch)
@@ -82,8 +82,10 @@ PlacedIds::PlacedIds(const DepthTarget& target, bool allow_scratch)
 void PlacedIds::finish() const {
   if (!scratch()) return;
   std::memcpy(ids_, plane_, pixels_ * sizeof(int32_t));
-  if (id_scratch.size() > kKeptScratch) Buffer<int32_t>().swap(id_scratch);
+  if (pixels_ > kKeptPixels) Buffer<int32_t>().swap(id_scratch);
 }
+
+size_t PlacedIds::thread_scratch_size() { return id_scratch.size(); }
 
 void render(const Algorithm& algorithm, const RenderInput& input,
             DepthTarget& target, RenderStats& stats) {

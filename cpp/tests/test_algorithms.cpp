@@ -210,8 +210,6 @@ void test_scanline_polygons_cover_their_triangulation() {
   CHECK(sp.polygons_inserted == int64_t(first_of.size()));
 }
 
-}  // namespace
-
 // Planes whose rows share L1 cache sets (algorithms.h): only at widths that
 // are multiples of 1024, with the id plane less than 512 bytes from the
 // depth plane modulo 4 KiB. There the ids go to a scratch plane 2 KiB off
@@ -242,7 +240,21 @@ void test_ids_are_placed_apart_from_depth() {
     placed.finish();
     for (int i = 0; i < 2 * width; ++i) CHECK(t.triangle_id[i] == i);
   }
+  // The scratch is kept after images of up to 2^24 pixels, freed after
+  // larger ones (planes at one offset modulo 4 KiB: it is used).
+  for (const int height : {16384, 16385}) {
+    const size_t n = size_t(1024) * size_t(height);
+    std::vector<float> planes(2 * n + 1024);
+    float* depth = planes.data() + (1024 - reinterpret_cast<uintptr_t>(planes.data()) / 4 % 1024);
+    const DepthTarget t{depth, reinterpret_cast<int32_t*>(depth + n), 1024, height};
+    const PlacedIds placed(t, /*allow_scratch=*/true);
+    CHECK(placed.scratch() && PlacedIds::thread_scratch_size() >= n);
+    placed.finish();
+    CHECK((PlacedIds::thread_scratch_size() > 0) == (n <= (size_t(1) << 24)));
+  }
 }
+
+}  // namespace
 
 int main() {
   test_ids_are_placed_apart_from_depth();

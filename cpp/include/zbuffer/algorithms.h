@@ -51,8 +51,8 @@ void clear_target(DepthTarget& target);
 // There the ids are drawn into a scratch plane placed 2 KiB off the depth
 // plane and copied into the caller's at the end, 0.1-0.2 ms at 1024 x 1024.
 // Good: the caller's arrays can be anywhere. Bad: a copy, and a scratch
-// plane per thread (kept for the next frame up to 4096 x 4096 pixels),
-// in that case alone.
+// plane per thread (kept for the next frame after images of up to
+// 4096 x 4096 pixels: 64 MiB), in that case alone.
 // Algorithms that write a finished row at a time (Algorithm::row_by_row)
 // draw into the caller's plane whatever its place.
 bool planes_share_cache_sets(const DepthTarget& target);
@@ -65,6 +65,7 @@ class PlacedIds {
   int32_t* plane() const { return plane_; }
   bool scratch() const { return plane_ != ids_; }
   void finish() const;  // the scratch plane's ids into the target's plane
+  static size_t thread_scratch_size();  // ids this thread's scratch holds (for tests)
 
  private:
   int32_t* ids_;
