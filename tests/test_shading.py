@@ -149,6 +149,34 @@ def test_a_prepared_mesh_shades_to_the_same_bits(source, shading):
         np.testing.assert_array_equal(a.image, b.image)
 
 
+def test_prepared_mesh_sees_vertex_colours_set_anew():
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=4)
+    red = np.tile(np.float32([1, 0, 0]), (len(sphere.vertices), 1))
+    blue = np.tile(np.float32([0, 0, 1]), (len(sphere.vertices), 1))
+    mesh = zbuffer.Mesh(sphere.vertices, sphere.faces, vertex_colors=red).prepare()
+    cam = zbuffer.Camera.fit(mesh)
+    first = zbuffer.render(mesh, camera=cam, width=48, height=48, shading="smooth")
+    mesh.vertex_colors = blue
+    again = zbuffer.render(mesh, camera=cam, width=48, height=48, shading="smooth")
+    fresh = zbuffer.render(zbuffer.Mesh(sphere.vertices, sphere.faces, vertex_colors=blue),
+                           camera=cam, width=48, height=48, shading="smooth")
+    assert not np.array_equal(first.image, fresh.image)
+    np.testing.assert_array_equal(again.image, fresh.image)
+
+
+@pytest.mark.parametrize("shading", ["flat", "smooth"])
+def test_meshes_without_faces_shade_to_the_background(shading):
+    for mesh in (zbuffer.Mesh(np.random.default_rng(1).random((5, 3)), np.zeros((0, 3), int)),
+                 zbuffer.Mesh(np.zeros((0, 3)), np.zeros((0, 3), int))):
+        assert mesh.vertex_normals.dtype == np.float64
+        assert mesh.vertex_normals.shape == mesh.vertices.shape
+        res = zbuffer.render(mesh, camera=zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0)),
+                             width=8, height=6, shading=shading, background=(1, 2, 3))
+        assert (res.image == [1, 2, 3]).all()
+
+
 @pytest.mark.models
 @pytest.mark.parametrize("shading", ["flat", "smooth"])
 @pytest.mark.parametrize("name", ["bunny_10k.obj", "spot.obj", "cow_6k.obj"])

@@ -52,3 +52,47 @@ def test_visit_passes_arrays_no_other_thread_can_write(monkeypatch):
     mesh = zbuffer.Mesh(vertices, faces)
     mesh.faces_for_render().render(np.eye(4), 8, 8, "zbuffer", False)
     assert passed["faces"] is mesh.faces and passed["vertices"] is mesh.vertices
+
+
+def test_renders_into_own_arrays_share_a_prepared_mesh():
+    # Threads rendering one prepared mesh into arrays of their own: each
+    # render checks its arrays against the mesh's (Mesh.arrays) while others
+    # fill the mesh's shading caches (Mesh.for_shading). A thread switch
+    # every microsecond, fresh meshes: the checks meet the caches mid-fill.
+    import sys
+    import threading
+
+    base = scenes.instance_grid(scenes.default_scene(), (2, 2, 2))
+    colours = np.random.default_rng(0).random((len(base.vertices), 3))
+    w = h = 24
+    errors = []
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        for _ in range(20):
+            mesh = zbuffer.Mesh(base.vertices, base.faces, vertex_colors=colours).prepare()
+            cam = zbuffer.Camera.fit(mesh)
+            ref = zbuffer.render(zbuffer.Mesh(base.vertices, base.faces, vertex_colors=colours),
+                                 camera=cam, width=w, height=h, shading="smooth")
+            barrier = threading.Barrier(4)
+
+            def work():
+                out = (np.empty((h, w), np.float32), np.empty((h, w), np.int32),
+                       np.empty((h, w, 3), np.uint8))
+                barrier.wait()
+                try:
+                    for shading in ("flat", "smooth"):
+                        res = zbuffer.render(mesh, camera=cam, width=w, height=h,
+                                             shading=shading, out=out)
+                    np.testing.assert_array_equal(res.image, ref.image)
+                except Exception as e:  # (re-raised below, in the test's thread)
+                    errors.append(e)
+
+            threads = [threading.Thread(target=work) for _ in range(4)]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+    finally:
+        sys.setswitchinterval(interval)
+    assert not errors, errors[0]

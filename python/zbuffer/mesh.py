@@ -138,8 +138,9 @@ class Mesh:
     -----
     Vertices are not copied when they already are C-contiguous float64 (nor
     colours given as C-contiguous (N, 3) float32); modifying them afterwards
-    invalidates the cached bounding sphere, normals and visiting order, and
-    any :class:`~zbuffer.Scene` built from the mesh (its trees hold copies: it
+    invalidates the cached bounding sphere, normals, visiting order and the
+    shading pass's renumbered copies, and any :class:`~zbuffer.Scene` built
+    from the mesh (its trees hold copies: it
     would draw the old mesh with some algorithms and the new with others),
     so build a new Mesh instead. Faces are always copied.
     """
@@ -270,7 +271,8 @@ class Mesh:
         # in face order (bincount adds in the order of its input).
         corners = self.faces.T.ravel()
         acc = np.stack([np.bincount(corners, weights=np.tile(area_normals[:, c], 3),
-                                    minlength=len(self.vertices)) for c in range(3)], axis=1)
+                                    minlength=len(self.vertices)) for c in range(3)],
+                       axis=1).astype(np.float64, copy=False)  # (int64 without faces)
         length = np.linalg.norm(acc, axis=1, keepdims=True)
         return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
 
@@ -282,17 +284,20 @@ class Mesh:
         Triangle ids index both the same way and the images are the same
         bits; the pass reads the corners of neighbouring pixels' faces from
         neighbouring memory (bunny_69k and armadillo_86k at 1024x1024:
-        5-13% faster, flat and smooth). Cached per mesh."""
+        5-13% faster, flat and smooth). Cached per mesh, each array with the
+        one it was made from (vertex colours set anew are seen; edited in
+        place they are not, see the class notes)."""
         visit = self._visit
         if visit is None or visit.vertex_order is None:
             return (self.vertices, self.faces, self.vertex_normals if normals else None,
                     self.vertex_colors if vertex_colors else None)
         cache = self.__dict__.setdefault("_shading", {})
 
-        def cached(name, make):
-            if name not in cache:
-                cache[name] = _readonly(make())
-            return cache[name]
+        def cached(name, source, make):
+            entry = cache.get(name)
+            if entry is None or entry[0] is not source:
+                entry = cache[name] = (source, _readonly(make()))
+            return entry[1]
 
         def renumbered_faces():
             faces = np.empty_like(visit.faces)
@@ -300,10 +305,11 @@ class Mesh:
             return faces
 
         order = visit.vertex_order
-        return (visit.vertices, cached("faces", renumbered_faces),
-                cached("vertex_normals", lambda: self.vertex_normals[order]) if normals else None,
-                cached("vertex_colors", lambda: self.vertex_colors[order])
-                if vertex_colors else None)
+        return (visit.vertices, cached("faces", visit.faces, renumbered_faces),
+                cached("vertex_normals", self.vertex_normals,
+                       lambda: self.vertex_normals[order]) if normals else None,
+                cached("vertex_colors", self.vertex_colors,
+                       lambda: self.vertex_colors[order]) if vertex_colors else None)
 
     def resolved_camera(self, camera):
         """``camera.resolve(self)``, remembered per camera (cameras are
@@ -340,7 +346,8 @@ class Mesh:
         its colours, its polygons, cached normals, its prepared visit's
         copies and the shading pass's (:meth:`for_shading`) --, for checks
         that an array the caller writes into is none of them."""
-        for name, value in vars(self).items():
+        # (Snapshots: a render in another thread may be filling the caches.)
+        for name, value in list(vars(self).items()):
             if isinstance(value, np.ndarray):
                 yield name.lstrip("_"), value
             elif isinstance(value, Visit):
@@ -348,7 +355,7 @@ class Mesh:
                     if isinstance(array, np.ndarray):
                         yield f"prepared {field}", array
             elif name == "_shading":
-                for field, array in value.items():
+                for field, (_, array) in list(value.items()):
                     yield f"shading {field}", array
 
     def prepare(self) -> "Mesh":
