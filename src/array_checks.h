@@ -22,7 +22,10 @@ py::array_t<T> require_array(py::handle obj, const char* name,
     throw py::type_error(std::string(name) + " must be a numpy array, got " +
                          std::string(py::str(py::type::of(obj).attr("__name__"))));
   auto a = py::reinterpret_borrow<py::array>(obj);
-  if (!a.dtype().is(py::dtype::of<T>()))
+  // Equivalent, not the same object: an unpickled array's float64 is a dtype
+  // of its own (a byte-swapped one is not equivalent).
+  if (!py::detail::npy_api::get().PyArray_EquivTypes_(a.dtype().ptr(),
+                                                       py::dtype::of<T>().ptr()))
     throw py::type_error(std::string(name) + " must have dtype " +
                          std::string(py::str(py::dtype::of<T>())) + ", got " +
                          std::string(py::str(a.dtype())));

@@ -106,3 +106,28 @@ def test_vertex_normals_point_outwards():
     mesh = zbuffer.Mesh(v, f)
     np.testing.assert_allclose(np.linalg.norm(mesh.vertex_normals, axis=1), 1.0)
     assert (np.einsum("ij,ij->i", mesh.vertex_normals, v) > 0).all()
+
+
+def test_pickled_meshes_and_arrays_render():
+    # Unpickled arrays carry dtype objects of their own (equal to float64 and
+    # int32, not the same objects): the core takes them, and refuses a
+    # byte-swapped float64 with a message.
+    import pickle
+
+    mesh = scenes.instance_grid(scenes.default_scene(), (2, 2, 2)).prepare()
+    cam = zbuffer.Camera.fit(mesh)
+    ref = zbuffer.render(mesh, camera=cam, width=40, height=30, shading="smooth")
+    copy = pickle.loads(pickle.dumps(mesh))
+    assert copy.vertices.dtype is not np.dtype(np.float64)
+    for algo in zbuffer.algorithms():
+        res = zbuffer.render(copy, algo, cam, 40, 30, shading="smooth")
+        np.testing.assert_array_equal(res.triangle_id, ref.triangle_id)
+        np.testing.assert_array_equal(res.image, ref.image)
+    depth, ids = pickle.loads(pickle.dumps((np.empty((30, 40), np.float32),
+                                            np.empty((30, 40), np.int32))))
+    res = zbuffer.render(copy, camera=cam, width=40, height=30, out=(depth, ids))
+    assert res.depth is depth
+    np.testing.assert_array_equal(ids, ref.triangle_id)
+    from zbuffer import _core
+    with pytest.raises(TypeError, match="positions must have dtype float64"):
+        _core.render(mesh.vertices.astype(">f8"), mesh.faces, np.eye(4), 8, 8)
