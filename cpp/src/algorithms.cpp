@@ -69,8 +69,8 @@ PlacedIds::PlacedIds(const DepthTarget& target, bool allow_scratch)
       pixels_(size_t(target.width) * size_t(target.height)) {
   if (!allow_scratch || pixels_ == 0 || !planes_share_cache_sets(target)) return;
   Buffer<int32_t>& scratch = id_scratch;
-  constexpr size_t kPage = 4096 / sizeof(int32_t);  // (in ids)
-  if (scratch.size() < pixels_ + kPage) scratch.resize(pixels_ + kPage);
+  constexpr size_t kSlack = 4096 / sizeof(int32_t);  // ids, room for the placement below
+  if (scratch.size() < pixels_ + kSlack) scratch.resize(pixels_ + kSlack);
   // The first id 2 KiB past the depth plane's start, modulo 4 KiB (both
   // are 4-byte aligned).
   const uintptr_t depth = reinterpret_cast<uintptr_t>(target.depth);
