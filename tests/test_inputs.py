@@ -39,6 +39,16 @@ def test_pyvista_polydata_is_triangulated():
     assert res.mask.any()
     pts = pv.PolyData(np.random.default_rng(0).uniform(size=(5, 3)))  # no faces
     assert not zbuffer.render(pts, width=8, height=8, shading="none").mask.any()
+    # Polygons of mixed sizes (a triangle beside a concave pentagon): their
+    # triangulation, which covers what the polygons do.
+    points = np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [1, 0.5, 0], [0, 2, 0], [3, 0, 0]], float)
+    mixed = pv.PolyData(points, faces=[5, 0, 1, 2, 3, 4, 3, 1, 5, 2])
+    cam = zbuffer.Camera.look_at((1.5, 1, 5), (1.5, 1, 0), fov_y=50)
+    res = zbuffer.render(mixed, camera=cam, width=48, height=32, shading="none")
+    ref = zbuffer.render(zbuffer.Mesh(points, [[0, 1, 3], [1, 2, 3], [3, 4, 0], [1, 5, 2]]),
+                         camera=cam, width=48, height=32, shading="none")
+    assert res.stats["triangles_in"] == 4
+    np.testing.assert_array_equal(res.mask, ref.mask)
 
 
 def test_other_pyvista_datasets_render_their_outer_surface():

@@ -579,7 +579,11 @@ def as_mesh(obj) -> Mesh:
         if isinstance(obj, trimesh.Trimesh):
             return Mesh.from_trimesh(obj)
     if module.startswith("pyvista") and hasattr(obj, "extract_surface"):
-        if not hasattr(obj, "regular_faces"):  # a volume or grid: its outer surface
+        import pyvista
+
+        # (Not hasattr(obj, "regular_faces"): that property raises for a
+        # PolyData of mixed polygon sizes.)
+        if not isinstance(obj, pyvista.PolyData):  # a volume or grid: its outer surface
             try:  # (newer pyvista warns unless the algorithm is named)
                 obj = obj.extract_surface(algorithm="dataset_surface")
             except TypeError:
