@@ -213,6 +213,11 @@ def test_files_that_say_they_hold_no_faces_render_empty(tmp_path, name, content)
     # Faces stored as another element (old Stanford scans: tristrips).
     ("strips.ply", ascii_ply(3, b"element tristrips 1\nproperty list int int vertex_indices\n",
                              b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")),
+    # ASCII PLY cut short (trimesh reads it as a smaller mesh).
+    ("cut_vertices.ply", ascii_ply(3, b"element face 1\nproperty list uchar int vertex_indices\n",
+                                   b"0 0 0\n1 0 0\n")),
+    ("cut_faces.ply", ascii_ply(3, b"element face 2\nproperty list uchar int vertex_indices\n",
+                                b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")),
     ("notoff.off", b"NOTOFF\n0 0 0\n"),
     ("short.off", b"OFF\n0 0\n"),
     ("picture.obj", b"\x89PNG\r\n\x1a\nIHDR garbage\n"),

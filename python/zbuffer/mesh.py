@@ -466,6 +466,7 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         tm = trimesh.load(path, force="mesh", process=False)
     except Exception as err:  # trimesh raises many types for bad files
         raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
+    _check_ascii_ply_records(path)
     if not isinstance(tm, trimesh.Trimesh):
         raise ValueError(f"{path!r} holds no triangle mesh (got {type(tm).__name__})")
     if len(tm.vertices) == 0 and _has_content(path) and not _declares_no_faces(path):
@@ -546,6 +547,32 @@ def _is_obj_without_geometry(path: str) -> bool:
         if words and words[0] not in keywords:
             return False
     return True
+
+
+def _check_ascii_ply_records(path: str) -> None:
+    """ValueError if an ASCII PLY file holds fewer records than its header
+    declares (trimesh reads a truncated one as a smaller mesh; it refuses
+    truncated binary ones itself). Each element instance is one line."""
+    if os.path.splitext(path)[1].lower() != ".ply":
+        return
+    declared = 0
+    with open(path, "rb") as fh:
+        if fh.readline().strip() != b"ply":
+            return
+        for line in fh:
+            words = line.split()
+            if words[:1] == [b"format"] and words[1:2] != [b"ascii"]:
+                return
+            if words[:1] == [b"element"] and len(words) == 3 and words[2].isdigit():
+                declared += int(words[2])
+            if words[:1] == [b"end_header"]:
+                break
+        else:
+            return  # no header end: trimesh has judged it already
+        found = sum(1 for line in fh if line.strip())
+    if found < declared:
+        raise ValueError(f"could not read a mesh from {path!r}: its header declares "
+                         f"{declared} element records, the file holds {found} (truncated?)")
 
 
 def _has_content(path: str) -> bool:
