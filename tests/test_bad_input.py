@@ -284,6 +284,19 @@ def test_coordinates_that_overflow_the_transform_are_skipped():
      "light_dir must be 3 numbers"),
     (lambda: zbuffer.render((TRI * 1e-170, [[0, 1, 2]]), width=8, height=8), ValueError,
      "too small for double precision"),
+    # Python ints beyond float range, bools as lengths, NaN vertices to frame
+    (lambda: zbuffer.Camera.look_at((10**400, 0, 3)), ValueError, "eye must be finite"),
+    (lambda: zbuffer.Camera.look_at((0, 0, 3), projection="orthographic", ortho_height=10**400),
+     ValueError, "ortho_height must be positive and finite"),
+    (lambda: zbuffer.Camera.look_at((0, 0, 3), projection="orthographic", ortho_height=True),
+     TypeError, "ortho_height must be a number"),
+    (lambda: zbuffer.Camera.fit(TRI, margin=10**400), ValueError, "margin must be positive"),
+    (lambda: zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, light_dir=(10**400, 0, 0)),
+     ValueError, "light_dir must be 3 finite numbers"),
+    (lambda: zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, diffuse=10**400),
+     ValueError, "diffuse must be a finite number"),
+    (lambda: zbuffer.Camera.fit(np.array([[0, 0, 0], [np.nan, 0, 0], [1, 1, 1]])), ValueError,
+     "vertex 1 has a NaN or infinite coordinate"),
 ])
 def test_camera_and_light_arguments_are_checked(call, error, message):
     with pytest.raises(error, match=re.escape(message)):
@@ -313,6 +326,17 @@ def test_odd_inputs_get_clear_messages(tmp_path):
         zbuffer.Mesh(TRI, [[0, 1, 2], [0, 1]])
     with pytest.raises(ValueError, match="is not a mesh file"):
         zbuffer.load(tmp_path)
+    with pytest.raises(TypeError, match="merge_vertices must be a bool"):
+        zbuffer.load(tmp_path / "any.ply", merge_vertices="no")
+    from zbuffer.viz import most_culling_cells
+    with pytest.raises(ValueError, match="n must be an integer >= 0"):
+        most_culling_cells(np.ones((2, 2), np.int64), -1)
+    with pytest.raises(ValueError, match="n must be at least 1"):
+        scenes.tessellated_square(0)
+    with pytest.raises(ValueError, match="n_lat must be at least 2"):
+        scenes.uv_sphere(n_lat=1)
+    with pytest.raises(ValueError, match="needs a mesh with vertices"):
+        scenes.instance_grid((np.zeros((0, 3)), np.zeros((0, 3), int)), (2, 2, 2))
     obj = tmp_path / "bom.obj"  # an OBJ file starting with a byte order mark
     obj.write_bytes("\ufeffv 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n".encode("utf-8"))
     mesh = zbuffer.load(bytes(obj))

@@ -28,6 +28,8 @@ MIN_NEAR = 1e-290
 def _vec3(value, name: str) -> np.ndarray:
     try:
         v = np.asarray(value, dtype=np.float64)
+    except OverflowError:  # a Python int beyond float range
+        raise ValueError(f"{name} must be finite, got {value!r}") from None
     except (TypeError, ValueError):
         raise TypeError(f"{name} must be 3 numbers, got {value!r}") from None
     if v.shape != (3,):
@@ -63,8 +65,12 @@ def _fov(value) -> float:
 def _positive(value, name: str, allow_none: bool = False) -> Optional[float]:
     if value is None and allow_none:
         return None
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a number, got {value!r}")
     try:
         x = float(value)
+    except OverflowError:  # a Python int beyond float range
+        x = math.inf
     except (TypeError, ValueError):
         raise TypeError(f"{name} must be a number, got {value!r}") from None
     if not math.isfinite(x) or x <= 0.0:
@@ -397,6 +403,10 @@ def bounding_sphere(vertices) -> Tuple[np.ndarray, float]:
         raise ValueError(f"vertices must have shape (N, 3), got {v.shape}")
     if len(v) == 0:
         return np.zeros(3), 1.0
+    finite = np.isfinite(v).all(axis=1)
+    if not finite.all():
+        k = int(np.argmin(finite))
+        raise ValueError(f"vertex {k} has a NaN or infinite coordinate: {v[k].tolist()}")
     lo, hi = v.min(axis=0), v.max(axis=0)
     with np.errstate(over="ignore", invalid="ignore"):
         center = lo * 0.5 + hi * 0.5

@@ -455,6 +455,8 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     """
     import trimesh
 
+    if not isinstance(merge_vertices, (bool, np.bool_)):
+        raise TypeError(f"merge_vertices must be a bool, got {merge_vertices!r}")
     path = os.fsdecode(os.fspath(path))
     if not os.path.exists(path):
         raise FileNotFoundError(f"no such mesh file: {path!r}")

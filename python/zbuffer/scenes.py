@@ -33,8 +33,19 @@ def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
     return c + corners * s, faces
 
 
+def _count(value, name: str, least: int) -> int:
+    """An integer parameter of a scene: ValueError below ``least``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {value!r}")
+    if value < least:
+        raise ValueError(f"{name} must be at least {least}, got {value!r}")
+    return int(value)
+
+
 def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:
-    """A latitude-longitude sphere with poles on the y axis."""
+    """A latitude-longitude sphere with poles on the y axis (n_lat >= 2
+    bands of latitude, n_lon >= 3 of longitude)."""
+    n_lat, n_lon = _count(n_lat, "n_lat", 2), _count(n_lon, "n_lon", 3)
     theta = np.linspace(0.0, np.pi, n_lat + 1)[1:-1]
     phi = np.linspace(0.0, 2.0 * np.pi, n_lon, endpoint=False)
     t, p = np.meshgrid(theta, phi, indexing="ij")
@@ -180,8 +191,9 @@ def random_soup(n: int = 200, seed: int = 0, scale: float = 0.5) -> Mesh:
 
 
 def tessellated_square(n: int = 8, jitter: float = 0.0, seed: int = 0) -> Mesh:
-    """The square [-1, 1]^2 at z = 0 cut into 2 n^2 triangles; inner grid
-    vertices may be jittered (the square stays covered exactly once)."""
+    """The square [-1, 1]^2 at z = 0 cut into 2 n^2 triangles (n >= 1); inner
+    grid vertices may be jittered (the square stays covered exactly once)."""
+    n = _count(n, "n", 1)
     rng = np.random.default_rng(seed)
     g = np.linspace(-1.0, 1.0, n + 1)
     x, y = np.meshgrid(g, g, indexing="ij")
@@ -213,6 +225,8 @@ def instance_grid(mesh, counts=(5, 5, 10), spacing: float = 1.1) -> Mesh:
     counts = tuple(int(c) for c in counts)
     if len(counts) != 3 or min(counts) < 1:
         raise ValueError(f"counts must be three positive integers, got {counts}")
+    if len(mesh.vertices) == 0:
+        raise ValueError("instance_grid needs a mesh with vertices (its extent spaces the copies)")
     n_copies = counts[0] * counts[1] * counts[2]
     if n_copies * len(mesh.faces) > 2**31 - 1 or n_copies * len(mesh.vertices) > 2**31 - 1:
         raise ValueError(f"{n_copies} copies of {len(mesh.faces)} faces exceed 2**31 - 1")

@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+import math
+
 import numpy as np
 
 from .camera import _unit
@@ -69,6 +71,8 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
     else:
         try:
             light = np.asarray(light_dir, dtype=np.float64)
+        except OverflowError:  # a Python int beyond float range
+            raise ValueError(f"light_dir must be 3 finite numbers, got {light_dir!r}") from None
         except (TypeError, ValueError):
             raise TypeError(f"light_dir must be 3 numbers, got {light_dir!r}") from None
         if light.shape != (3,) or not np.all(np.isfinite(light)):
@@ -77,10 +81,14 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
         if norm == 0.0:
             raise ValueError("light_dir must not be the zero vector")
     for name, value in (("ambient", ambient), ("diffuse", diffuse)):
-        if isinstance(value, (bool, np.bool_)) or \
-                not isinstance(value, (int, float, np.floating, np.integer)) or not (
-            np.isfinite(value) and value >= 0.0
-        ):
+        x = math.nan  # (not a number: refused below)
+        if not isinstance(value, (bool, np.bool_)) and \
+                isinstance(value, (int, float, np.floating, np.integer)):
+            try:
+                x = float(value)
+            except OverflowError:  # a Python int beyond float range
+                x = math.inf
+        if not (math.isfinite(x) and x >= 0.0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     bg = _rgb_float(background, "background")
     return ShadingParams(

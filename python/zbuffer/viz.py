@@ -206,6 +206,8 @@ def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
     """(k, 2) int array of (row, column) of the at most ``n`` cells of one
     level of :attr:`RenderResult.culls` with the highest counts, highest
     first (cells that culled nothing are left out; ties by position)."""
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise ValueError(f"n must be an integer >= 0, got {n!r}")
     flat = np.asarray(counts).ravel()
     order = np.argsort(-flat, kind="stable")[:n]
     order = order[flat[order] > 0]
