@@ -275,16 +275,20 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default="render.png",
                    help="shaded image to write (default render.png); 'none' to skip")
     r.add_argument("--depth", default=None, help="also write the depth map (distance along the view axis) as a 16-bit PNG")
-    r.add_argument("--shading", choices=["flat", "smooth"], default="flat")
+    r.add_argument("--shading", choices=["flat", "smooth"], default="flat",
+                   help="Lambert shading from face normals (flat, default) or interpolated "
+                        "vertex normals (smooth)")
     r.add_argument("--cull-backfaces", action="store_true", help="skip back-facing triangles")
-    r.add_argument("--projection", choices=["perspective", "orthographic"], default="perspective")
+    r.add_argument("--projection", choices=["perspective", "orthographic"], default="perspective",
+                   help="camera projection (default perspective)")
     r.add_argument("--fov", type=float, default=45.0, help="vertical field of view in degrees")
     r.add_argument("--view-dir", type=_vec3, default=None, metavar="X,Y,Z",
                    help="direction from the mesh towards the camera (default 0,0,1)")
     r.add_argument("--eye", type=_vec3, default=None, metavar="X,Y,Z", help="camera position")
     r.add_argument("--target", type=_vec3, default=None, metavar="X,Y,Z",
                    help="point looked at (default: the mesh centre)")
-    r.add_argument("--up", type=_vec3, default=(0.0, 1.0, 0.0), metavar="X,Y,Z")
+    r.add_argument("--up", type=_vec3, default=(0.0, 1.0, 0.0), metavar="X,Y,Z",
+                   help="the camera's up direction (default 0,1,0)")
     r.set_defaults(func=_cmd_render)
 
     v = sub.add_parser("view", help="a live window of zbuffer's own rendering "

@@ -382,8 +382,9 @@ class Mesh:
         """The vertices and faces as the compiled algorithms visit them (a
         :class:`Visit`; prepared, its faces index its own renumbered
         vertices, not ``self.vertices``). The order is computed on the second
-        render of the same Mesh (or by :meth:`prepare`), so that one-off
-        renders of temporary meshes do not pay for it."""
+        call (every render makes one) of the same Mesh, or by
+        :meth:`prepare`, so that one-off renders of temporary meshes do not
+        pay for it."""
         self._renders += 1
         if self._visit is None and self._renders >= 2:
             self.prepare()

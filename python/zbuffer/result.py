@@ -39,6 +39,10 @@ class RenderResult:
         triangle, 2 x 2 for a large one -- counts in each; a tree node
         culled whole counts its triangles in the up to 16 x 16 cells it was
         tested against). None otherwise.
+    width, height : int
+        The image size (``depth.shape`` is ``(height, width)``).
+    mask : (H, W) bool
+        Where a triangle was drawn (``triangle_id >= 0``); a property.
     """
 
     image: Optional[np.ndarray]

@@ -153,11 +153,12 @@ class Scene:
         ----------
         temporal : bool
             Temporal coherence (Greene, Kass and Miller, section 6; tree
-            algorithms only): first draw the tree clusters that were visible
-            in this Scene's previous ``temporal=True`` frame of the same
-            algorithm, then traverse the tree against the Z-pyramid they
-            produced. The output is the same bits either way; only the work
-            changes (see ``stats``).
+            algorithms only): if this Scene's previous frame of the same
+            algorithm was rendered with ``temporal=True``, first draw the tree
+            clusters that were visible in it, then traverse the tree against
+            the Z-pyramid they produced (a frame without ``temporal`` in
+            between starts afresh). The output is the same bits either way;
+            only the work changes (see ``stats``).
 
         Returns
         -------

@@ -94,6 +94,8 @@ class Viewer:
                                       100.0 * self.radius))
 
     def camera(self) -> Camera:
+        """The orbit camera: ``distance`` from ``target`` at ``azimuth`` and
+        ``elevation`` (degrees), near and far around the mesh's sphere."""
         a, e = math.radians(self.azimuth), math.radians(self.elevation)
         offset = np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])
         eye = self.target + self.distance * offset
@@ -104,12 +106,15 @@ class Viewer:
     # Modes
 
     def next_algorithm(self) -> None:
+        """The next registered algorithm (the tree overlay goes off for one
+        without a tree)."""
         names = algorithms()
         self.algo = names[(names.index(self.algo) + 1) % len(names)]
         if self.overlay == "tree" and self.algo not in TREE_ALGORITHMS:
             self.overlay = "none"
 
     def next_shading(self) -> None:
+        """The next shading mode: flat, smooth, none, and round again."""
         self.shading = SHADINGS[(SHADINGS.index(self.shading) + 1) % len(SHADINGS)]
 
     def toggle(self, overlay: str) -> None:
