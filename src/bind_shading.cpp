@@ -91,9 +91,27 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   return image;
 }
 
+py::array_t<double> vertex_normals(py::handle positions_obj, py::handle faces_obj) {
+  auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
+  auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
+  const zbuffer::MeshView mesh{positions.data(), positions.shape(0), faces.data(), faces.shape(0)};
+  if (zbuffer::find_bad_face_index(mesh) >= 0)
+    throw py::value_error("face index out of range in vertex_normals()");
+  py::array_t<double> normals({positions.shape(0), py::ssize_t(3)});
+  double* out = normals.mutable_data();
+  {
+    py::gil_scoped_release release;
+    zbuffer::vertex_normals(mesh, out);
+  }
+  return normals;
+}
+
 }  // namespace
 
 void bind_shading(py::module_& m) {
+  m.def("vertex_normals", &vertex_normals, py::arg("positions"), py::arg("faces"),
+        "(N, 3) float64 area-weighted unit vertex normals (zero for unused vertices);\n"
+        "the same bits as zbuffer.reference.vertex_normals.");
   m.def("shade", &shade, py::arg("triangle_id"), py::arg("positions"), py::arg("faces"),
         py::arg("mvp"), py::arg("viewer"), py::arg("light_dir"), py::arg("ambient"),
         py::arg("diffuse"), py::arg("background"), py::arg("uniform_color"),

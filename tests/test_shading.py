@@ -149,6 +149,32 @@ def test_a_prepared_mesh_shades_to_the_same_bits(source, shading):
         np.testing.assert_array_equal(a.image, b.image)
 
 
+def test_vertex_normals_are_the_numpy_definitions_bits():
+    # Mesh.vertex_normals (compiled) against reference.vertex_normals
+    # (numpy): random meshes of every scale, faces repeating a corner,
+    # unused vertices, no faces, and (when present) every shared model.
+    from zbuffer import _core, reference
+
+    rng = np.random.default_rng(11)
+    meshes = []
+    for k in range(60):
+        n = int(rng.integers(1, 40))
+        v = rng.normal(size=(n, 3)) * 10.0 ** int(rng.integers(-6, 6))
+        f = rng.integers(0, n, size=(int(rng.integers(0, 60)), 3))
+        meshes.append(zbuffer.Mesh(v, f))
+    meshes.append(zbuffer.Mesh(np.zeros((0, 3)), np.zeros((0, 3), int)))
+    from helpers import MODELS
+    meshes += [zbuffer.load(MODELS / name) for name in ("bunny_10k.obj", "beast_quads.obj")
+               if (MODELS / name).is_file()]
+    for mesh in meshes:
+        normals = mesh.vertex_normals
+        assert normals.dtype == np.float64 and normals.shape == mesh.vertices.shape
+        assert not normals.flags.writeable
+        np.testing.assert_array_equal(normals, reference.vertex_normals(mesh.vertices, mesh.faces))
+    with pytest.raises(ValueError, match="face index out of range"):
+        _core.vertex_normals(np.zeros((3, 3)), np.array([[0, 1, 3]], np.int32))
+
+
 def test_prepared_mesh_sees_vertex_colours_set_anew():
     import trimesh
 

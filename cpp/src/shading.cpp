@@ -1595,4 +1595,32 @@ void shade_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t* ima
 
 }  // namespace
 
+
+void vertex_normals(const MeshView& mesh, double* out) {
+  const size_t n = size_t(mesh.n_vertices);
+  std::fill_n(out, 3 * n, 0.0);
+  const double* p = mesh.positions;
+  for (int corner = 0; corner < 3; ++corner)
+    for (int64_t f = 0; f < mesh.n_faces; ++f) {
+      const int32_t* idx = mesh.faces + 3 * f;
+      const double* a = p + 3 * size_t(idx[0]);
+      const double* b = p + 3 * size_t(idx[1]);
+      const double* c = p + 3 * size_t(idx[2]);
+      const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+      const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+      double* sum = out + 3 * size_t(idx[corner]);
+      sum[0] += u[1] * v[2] - u[2] * v[1];
+      sum[1] += u[2] * v[0] - u[0] * v[2];
+      sum[2] += u[0] * v[1] - u[1] * v[0];
+    }
+  for (size_t i = 0; i < n; ++i) {
+    double* s = out + 3 * i;
+    const double length = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    if (length > 0.0)
+      for (int c = 0; c < 3; ++c) s[c] /= length;
+    else
+      s[0] = s[1] = s[2] = 0.0;
+  }
+}
+
 }  // namespace zbuffer

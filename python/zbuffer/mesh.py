@@ -264,17 +264,12 @@ class Mesh:
     @cached_property
     def vertex_normals(self) -> np.ndarray:
         """(N, 3) float64 unit normals: the area-weighted sum of the normals
-        of the faces around each vertex (zero for unused vertices)."""
-        p = self.vertices[self.faces]
-        area_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        # Summed per vertex over first corners, then second, then third, each
-        # in face order (bincount adds in the order of its input).
-        corners = self.faces.T.ravel()
-        acc = np.stack([np.bincount(corners, weights=np.tile(area_normals[:, c], 3),
-                                    minlength=len(self.vertices)) for c in range(3)],
-                       axis=1).astype(np.float64, copy=False)  # (int64 without faces)
-        length = np.linalg.norm(acc, axis=1, keepdims=True)
-        return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+        of the faces around each vertex (zero for unused vertices); computed
+        by the compiled core, the same bits as
+        :func:`zbuffer.reference.vertex_normals`."""
+        from . import _core
+
+        return _readonly(_core.vertex_normals(self.vertices, self.faces))
 
     def for_shading(self, normals: bool, vertex_colors: bool) -> tuple:
         """(vertices, faces, vertex normals or None, vertex colours or None)

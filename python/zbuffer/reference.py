@@ -24,7 +24,8 @@ from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, shade_numpy
 
-__all__ = ["render", "vertex_stage", "rasterize", "render_polygons", "ScreenTriangles"]
+__all__ = ["render", "vertex_stage", "rasterize", "render_polygons", "ScreenTriangles",
+           "vertex_normals"]
 
 # Outcode bits (vertex_stage.h).
 OUT_LEFT, OUT_RIGHT, OUT_BOTTOM, OUT_TOP, OUT_NEAR, OUT_FAR = (1 << k for k in range(6))
@@ -572,3 +573,22 @@ def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
     stats["total_ms"] = (time.perf_counter() - start) * 1e3
     return RenderResult(image=image, depth=depth, triangle_id=triangle_id, stats=stats,
                         camera=camera, mvp=mvp, algo="reference")
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(N, 3) float64 area-weighted unit vertex normals, zero for unused
+    vertices (and where the sum vanishes): each vertex sums the cross
+    products (b - a) x (c - a) of the faces (a, b, c) it is a corner of,
+    first corners in face order, then second, then third (``np.bincount``
+    adds in the order of its input), and is divided by the sum's length.
+    ``Mesh.vertex_normals`` computes the same bits in the compiled core."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    p = vertices[faces]
+    area_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    corners = faces.T.ravel()
+    acc = np.stack([np.bincount(corners, weights=np.tile(area_normals[:, c], 3),
+                                minlength=len(vertices)) for c in range(3)],
+                   axis=1).astype(np.float64, copy=False)  # (int64 without faces)
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)

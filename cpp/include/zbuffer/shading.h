@@ -55,4 +55,13 @@ void shade(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image);
 // that tests can hold the vector pass to it (within one level of 255).
 void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image);
 
+// Area-weighted unit vertex normals into out (n_vertices, 3): each vertex
+// sums (b - a) x (c - a) of the faces (a, b, c) it is a corner of -- every
+// face's first corner in face order, then the second corners, then the
+// third -- and the sum is divided by its length (zero where the sum is
+// zero, and for unused vertices). The order and the IEEE operations of
+// Mesh.vertex_normals' numpy definition (reference.vertex_normals), so the
+// same bits. Faces must index the vertices (mesh_checks.h).
+void vertex_normals(const MeshView& mesh, double* out);
+
 }  // namespace zbuffer
