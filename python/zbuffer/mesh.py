@@ -294,17 +294,19 @@ class Mesh:
                 entry = cache[name] = (source, _readonly(make()))
             return entry[1]
 
-        def renumbered_faces():
-            faces = np.empty_like(visit.faces)
-            faces[visit.ids] = visit.faces
-            return faces
+        def renumbered_faces():  # row f: the prepared face whose id is f
+            row_of_id = np.empty_like(visit.ids)
+            row_of_id[visit.ids] = np.arange(len(visit.ids), dtype=visit.ids.dtype)
+            return np.take(visit.faces, row_of_id, axis=0)
 
+        # (np.take: about 3x faster than indexing rows with an array)
         order = visit.vertex_order
         return (visit.vertices, cached("faces", visit.faces, renumbered_faces),
                 cached("vertex_normals", self.vertex_normals,
-                       lambda: self.vertex_normals[order]) if normals else None,
+                       lambda: np.take(self.vertex_normals, order, axis=0)) if normals else None,
                 cached("vertex_colors", self.vertex_colors,
-                       lambda: self.vertex_colors[order]) if vertex_colors else None)
+                       lambda: np.take(self.vertex_colors, order, axis=0))
+                if vertex_colors else None)
 
     def resolved_camera(self, camera):
         """``camera.resolve(self)``, remembered per camera (cameras are
@@ -449,8 +451,6 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     ValueError
         If the file cannot be parsed as a mesh.
     """
-    import trimesh
-
     if not isinstance(merge_vertices, (bool, np.bool_)):
         raise TypeError(f"merge_vertices must be a bool, got {merge_vertices!r}")
     path = os.fsdecode(os.fspath(path))
@@ -460,6 +460,8 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         raise ValueError(f"{path!r} is not a mesh file (a directory or device)")
     if path.lower().endswith(".obj"):
         return _load_obj(path).prepare()
+    import trimesh  # (only here: importing it takes about 0.3 s)
+
     try:
         tm = trimesh.load(path, force="mesh", process=False)
     except Exception as err:  # trimesh raises many types for bad files
