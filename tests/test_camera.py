@@ -125,3 +125,24 @@ def test_meshes_too_small_to_frame_say_so():
     ortho = zbuffer.Camera.fit(v, projection="orthographic")
     assert zbuffer.render((v, np.array([[0, 1, 2]])), camera=ortho, width=8, height=8,
                           shading="none").mask.any()
+
+
+def test_bounding_sphere_is_its_whole_array_definition():
+    # bounding_sphere works column by column for speed; it must give the
+    # bits of the plain (N, 3) formulas, from tiny to huge coordinates.
+    from zbuffer.camera import bounding_sphere
+
+    rng = np.random.default_rng(5)
+    for k in range(200):
+        scale = 10.0 ** int(rng.integers(-280, 140))
+        v = rng.normal(size=(int(rng.integers(1, 300)), 3)) * scale + rng.normal(size=3)
+        lo, hi = v.min(axis=0), v.max(axis=0)
+        center = lo * 0.5 + hi * 0.5
+        offset = v - center
+        s = float(np.abs(offset).max())
+        radius = s * float(np.sqrt(((offset / s) ** 2).sum(axis=1).max())) if s > 0 else 0.0
+        got_center, got_radius = bounding_sphere(v)
+        np.testing.assert_array_equal(got_center, center)
+        if radius == 0.0:
+            radius = max(1e-6, float(np.abs(center).max()) * 1e-6)
+        assert got_radius == radius
