@@ -182,9 +182,38 @@ void test_hard_faces_match_scalar_pass() {
   }
 }
 
+// Area-weighted vertex normals: a closed sphere's lie along its radii (all
+// one way: the faces' winding, inwards for this sphere) and have unit
+// length; an unused vertex and a vertex only on a degenerate face get zero.
+void test_vertex_normals() {
+  std::vector<double> pos, exact;
+  std::vector<int32_t> faces;
+  sphere(24, 48, pos, faces, exact);
+  const int64_t used = int64_t(pos.size() / 3);
+  for (double c : {5.0, 5.0, 5.0, 7.0, 7.0, 7.0}) pos.push_back(c);  // two more vertices
+  for (int k = 0; k < 3; ++k) faces.push_back(int32_t(used + 1));  // a degenerate face
+  const MeshView mesh{pos.data(), int64_t(pos.size() / 3), faces.data(), int64_t(faces.size() / 3)};
+  std::vector<double> normals(pos.size(), -1.0);
+  vertex_normals(mesh, normals.data());
+  double lowest = 1.0, highest = -1.0;
+  for (int64_t v = 0; v < used; ++v) {
+    const double* n = &normals[size_t(3 * v)];
+    const double* e = &exact[size_t(3 * v)];
+    CHECK(std::abs(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1.0) < 1e-12);
+    const double along = n[0] * e[0] + n[1] * e[1] + n[2] * e[2];
+    lowest = std::min(lowest, along);
+    highest = std::max(highest, along);
+  }
+  // (The poles: one face each, a few degrees off the axis.)
+  CHECK((lowest > 0.99 && highest <= 1.0 + 1e-12) || (highest < -0.99 && lowest >= -1.0 - 1e-12));
+  for (int64_t v = used; v < used + 2; ++v)
+    for (int c = 0; c < 3; ++c) CHECK(normals[size_t(3 * v + c)] == 0.0);
+}
+
 }  // namespace
 
 int main() {
+  test_vertex_normals();
   test_hard_faces_match_scalar_pass();
   test_vector_pass_matches_scalar_pass(77, 61);
   test_vector_pass_matches_scalar_pass(160, 121);
