@@ -369,8 +369,11 @@ class Mesh:
             from . import _core
 
             order, cell_start, cell_centre = _core.spatial_order(self.vertices, self.faces)
-            faces, vertex_order = _core.first_use_order(self.faces[order], len(self.vertices))
-            self._visit = Visit(_readonly(self.vertices[vertex_order]), _readonly(faces),
+            # (np.take: about 3x faster than indexing rows with an array)
+            faces, vertex_order = _core.first_use_order(np.take(self.faces, order, axis=0),
+                                                        len(self.vertices))
+            self._visit = Visit(_readonly(np.take(self.vertices, vertex_order, axis=0)),
+                                _readonly(faces),
                                 _readonly(order), _readonly(cell_start), _readonly(cell_centre),
                                 _readonly(vertex_order))
         return self
