@@ -45,6 +45,9 @@ struct Buckets {
     run_ = -1;
     last_ = -1;
     in_order_ = true;
+#ifdef ZBUFFER_AVX512
+    clear_lanes();
+#endif
   }
   void add(int64_t f, int32_t b, const uint32_t* lo, const uint32_t* hi) {
     of_face[size_t(f)] = b;
@@ -59,6 +62,20 @@ struct Buckets {
   // together). Counts and boxes do not depend on the order runs come in.
   void add16(int64_t f, __m512i b, const __m512i* lo, const __m512i* hi) {
     _mm512_storeu_si512(&of_face[size_t(f)], b);
+    // All 16 in the current run (most steps: a bucket holds hundreds of
+    // consecutive faces): their boxes go into the run's lane-wise bounds,
+    // reduced once when the run ends.
+    if (run_ >= 0 && _mm512_cmpeq_epi32_mask(b, _mm512_set1_epi32(run_)) == 0xFFFF) {
+      in_order_ &= run_ >= last_;
+      last_ = run_;
+      for (int a = 0; a < 3; ++a) {
+        _mm512_storeu_si512(lane_lo_[a], _mm512_min_epu32(_mm512_loadu_si512(lane_lo_[a]), lo[a]));
+        _mm512_storeu_si512(lane_hi_[a], _mm512_max_epu32(_mm512_loadu_si512(lane_hi_[a]), hi[a]));
+      }
+      run_count_ += 16;
+      run_last_ = f + 15;
+      return;
+    }
     alignas(64) int32_t bs[16];
     _mm512_store_si512(bs, b);
     // In order while no face's bucket is below the one before it.
@@ -169,6 +186,13 @@ struct Buckets {
   }
   void end_run() {
     if (run_ < 0) return;
+#ifdef ZBUFFER_AVX512
+    for (int a = 0; a < 3; ++a) {
+      run_lo_[a] = std::min(run_lo_[a], _mm512_reduce_min_epu32(_mm512_loadu_si512(lane_lo_[a])));
+      run_hi_[a] = std::max(run_hi_[a], _mm512_reduce_max_epu32(_mm512_loadu_si512(lane_hi_[a])));
+    }
+    clear_lanes();
+#endif
     start[size_t(run_) + 1] += run_count_;
     first_face[size_t(run_)] = std::min(first_face[size_t(run_)], run_first_);
     last_face[size_t(run_)] = std::max(last_face[size_t(run_)], run_last_);
@@ -185,6 +209,18 @@ struct Buckets {
   int64_t run_count_ = 0;
   int64_t run_first_ = 0, run_last_ = 0;  // the run's first and last face
   uint32_t run_lo_[3] = {}, run_hi_[3] = {};
+#ifdef ZBUFFER_AVX512
+  // More of the run's bounds, lane by lane (add16), folded in by end_run.
+  // (Plain arrays, moved by unaligned loads and stores: a thread_local in a
+  // shared library need not get a vector's alignment.)
+  uint32_t lane_lo_[3][16], lane_hi_[3][16];
+  void clear_lanes() {
+    for (int a = 0; a < 3; ++a) {
+      std::fill_n(lane_lo_[a], 16, ~uint32_t(0));
+      std::fill_n(lane_hi_[a], 16, uint32_t(0));
+    }
+  }
+#endif
 };
 
 Buckets& buckets() {
