@@ -213,9 +213,12 @@ def test_files_that_say_they_hold_no_faces_render_empty(tmp_path, name, content)
     # Faces stored as another element (old Stanford scans: tristrips).
     ("strips.ply", ascii_ply(3, b"element tristrips 1\nproperty list int int vertex_indices\n",
                              b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")),
-    # ASCII PLY cut short (trimesh reads it as a smaller mesh).
+    # ASCII PLY cut short (trimesh reads it as a smaller mesh), also after a BOM.
     ("cut_vertices.ply", ascii_ply(3, b"element face 1\nproperty list uchar int vertex_indices\n",
                                    b"0 0 0\n1 0 0\n")),
+    ("cut_bom.ply", b"\xef\xbb\xbf" + ascii_ply(
+        3, b"element face 2\nproperty list uchar int vertex_indices\n",
+        b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")),
     ("cut_faces.ply", ascii_ply(3, b"element face 2\nproperty list uchar int vertex_indices\n",
                                 b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")),
     ("notoff.off", b"NOTOFF\n0 0 0\n"),
@@ -337,6 +340,12 @@ def test_odd_inputs_get_clear_messages(tmp_path):
         scenes.uv_sphere(n_lat=1)
     with pytest.raises(ValueError, match="needs a mesh with vertices"):
         scenes.instance_grid((np.zeros((0, 3)), np.zeros((0, 3), int)), (2, 2, 2))
+    with pytest.raises(TypeError, match="n must be an integer"):
+        scenes.tessellated_square(True)
+    # (numpy integers and 0-d integer arrays are integers)
+    assert len(scenes.tessellated_square(np.array(2)).faces) == 8
+    assert len(scenes.uv_sphere(n_lat=np.int64(2), n_lon=np.array(3))[1]) == 6
+    assert most_culling_cells(np.ones((2, 2), np.int64), np.array(1)).shape == (1, 2)
     obj = tmp_path / "bom.obj"  # an OBJ file starting with a byte order mark
     obj.write_bytes("\ufeffv 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n".encode("utf-8"))
     mesh = zbuffer.load(bytes(obj))

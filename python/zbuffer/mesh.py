@@ -560,7 +560,7 @@ def _check_ascii_ply_records(path: str) -> None:
         return
     declared = 0
     with open(path, "rb") as fh:
-        if fh.readline().strip() != b"ply":
+        if fh.readline().strip().removeprefix(b"\xef\xbb\xbf") != b"ply":  # (a BOM, too)
             return
         for line in fh:
             words = line.split()

@@ -6,6 +6,7 @@ scenes take a seed), so tests and benchmarks run without any model files.
 
 from __future__ import annotations
 
+import operator
 from typing import List, Sequence, Tuple
 
 import numpy as np
@@ -34,12 +35,17 @@ def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
 
 
 def _count(value, name: str, least: int) -> int:
-    """An integer parameter of a scene: ValueError below ``least``."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an integer, got {value!r}")
-    if value < least:
+    """An integer parameter of a scene (any integer type numpy's indexing
+    takes, not a bool): ValueError below ``least``."""
+    try:
+        if isinstance(value, (bool, np.bool_)):
+            raise TypeError
+        n = operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name} must be an integer, got {value!r}") from None
+    if n < least:
         raise ValueError(f"{name} must be at least {least}, got {value!r}")
-    return int(value)
+    return n
 
 
 def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:

@@ -12,6 +12,7 @@ machines without a display (VTK renders offscreen through EGL with Mesa).
 
 from __future__ import annotations
 
+import operator
 import os
 from typing import Dict, Iterable, List, Optional, Sequence, Union
 
@@ -206,7 +207,13 @@ def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
     """(k, 2) int array of (row, column) of the at most ``n`` cells of one
     level of :attr:`RenderResult.culls` with the highest counts, highest
     first (cells that culled nothing are left out; ties by position)."""
-    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
+    try:
+        if isinstance(n, (bool, np.bool_)):
+            raise TypeError
+        n = operator.index(n)  # (numpy integers and 0-d integer arrays too)
+    except TypeError:
+        raise ValueError(f"n must be an integer >= 0, got {n!r}") from None
+    if n < 0:
         raise ValueError(f"n must be an integer >= 0, got {n!r}")
     flat = np.asarray(counts).ravel()
     order = np.argsort(-flat, kind="stable")[:n]
