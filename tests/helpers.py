@@ -1,6 +1,7 @@
 """Helpers shared by the tests (imported by name, not through conftest)."""
 
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -86,3 +87,21 @@ def can_render_offscreen() -> bool:
     except Exception:  # no pyvista, or no OpenGL context at all
         return False
 
+
+def run_in_threads(work, n: int = 4) -> list:
+    """Runs ``work()`` in ``n`` threads at once; returns the exceptions they
+    raised (an assertion failing in a thread would otherwise go unseen)."""
+    errors = []
+
+    def guarded():
+        try:
+            work()
+        except Exception as err:  # (returned to the test's thread)
+            errors.append(err)
+
+    threads = [threading.Thread(target=guarded) for _ in range(n)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return errors

@@ -226,20 +226,12 @@ def test_arrays_another_render_is_writing_into_are_refused():
     zbuffer.render(mesh, camera=cam, width=W, height=H, out=(depth, ids, image))
     assert not zbuffer.api._CLAIMED
     # Threads rendering into arrays of their own run side by side.
-    import threading
-    errors = []
+    from helpers import run_in_threads
 
     def work():
-        try:
-            own = stale()
-            for _ in range(5):
-                zbuffer.render(mesh, camera=cam, width=W, height=H, out=own)
-        except Exception as err:  # pragma: no cover - reported below
-            errors.append(err)
+        own = stale()
+        for _ in range(5):
+            zbuffer.render(mesh, camera=cam, width=W, height=H, out=own)
 
-    threads = [threading.Thread(target=work) for _ in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    errors = run_in_threads(work)
     assert not errors

@@ -62,6 +62,8 @@ def test_renders_into_own_arrays_share_a_prepared_mesh():
     import sys
     import threading
 
+    from helpers import run_in_threads
+
     base = scenes.instance_grid(scenes.default_scene(), (2, 2, 2))
     colours = np.random.default_rng(0).random((len(base.vertices), 3))
     w = h = 24
@@ -80,19 +82,12 @@ def test_renders_into_own_arrays_share_a_prepared_mesh():
                 out = (np.empty((h, w), np.float32), np.empty((h, w), np.int32),
                        np.empty((h, w, 3), np.uint8))
                 barrier.wait()
-                try:
-                    for shading in ("flat", "smooth"):
-                        res = zbuffer.render(mesh, camera=cam, width=w, height=h,
-                                             shading=shading, out=out)
-                    np.testing.assert_array_equal(res.image, ref.image)
-                except Exception as e:  # (re-raised below, in the test's thread)
-                    errors.append(e)
+                for shading in ("flat", "smooth"):
+                    res = zbuffer.render(mesh, camera=cam, width=w, height=h,
+                                         shading=shading, out=out)
+                np.testing.assert_array_equal(res.image, ref.image)
 
-            threads = [threading.Thread(target=work) for _ in range(4)]
-            for t in threads:
-                t.start()
-            for t in threads:
-                t.join()
+            errors += run_in_threads(work, 4)
     finally:
         sys.setswitchinterval(interval)
     assert not errors, errors[0]

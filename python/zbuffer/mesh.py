@@ -454,8 +454,9 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     ValueError
         If the file cannot be parsed as a mesh.
     """
-    if not isinstance(merge_vertices, (bool, np.bool_)):
-        raise TypeError(f"merge_vertices must be a bool, got {merge_vertices!r}")
+    from .options import check_flag
+
+    check_flag("merge_vertices", merge_vertices)
     path = os.fsdecode(os.fspath(path))
     if not os.path.exists(path):
         raise FileNotFoundError(f"no such mesh file: {path!r}")
@@ -508,16 +509,14 @@ def _declares_no_faces(path: str) -> bool:
     ``NOFF`` or ``CNOFF``) counting 0 faces; an ASCII STL that is only
     ``solid ...`` and ``endsolid ...``; a binary STL of exactly 84 bytes that
     counts 0 triangles."""
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix == ".ply":
+        with open(path, "rb") as fh:
+            header = _ply_header(fh)
+        return header is not None and all(
+            e[:1] == [b"vertex"] or e == [b"face", b"0"] for e in header[1])
     with open(path, "rb") as fh:
         head = fh.read(1 << 16)
-    suffix = os.path.splitext(path)[1].lower()
-    if suffix == ".ply" and head.startswith(b"ply"):
-        end = head.find(b"end_header")
-        if end < 0:
-            return False
-        elements = [line.split()[1:] for line in head[:end].splitlines()
-                    if line.split()[:1] == [b"element"]]
-        return all(e[:1] == [b"vertex"] or e == [b"face", b"0"] for e in elements)
     if suffix == ".off":
         records = [line.split(b"#", 1)[0].split() for line in head.splitlines()]
         records = [r for r in records if r]
@@ -552,26 +551,37 @@ def _is_obj_without_geometry(path: str) -> bool:
     return True
 
 
+def _ply_header(fh):
+    """(format, elements) of the PLY header at the start of the binary file
+    ``fh`` -- the words after ``format`` and after each ``element`` (name,
+    count) -- leaving ``fh`` just past ``end_header``; None if the file does
+    not start with a PLY header (a BOM before ``ply`` allowed) or it does
+    not end."""
+    if fh.readline().strip().removeprefix(b"\xef\xbb\xbf") != b"ply":
+        return None
+    fmt, elements = None, []  # (None: no format line)
+    for line in fh:
+        words = line.split()
+        if words[:1] == [b"format"]:
+            fmt = words[1:]
+        elif words[:1] == [b"element"]:
+            elements.append(words[1:])
+        elif words[:1] == [b"end_header"]:
+            return fmt, elements
+    return None
+
+
 def _check_ascii_ply_records(path: str) -> None:
     """ValueError if an ASCII PLY file holds fewer records than its header
     declares (trimesh reads a truncated one as a smaller mesh; it refuses
     truncated binary ones itself). Each element instance is one line."""
     if os.path.splitext(path)[1].lower() != ".ply":
         return
-    declared = 0
     with open(path, "rb") as fh:
-        if fh.readline().strip().removeprefix(b"\xef\xbb\xbf") != b"ply":  # (a BOM, too)
-            return
-        for line in fh:
-            words = line.split()
-            if words[:1] == [b"format"] and words[1:2] != [b"ascii"]:
-                return
-            if words[:1] == [b"element"] and len(words) == 3 and words[2].isdigit():
-                declared += int(words[2])
-            if words[:1] == [b"end_header"]:
-                break
-        else:
-            return  # no header end: trimesh has judged it already
+        header = _ply_header(fh)
+        if header is None or (header[0] is not None and header[0][:1] != [b"ascii"]):
+            return  # (no header end: trimesh has judged it already)
+        declared = sum(int(e[1]) for e in header[1] if len(e) == 2 and e[1].isdigit())
         found = sum(1 for line in fh if line.strip())
     if found < declared:
         raise ValueError(f"could not read a mesh from {path!r}: its header declares "

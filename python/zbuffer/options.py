@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import operator
 from typing import Optional, Tuple
 
 import numpy as np
@@ -31,6 +32,17 @@ def check_size(width, height) -> Tuple[int, int]:
             f"a side and {MAX_IMAGE_PIXELS} pixels in all"
         )
     return width, height
+
+
+def check_index(name: str, value) -> int:
+    """``value`` as an int: any integer numpy's indexing takes (Python and
+    numpy integers, 0-d integer arrays), not a bool; TypeError otherwise."""
+    try:
+        if isinstance(value, (bool, np.bool_)):
+            raise TypeError
+        return operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name} must be an integer, got {value!r}") from None
 
 
 def check_flag(name: str, value) -> bool:

@@ -6,7 +6,6 @@ scenes take a seed), so tests and benchmarks run without any model files.
 
 from __future__ import annotations
 
-import operator
 from typing import List, Sequence, Tuple
 
 import numpy as np
@@ -35,14 +34,11 @@ def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
 
 
 def _count(value, name: str, least: int) -> int:
-    """An integer parameter of a scene (any integer type numpy's indexing
-    takes, not a bool): ValueError below ``least``."""
-    try:
-        if isinstance(value, (bool, np.bool_)):
-            raise TypeError
-        n = operator.index(value)
-    except TypeError:
-        raise TypeError(f"{name} must be an integer, got {value!r}") from None
+    """An integer parameter of a scene (options.check_index): ValueError
+    below ``least``."""
+    from .options import check_index
+
+    n = check_index(name, value)
     if n < least:
         raise ValueError(f"{name} must be at least {least}, got {value!r}")
     return n

@@ -12,7 +12,6 @@ machines without a display (VTK renders offscreen through EGL with Mesa).
 
 from __future__ import annotations
 
-import operator
 import os
 from typing import Dict, Iterable, List, Optional, Sequence, Union
 
@@ -207,14 +206,15 @@ def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
     """(k, 2) int array of (row, column) of the at most ``n`` cells of one
     level of :attr:`RenderResult.culls` with the highest counts, highest
     first (cells that culled nothing are left out; ties by position)."""
+    from .options import check_index
+
     try:
-        if isinstance(n, (bool, np.bool_)):
-            raise TypeError
-        n = operator.index(n)  # (numpy integers and 0-d integer arrays too)
+        count = check_index("n", n)
     except TypeError:
-        raise ValueError(f"n must be an integer >= 0, got {n!r}") from None
-    if n < 0:
+        count = -1  # (refused below, as a negative count is)
+    if count < 0:
         raise ValueError(f"n must be an integer >= 0, got {n!r}")
+    n = count
     flat = np.asarray(counts).ravel()
     order = np.argsort(-flat, kind="stable")[:n]
     order = order[flat[order] > 0]
