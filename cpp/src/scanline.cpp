@@ -501,9 +501,9 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 // The Active Polygon List, 16 at a Time
 
 // Polygon table entries [begin, end), those entering at the current row:
-// their span bounds start as their boxes; those in the int32 form are copied into the vector
-// active list, 16 records loaded and transposed at a time, the others listed in
-// active_polys_.
+// their span bounds start as the image's columns; those in the int32 form
+// are copied into the vector active list, 16 records loaded and transposed
+// at a time, the others listed in active_polys_.
 void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
 #ifdef ZBUFFER_AVX512
   const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
@@ -512,21 +512,18 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
   static_assert(sizeof(ScanPolygon) == 22 * 4, "ScanPolygon: 22 int32 fields");
   constexpr int kRecord = int(sizeof(ScanPolygon) / 4);
   constexpr auto field = [](size_t offset) { return int(offset / 4); };
-  // The record's fields in the order of the active list's fields (kIndex:
-  // the store index itself).
-  static constexpr int kFrom[kActiveFields] = {
-      -1, field(offsetof(ScanPolygon, x_min)), field(offsetof(ScanPolygon, x_max)),
-      field(offsetof(ScanPolygon, y_max)), field(offsetof(ScanPolygon, w)),
-      field(offsetof(ScanPolygon, w)) + 1, field(offsetof(ScanPolygon, w)) + 2,
-      field(offsetof(ScanPolygon, step_x)), field(offsetof(ScanPolygon, step_x)) + 1,
-      field(offsetof(ScanPolygon, step_x)) + 2, field(offsetof(ScanPolygon, step_y)),
-      field(offsetof(ScanPolygon, step_y)) + 1, field(offsetof(ScanPolygon, step_y)) + 2,
-      field(offsetof(ScanPolygon, bias1)), field(offsetof(ScanPolygon, bias2)),
-      field(offsetof(ScanPolygon, z0)), field(offsetof(ScanPolygon, a1)),
-      field(offsetof(ScanPolygon, a2)), field(offsetof(ScanPolygon, z_lo)),
-      field(offsetof(ScanPolygon, z_hi)), field(offsetof(ScanPolygon, id))};
-  const int kLarge = field(offsetof(ScanPolygon, large));
+  constexpr int kXMinF = field(offsetof(ScanPolygon, x_min)), kYMaxF = field(offsetof(ScanPolygon, y_max)),
+                kWF = field(offsetof(ScanPolygon, w)), kSxF = field(offsetof(ScanPolygon, step_x)),
+                kSyF = field(offsetof(ScanPolygon, step_y)), kB1F = field(offsetof(ScanPolygon, bias1)),
+                kB2F = field(offsetof(ScanPolygon, bias2)), kZ0F = field(offsetof(ScanPolygon, z0)),
+                kA1F = field(offsetof(ScanPolygon, a1)), kA2F = field(offsetof(ScanPolygon, a2)),
+                kZLoF = field(offsetof(ScanPolygon, z_lo)), kZHiF = field(offsetof(ScanPolygon, z_hi)),
+                kIdF = field(offsetof(ScanPolygon, id)), kLargeF = field(offsetof(ScanPolygon, large));
   const __m512i zero = _mm512_setzero_si512();
+  // A polygon's span bounds start as the image's columns (first pixel,
+  // minus the last), one 64-bit pair.
+  const __m512i image_columns = _mm512_set1_epi64(
+      int64_t(uint64_t(uint32_t(-(width_ - 1))) << 32 | uint64_t(uint32_t(0))));
   int32_t* bounds = bounds_.data();
   for (int32_t i = begin; i < end; i += 16) {
     const int count = std::min(end - i, 16);
@@ -544,25 +541,42 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
     }
     transpose16(f);
     transpose16(f + 16);
-    const __m512i x_min = f[kFrom[kXMin]], x_max = f[kFrom[kXMax]];
-    const __m512i slot = _mm512_add_epi32(p, p);
-    _mm512_mask_i32scatter_epi32(bounds, live, slot, x_min, 4);
-    _mm512_mask_i32scatter_epi32(bounds, live, _mm512_add_epi32(slot, _mm512_set1_epi32(1)),
-                                 _mm512_sub_epi32(zero, x_max), 4);
-    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, f[kLarge], zero);
+    _mm512_mask_i32scatter_epi64(bounds, __mmask8(live), _mm512_castsi512_si256(p), image_columns, 8);
+    _mm512_mask_i32scatter_epi64(bounds, __mmask8(live >> 8), _mm512_extracti64x4_epi64(p, 1),
+                                 image_columns, 8);
+    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, f[kLargeF], zero);
     for (unsigned m = live & ~vec; m; m &= m - 1) active_polys_.push_back(idx[__builtin_ctz(m)]);
-    for (int k = 0; k < kActiveFields; ++k) {
-      const __m512i v = k == kIndex ? p : f[kFrom[k]];
-      _mm512_storeu_si512(active_[k].data() + n_active_, _mm512_maskz_compress_epi32(vec, v));
-    }
+    // The unbiased edge values at pixel (0, y_min) from the biased ones at
+    // (x_min, y_min), in wrapping int32.
+    auto at_column_0 = [&](int k, int bias_field) {
+      return _mm512_sub_epi32(_mm512_add_epi32(f[kWF + k], f[bias_field]),
+                              _mm512_mullo_epi32(f[kXMinF], f[kSxF + k]));
+    };
+    __m512i a[kActiveFields];
+    a[kIndex] = p;
+    a[kYMax] = f[kYMaxF];
+    a[kW1] = at_column_0(1, kB1F);
+    a[kW2] = at_column_0(2, kB2F);
+    a[kSx1] = f[kSxF + 1];
+    a[kSx2] = f[kSxF + 2];
+    a[kSy1] = f[kSyF + 1];
+    a[kSy2] = f[kSyF + 2];
+    a[kZ0] = f[kZ0F];
+    a[kA1] = f[kA1F];
+    a[kA2] = f[kA2F];
+    a[kZLo] = f[kZLoF];
+    a[kZHi] = f[kZHiF];
+    a[kId] = f[kIdF];
+    for (int k = 0; k < kActiveFields; ++k)
+      _mm512_storeu_si512(active_[k].data() + n_active_, _mm512_maskz_compress_epi32(vec, a[k]));
     n_active_ += size_t(__builtin_popcount(vec));
   }
 #else
   for (int32_t i = begin; i < end; ++i) {
     const int32_t p = poly_table_[size_t(i)];
     active_polys_.push_back(p);
-    bounds_[2 * size_t(p)] = polys_[size_t(p)].x_min;
-    bounds_[2 * size_t(p) + 1] = -polys_[size_t(p)].x_max;
+    bounds_[2 * size_t(p)] = 0;  // the image's columns
+    bounds_[2 * size_t(p) + 1] = -(width_ - 1);
   }
 #endif
 }
@@ -576,17 +590,16 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
   // Spans up to this long are drawn a pixel per lane; longer ones (rare in
   // a detailed mesh) one span at a time, 16 pixels per pass.
   constexpr int kLaneSpan = 8;
-  // Dword permutations between 16 lanes and 8 + 8 (a, b) pairs.
+  // Dword permutations from 8 + 8 (a, b) pairs to 16 lanes.
   alignas(64) static constexpr int32_t kEven[16] = {0, 2, 4, 6, 8, 10, 12, 14,
                                                     16, 18, 20, 22, 24, 26, 28, 30};
   alignas(64) static constexpr int32_t kOdd[16] = {1, 3, 5, 7, 9, 11, 13, 15,
                                                    17, 19, 21, 23, 25, 27, 29, 31};
-  alignas(64) static constexpr int32_t kPairsLo[16] = {0, 16, 1, 17, 2, 18, 3, 19,
-                                                       4, 20, 5, 21, 6, 22, 7, 23};
-  alignas(64) static constexpr int32_t kPairsHi[16] = {8, 24, 9, 25, 10, 26, 11, 27,
-                                                       12, 28, 13, 29, 14, 30, 15, 31};
   const __m512i zero = _mm512_setzero_si512();
   const __m512i one = _mm512_set1_epi32(1);
+  // The bounds' reset value: the image's columns (as in enter_polygons).
+  const __m512i image_columns = _mm512_set1_epi64(
+      int64_t(uint64_t(uint32_t(-(width_ - 1))) << 32 | uint64_t(uint32_t(0))));
   int32_t* bounds = bounds_.data();
   const size_t n = n_active_;
   size_t kept = 0;
@@ -608,17 +621,15 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
     const __m512i lo = _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kEven), pairs_hi);
     const __m512i hi = _mm512_sub_epi32(
         zero, _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kOdd), pairs_hi));
-    const __m512i neg_x_max = _mm512_sub_epi32(zero, f[kXMax]);
-    _mm512_mask_i32scatter_epi64(
-        bounds, live_lo, index_lo,
-        _mm512_permutex2var_epi32(f[kXMin], _mm512_load_si512(kPairsLo), neg_x_max), 8);
-    _mm512_mask_i32scatter_epi64(
-        bounds, live_hi, index_hi,
-        _mm512_permutex2var_epi32(f[kXMin], _mm512_load_si512(kPairsHi), neg_x_max), 8);
+    _mm512_mask_i32scatter_epi64(bounds, live_lo, index_lo, image_columns, 8);
+    _mm512_mask_i32scatter_epi64(bounds, live_hi, index_hi, image_columns, 8);
     const __m512i width = _mm512_add_epi32(_mm512_sub_epi32(hi, lo), one);
-    const __mmask16 drawn = _mm512_mask_cmpgt_epi32_mask(live, width, _mm512_setzero_si512());
+    const __mmask16 drawn = _mm512_mask_cmpgt_epi32_mask(live, width, zero);
     spans += __builtin_popcount(drawn);
-    counts.tested += _mm512_mask_reduce_add_epi32(drawn, width);
+    // Every pixel of a span is covered (its bounds are exact).
+    const int64_t span_pixels = _mm512_mask_reduce_add_epi32(drawn, width);
+    counts.tested += span_pixels;
+    counts.covered += span_pixels;
     lo_min = _mm512_mask_min_epi32(lo_min, drawn, lo_min, lo);
     hi_max = _mm512_mask_max_epi32(hi_max, drawn, hi_max, hi);
 
@@ -632,33 +643,26 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
                          _mm512_set1_epi32(int32_t(short_span)));
     const __mmask16 lanes = short_span & ~_mm512_test_epi32_mask(earlier_same, earlier_same);
     if (lanes) {
-      const __m512i dx = _mm512_sub_epi32(lo, f[kXMin]);
-      __m512i w0 = _mm512_add_epi32(f[kW0], _mm512_mullo_epi32(dx, f[kSx0]));
-      __m512i w1 = _mm512_add_epi32(f[kW1], _mm512_mullo_epi32(dx, f[kSx1]));
-      __m512i w2 = _mm512_add_epi32(f[kW2], _mm512_mullo_epi32(dx, f[kSx2]));
+      __m512i w1 = _mm512_add_epi32(f[kW1], _mm512_mullo_epi32(lo, f[kSx1]));
+      __m512i w2 = _mm512_add_epi32(f[kW2], _mm512_mullo_epi32(lo, f[kSx2]));
       const simd::DepthPlane16 plane(
           _mm512_castsi512_ps(f[kZ0]), _mm512_castsi512_ps(f[kA1]), _mm512_castsi512_ps(f[kA2]),
           _mm512_castsi512_ps(f[kZLo]), _mm512_castsi512_ps(f[kZHi]));
       __m512i x = lo;
       const int passes = _mm512_mask_reduce_max_epi32(lanes, width);
       __m512i left = width;  // pixels left to draw in each lane
-      int64_t covered = 0, written = 0;
+      int64_t written = 0;
       for (int j = 0; j < passes; ++j) {
-        const __mmask16 in_span = _mm512_mask_cmpgt_epi32_mask(lanes, left, _mm512_setzero_si512());
-        const __mmask16 inside = simd::covered16(in_span, w0, w1, w2);
-        const __m512 z =
-            simd::depth16(plane, _mm512_add_epi32(w1, f[kBias1]), _mm512_add_epi32(w2, f[kBias2]));
+        const __mmask16 in_span = _mm512_mask_cmpgt_epi32_mask(lanes, left, zero);
+        const __m512 z = simd::depth16(plane, w1, w2);
         const __mmask16 win =
-            simd::write16_at(inside, z, f[kId], x, depth_row_.data(), id_row_.data());
-        covered += __builtin_popcount(inside);
+            simd::write16_at(in_span, z, f[kId], x, depth_row_.data(), id_row_.data());
         written += __builtin_popcount(win);
-        w0 = _mm512_add_epi32(w0, f[kSx0]);
         w1 = _mm512_add_epi32(w1, f[kSx1]);
         w2 = _mm512_add_epi32(w2, f[kSx2]);
         x = _mm512_add_epi32(x, one);
         left = _mm512_sub_epi32(left, one);
       }
-      counts.covered += covered;
       counts.written += written;
     }
     // The others one span at a time
@@ -670,14 +674,14 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
       _mm512_store_si512(his, hi);
       for (unsigned m = one_by_one; m; m &= m - 1) {
         const int k = __builtin_ctz(m);
-        const int64_t tested = counts.tested;
+        const int64_t tested = counts.tested, covered = counts.covered;
         draw_span(polys_[size_t(idx[k])], y, los[k], his[k], counts);
         counts.tested = tested;  // counted above with the others
+        counts.covered = covered;
       }
     }
 
     // Next row: step the edge values, keep the polygons that go on
-    f[kW0] = _mm512_add_epi32(f[kW0], f[kSy0]);
     f[kW1] = _mm512_add_epi32(f[kW1], f[kSy1]);
     f[kW2] = _mm512_add_epi32(f[kW2], f[kSy2]);
     const __mmask16 keep =
@@ -992,8 +996,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
       stats.spans_drawn += drawn;
       touched_lo = std::min(touched_lo, drawn ? lo : width);
       touched_hi = std::max(touched_hi, drawn ? hi : -1);
-      bounds_[2 * size_t(p)] = poly.x_min;
-      bounds_[2 * size_t(p) + 1] = -poly.x_max;
+      bounds_[2 * size_t(p)] = 0;
+      bounds_[2 * size_t(p) + 1] = -(width - 1);
       active_polys_[kept] = p;
       kept += poly.y_max != y;
     }
