@@ -60,6 +60,106 @@ void bucket_by_row(const std::vector<int32_t>& row, int height, std::vector<int3
   start.pop_back();
 }
 
+// The key row (scanline.h: row_): a pixel's depth bits above its id, so
+// that the depth write keeps the smaller key.
+constexpr uint64_t kEmptyKey = uint64_t(0x7F800000u) << 32 | 0xFFFFFFFFu;  // +inf, id -1
+
+inline uint64_t row_key(float z, int32_t id) {
+  uint32_t bits;
+  std::memcpy(&bits, &z, sizeof bits);
+  return uint64_t(bits) << 32 | uint32_t(id);
+}
+
+// The depth write on the key row: 1 if the key won.
+inline int write_key(uint64_t* row, int x, uint64_t key) {
+  const bool win = key < row[x];
+  row[x] = win ? key : row[x];
+  return win;
+}
+
+#ifdef ZBUFFER_AVX512
+// Dword permutations between 8 + 8 (a, b) pairs and 16 lanes.
+alignas(64) constexpr int32_t kEven[16] = {0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30};
+alignas(64) constexpr int32_t kOdd[16] = {1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31};
+alignas(64) constexpr int32_t kPairsLo[16] = {0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23};
+alignas(64) constexpr int32_t kPairsHi[16] = {8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31};
+
+// The pairs (a_k, b_k) of lanes 0-7 and of lanes 8-15, as 64-bit elements
+// with a_k in the low half.
+inline void pairs16(__m512i a, __m512i b, __m512i& lo, __m512i& hi) {
+  lo = _mm512_permutex2var_epi32(a, _mm512_load_si512(kPairsLo), b);
+  hi = _mm512_permutex2var_epi32(a, _mm512_load_si512(kPairsHi), b);
+}
+
+// The depth write of 16 lanes (the lanes of `inside`) at pixels x of the key
+// row: a gather and a scatter of keys (two of 8 elements each). The lanes
+// must name distinct pixels (a gather reads all lanes before the scatter
+// writes any: two lanes at one pixel would both compare with its old key).
+inline __mmask16 write16_keys_at(__mmask16 inside, __m512 z, __m512i id, __m512i x, uint64_t* row) {
+  __m512i key[2];
+  pairs16(id, _mm512_castps_si512(z), key[0], key[1]);
+  const __m256i at[2] = {_mm512_castsi512_si256(x), _mm512_extracti64x4_epi64(x, 1)};
+  __mmask16 win = 0;
+  for (int h = 0; h < 2; ++h) {
+    const __mmask8 in = __mmask8(inside >> (8 * h));
+    const __m512i old = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), in, at[h], row, 8);
+    const __mmask8 won = _mm512_mask_cmplt_epu64_mask(in, key[h], old);
+    _mm512_mask_i32scatter_epi64(row, won, at[h], key[h], 8);
+    win |= __mmask16(won) << (8 * h);
+  }
+  return win;
+}
+
+// The same for 16 consecutive pixels from row[0].
+inline __mmask16 write16_keys(__mmask16 inside, __m512 z, __m512i id, uint64_t* row) {
+  __m512i key[2];
+  pairs16(id, _mm512_castps_si512(z), key[0], key[1]);
+  __mmask16 win = 0;
+  for (int h = 0; h < 2; ++h) {
+    const __mmask8 in = __mmask8(inside >> (8 * h));
+    const __m512i old = _mm512_maskz_loadu_epi64(in, row + 8 * h);
+    const __mmask8 won = _mm512_mask_cmplt_epu64_mask(in, key[h], old);
+    _mm512_mask_storeu_epi64(row + 8 * h, won, key[h]);
+    win |= __mmask16(won) << (8 * h);
+  }
+  return win;
+}
+#endif
+
+// Row pixels [lo, hi] into the image's row (depth, ids) and reset: copied,
+// or, where the raster core drew into the image's row too (`merge`), the
+// smaller of the two.
+void flush_row(uint64_t* row, int lo, int hi, float* depth, int32_t* ids, bool merge) {
+  int x = lo;
+#ifdef ZBUFFER_AVX512
+  const __m512i empty = _mm512_set1_epi64(int64_t(kEmptyKey));
+  for (; x <= hi; x += 16) {
+    const __mmask16 m = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(hi - x + 1, 16))));
+    const __mmask8 m_lo = __mmask8(m), m_hi = __mmask8(m >> 8);
+    __m512i k_lo = _mm512_maskz_loadu_epi64(m_lo, row + x);
+    __m512i k_hi = _mm512_maskz_loadu_epi64(m_hi, row + x + 8);
+    if (merge) {
+      __m512i t_lo, t_hi;
+      pairs16(_mm512_maskz_loadu_epi32(m, ids + x), _mm512_maskz_loadu_epi32(m, depth + x), t_lo, t_hi);
+      k_lo = _mm512_min_epu64(k_lo, t_lo);
+      k_hi = _mm512_min_epu64(k_hi, t_hi);
+    }
+    _mm512_mask_storeu_epi32(depth + x, m, _mm512_permutex2var_epi32(k_lo, _mm512_load_si512(kOdd), k_hi));
+    _mm512_mask_storeu_epi32(ids + x, m, _mm512_permutex2var_epi32(k_lo, _mm512_load_si512(kEven), k_hi));
+    _mm512_mask_storeu_epi64(row + x, m_lo, empty);
+    _mm512_mask_storeu_epi64(row + x + 8, m_hi, empty);
+  }
+#endif
+  for (; x <= hi; ++x) {
+    uint64_t key = row[x];
+    if (merge) key = std::min(key, row_key(depth[x], ids[x]));
+    const uint32_t bits = uint32_t(key >> 32);
+    std::memcpy(&depth[x], &bits, sizeof bits);
+    ids[x] = int32_t(uint32_t(key));
+    row[x] = kEmptyKey;
+  }
+}
+
 }  // namespace
 
 void ScanlineTables::reset(int width, int height) {
@@ -421,27 +521,25 @@ void ScanlineTables::add_polygon(const ScreenVertex* v, int n, int64_t area, int
 
 // Spans
 
-// Pixels [lo, hi] of row y of polygon p (none if lo > hi), into the row
-// buffer: the raster core's span, with the edge values at (lo, y) stepped
-// from the box's first pixel in exact (wrapping) int32 arithmetic.
+// Pixels [lo, hi] of row y of polygon p (none if lo > hi), into the key
+// row: the raster core's coverage and depth, with the edge values at (lo, y)
+// stepped from the box's first pixel in exact (wrapping) int32 arithmetic.
 inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int hi,
                                       Counts& counts) {
   if (p.large >= 0) {  // rare: a triangle too big for int32 edge values
-    if (lo <= hi) {
+    if (lo <= hi) {    // the raster core's own span, into the image's row
       RenderStats s;
-      rasterize_span(large_[size_t(p.large)], y, lo, hi, depth_row_.data(), id_row_.data(), s);
+      rasterize_span(large_[size_t(p.large)], y, lo, hi, image_depth_, image_ids_, s);
+      drawn_in_image_ = true;
       counts.tested += s.pixels_tested;
       counts.covered += s.pixels_covered;
       counts.written += s.pixels_written;
     }
     return;
   }
+  uint64_t* const row = row_.data();
 #ifdef ZBUFFER_AVX512
-  // No branch on an empty span: it runs with an empty mask at a valid
-  // address (the polygon's first column).
-  int width = hi - lo + 1;
-  lo = width > 0 ? lo : p.x_min;
-  width = width > 0 ? width : 0;
+  const int width = hi - lo + 1;  // (the loop below runs no pass when lo > hi)
   const uint32_t dx = uint32_t(lo - p.x_min), dy = uint32_t(y - p.y_min);
   __m512i w[3];
   for (int k = 0; k < 3; ++k) {
@@ -451,19 +549,15 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
   const simd::DepthPlane16 plane(p.z0, p.a1, p.a2, p.z_lo, p.z_hi);
   const __m512i id = _mm512_set1_epi32(p.id);
   const __m512i bias1 = _mm512_set1_epi32(p.bias1), bias2 = _mm512_set1_epi32(p.bias2);
-  float* d = depth_row_.data() + lo;
-  int32_t* ids = id_row_.data() + lo;
-  __mmask16 win;
-  __mmask16 inside = simd::span16(__mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width, 16)))),
-                                  w[0], w[1], w[2], bias1, bias2, plane, id, d, ids, win);
-  int64_t covered = __builtin_popcount(inside), written = __builtin_popcount(win);
-  for (int x = 16; x < width; x += 16) {  // spans longer than 16 pixels
+  int64_t covered = 0, written = 0;
+  for (int x = 0; x < width; x += 16) {
+    const __mmask16 in_span = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width - x, 16))));
+    const __mmask16 inside = simd::covered16(in_span, w[0], w[1], w[2]);
+    const __m512 z = simd::depth16(plane, _mm512_add_epi32(w[1], bias1), _mm512_add_epi32(w[2], bias2));
+    written += __builtin_popcount(write16_keys(inside, z, id, row + lo + x));
+    covered += __builtin_popcount(inside);
     for (int k = 0; k < 3; ++k)
       w[k] = _mm512_add_epi32(w[k], _mm512_set1_epi32(int32_t(16u * uint32_t(p.step_x[k]))));
-    const __mmask16 in_span = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width - x, 16))));
-    inside = simd::span16(in_span, w[0], w[1], w[2], bias1, bias2, plane, id, d + x, ids + x, win);
-    covered += __builtin_popcount(inside);
-    written += __builtin_popcount(win);
   }
   counts.tested += width;
   counts.covered += covered;
@@ -477,8 +571,6 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
   int32_t w[3];
   for (int k = 0; k < 3; ++k)
     w[k] = int32_t(uint32_t(p.w[k]) + dx * uint32_t(p.step_x[k]) + dy * uint32_t(p.step_y[k]));
-  float* const depth = depth_row_.data();
-  int32_t* const ids = id_row_.data();
   int64_t covered = 0, written = 0;
   for (int x = lo; x <= hi; ++x) {
     if ((w[0] | w[1] | w[2]) >= 0) {  // all biased edge values >= 0: inside
@@ -486,7 +578,7 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
       float z = p.z0 + (float(w[1] + p.bias1) * p.a1 + float(w[2] + p.bias2) * p.a2);
       z = z < p.z_lo ? p.z_lo : z;  // depth_at's clamp
       z = z > p.z_hi ? p.z_hi : z;
-      written += depth_write(depth, ids, size_t(x), z, p.id);
+      written += write_key(row, x, row_key(z, p.id));
     }
     w[0] += p.step_x[0];
     w[1] += p.step_x[1];
@@ -590,11 +682,6 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
   // Spans up to this long are drawn a pixel per lane; longer ones (rare in
   // a detailed mesh) one span at a time, 16 pixels per pass.
   constexpr int kLaneSpan = 8;
-  // Dword permutations from 8 + 8 (a, b) pairs to 16 lanes.
-  alignas(64) static constexpr int32_t kEven[16] = {0, 2, 4, 6, 8, 10, 12, 14,
-                                                    16, 18, 20, 22, 24, 26, 28, 30};
-  alignas(64) static constexpr int32_t kOdd[16] = {1, 3, 5, 7, 9, 11, 13, 15,
-                                                   17, 19, 21, 23, 25, 27, 29, 31};
   const __m512i zero = _mm512_setzero_si512();
   const __m512i one = _mm512_set1_epi32(1);
   // The bounds' reset value: the image's columns (as in enter_polygons).
@@ -655,8 +742,7 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
       for (int j = 0; j < passes; ++j) {
         const __mmask16 in_span = _mm512_mask_cmpgt_epi32_mask(lanes, left, zero);
         const __m512 z = simd::depth16(plane, w1, w2);
-        const __mmask16 win =
-            simd::write16_at(in_span, z, f[kId], x, depth_row_.data(), id_row_.data());
+        const __mmask16 win = write16_keys_at(in_span, z, f[kId], x, row_.data());
         written += __builtin_popcount(win);
         w1 = _mm512_add_epi32(w1, f[kSx1]);
         w2 = _mm512_add_epi32(w2, f[kSx2]);
@@ -879,12 +965,14 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   n_aedges_ = 0;
   active_polys_.clear();
   active_edges_.clear();
-  depth_row_.assign(size_t(width), std::numeric_limits<float>::infinity());
-  id_row_.assign(size_t(width), -1);
+  row_.assign(size_t(width), kEmptyKey);
   stats.depth_storage_bytes = int64_t(width) * int64_t(sizeof(float));
   Counts counts;
 
+  drawn_in_image_ = false;
   for (int y = 0; y < height; ++y) {
+    image_depth_ = target.depth + size_t(y) * size_t(width);
+    image_ids_ = target.triangle_id + size_t(y) * size_t(width);
     // Polygons and edges entering at this row
     enter_polygons(poly_start_[size_t(y)], poly_start_[size_t(y) + 1]);
 #ifdef ZBUFFER_AVX512
@@ -937,8 +1025,9 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
         const int lo = int(std::max<int64_t>(x_a, 0));
         const int hi = int(std::min<int64_t>(x_b - 1, width - 1));
         if (lo > hi) continue;
-        RenderStats s;
-        rasterize_span_covered(plane, y, lo, hi, depth_row_.data(), id_row_.data(), s);
+        RenderStats s;  // the raster core's own span, into the image's row
+        rasterize_span_covered(plane, y, lo, hi, image_depth_, image_ids_, s);
+        drawn_in_image_ = true;
         counts.tested += s.pixels_tested;
         counts.covered += s.pixels_covered;
         counts.written += s.pixels_written;
@@ -1004,14 +1093,9 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     active_polys_.resize(kept);
 
     // The finished row into the image; the row buffer cleared behind it
-    if (touched_lo <= touched_hi) {
-      const size_t n = size_t(touched_hi - touched_lo + 1);
-      const size_t base = size_t(y) * size_t(width) + size_t(touched_lo);
-      std::memcpy(target.depth + base, depth_row_.data() + touched_lo, n * sizeof(float));
-      std::memcpy(target.triangle_id + base, id_row_.data() + touched_lo, n * sizeof(int32_t));
-      std::fill_n(depth_row_.data() + touched_lo, n, std::numeric_limits<float>::infinity());
-      std::fill_n(id_row_.data() + touched_lo, n, int32_t(-1));
-    }
+    if (touched_lo <= touched_hi)
+      flush_row(row_.data(), touched_lo, touched_hi, image_depth_, image_ids_, drawn_in_image_);
+    drawn_in_image_ = false;
   }
   stats.pixels_tested += counts.tested;
   stats.pixels_covered += counts.covered;

@@ -157,17 +157,8 @@ ZBUFFER_INLINE __m256 depth8(const DepthPlane16& p, __m512i w1, __m512i w2) {
                        _mm512_castps512_ps256(p.hi));
 }
 
-// The depth write's decision: of the lanes `inside`, those nearer than the
-// stored depth, or equal to it with a smaller id.
-ZBUFFER_INLINE __mmask16 wins16(__mmask16 inside, __m512 z, __m512i id, __m512 old_depth,
-                                __m512i old_ids) {
-  const __mmask16 nearer = _mm512_mask_cmp_ps_mask(inside, z, old_depth, _CMP_LT_OQ);
-  const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, old_depth, _CMP_EQ_OQ) &
-                        _mm512_cmplt_epi32_mask(id, old_ids);
-  return nearer | tie;
-}
-
-// The depth write for up to 16 pixels of a row (the decision of wins16).
+// The depth write for up to 16 pixels of a row: of the lanes `inside`,
+// those nearer than the stored depth, or equal to it with a smaller id.
 // Masked loads and stores touch only the lanes in `inside`; the stored ids
 // are read only where the depths tie (rarely), the only lanes where the
 // decision looks at them.
@@ -181,23 +172,6 @@ ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* 
         tie, id, _mm512_mask_loadu_epi32(_mm512_setzero_si512(), tie, id_ptr));
   _mm512_mask_storeu_ps(d_ptr, win, z);
   _mm512_mask_storeu_epi32(id_ptr, win, id);
-  return win;
-}
-
-// The depth write for 16 pixels anywhere in one row buffer: lane k at
-// column x[k]. The lanes of `inside` must name distinct columns (a gather
-// reads all lanes before the scatter writes any: two lanes at one pixel
-// would both compare against its old depth). The stored ids are gathered
-// only where the depths tie (rarely): wins16 reads no other lane of them.
-ZBUFFER_INLINE __mmask16 write16_at(__mmask16 inside, __m512 z, __m512i id, __m512i x,
-                                    float* depth_row, int32_t* id_row) {
-  const __m512 d = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), inside, x, depth_row, 4);
-  const __mmask16 tie = _mm512_mask_cmp_ps_mask(inside, z, d, _CMP_EQ_OQ);
-  const __m512i ids = tie ? _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), tie, x, id_row, 4)
-                          : _mm512_setzero_si512();
-  const __mmask16 win = wins16(inside, z, id, d, ids);
-  _mm512_mask_i32scatter_ps(depth_row, win, x, z, 4);
-  _mm512_mask_i32scatter_epi32(id_row, win, x, id, 4);
   return win;
 }
 

@@ -3,14 +3,16 @@
 // polygons and edges that cross the current row are looked at. Depth is kept
 // for one row only.
 //
-// It decides which triangles and which pixels of a row to visit; coverage,
-// depth and the depth write are the raster core's (raster.h:
-// rasterize_span), so its output is bit-identical to every other
-// algorithm's. Exactness shapes the edge stepping: a span's first and last
-// pixel come from the exact integer edge function under the top-left rule,
-// stepped from row to row by an integer DDA (quotient and remainder), never
-// from a float x += dx; depth comes from the shared formula of the exact
-// edge values at each pixel, never from a float z += dz/dx.
+// It decides which triangles and which pixels of a row to visit; coverage
+// and depth are the raster core's (raster.h: rasterize_span, and the same
+// integers and IEEE operations in its own loops), and the depth write is
+// the core's rule on a row of (depth, id) keys (row_ below), so its output
+// is bit-identical to every other algorithm's. Exactness shapes the edge
+// stepping: a span's first and last pixel come from the exact integer edge
+// function under the top-left rule, stepped from row to row by an integer
+// DDA (quotient and remainder), never from a float x += dx; depth comes
+// from the shared formula of the exact edge values at each pixel, never
+// from a float z += dz/dx.
 //
 // AVX-512 builds run the same steps 16 at a time: faces assembled and set
 // up 16 per instruction (setup16.h, shared with TriangleBatch), edges
@@ -165,7 +167,7 @@ class ScanlineTables {
   void add_polygon(const ScreenVertex* v, int n, int64_t area, int32_t id, RenderStats& stats);
 
   // Sort the tables by starting row, walk the rows and draw into target
-  // (already cleared to +inf and -1).
+  // (already cleared to +inf and -1: rows are written where drawn only).
   void render(DepthTarget& target, RenderStats& stats);
 
  private:
@@ -277,16 +279,29 @@ class ScanlineTables {
   std::vector<ScanEdge> active_gedges_;
   std::vector<uint64_t> crossings_;
 
-  // The depth buffer of one row, and the id row written with it.
-  // Design decision: O(width) depth storage; after each row its drawn range
-  // is copied into the output image and reset. Good: the working depth
-  // stays in L1 cache whatever the image size -- drawing into the image's
-  // own row instead (cold: cleared long before the walk reaches it) was
-  // 5-11% slower on bunny_69k and armadillo_86k at 1024x1024 in AVX-512
-  // builds, prefetching it a row ahead won back only 2-3%. Bad: a copy of
-  // every drawn pixel, once (3% of the scalar build's instructions).
-  std::vector<float> depth_row_;
-  std::vector<int32_t> id_row_;
+  // The depth buffer of one row, with the ids written with it: one 64-bit
+  // key per pixel, the depth's bits above the id.
+  // Design decision: the depth write (the smaller depth, on a tie the
+  // smaller id; docs/rasterization.md 3.4) is then the smaller key, compared
+  // as unsigned integers -- depths are never negative, -0 or NaN, and
+  // non-negative floats order as their bits do; an empty pixel (+inf, -1)
+  // is the largest key. Good: a row's pixels drawn a polygon per lane
+  // (draw_active) cost one gather and one scatter of keys a pass, where
+  // separate depth and id rows took a gather and two scatters, and a gather
+  // of ids on every tie. Bad: the raster core's span functions write depth
+  // and id planes, so the spans of large triangles and general polygons are
+  // drawn into the image's row instead (cleared, and written by nothing
+  // else), and the key row is merged into it at the row's end rather than
+  // copied. O(width) storage either way: after each row its drawn range is
+  // copied out and reset, and the working row stays in L1 cache whatever the
+  // image size -- drawing every span into the image's own row instead
+  // (cold: cleared long before the walk reaches it) was 5-11% slower on
+  // bunny_69k and armadillo_86k at 1024x1024 in AVX-512 builds, prefetching
+  // it a row ahead won back only 2-3%.
+  std::vector<uint64_t> row_;
+  float* image_depth_ = nullptr;     // the image's current row: depth
+  int32_t* image_ids_ = nullptr;     // ... and ids
+  bool drawn_in_image_ = false;      // the raster core drew into it this row
 };
 
 }  // namespace zbuffer
