@@ -321,41 +321,63 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
   if (vector_setup) {
     simd::Setup16 s;
     simd::setup16(f, box, s);
-    // Everything a polygon record and its edge entries need, one array per
-    // field, the faces of vector_setup in order.
-    const __mmask16 m = vector_setup;
-    enum { kX0, kX1, kY0, kY1, kW, kSx = kW + 3, kSy = kSx + 3, kB1 = kSy + 3, kB2, kZ0, kA1, kA2,
-           kLo, kHi, kId, kFields };
-    alignas(64) int32_t rec[kFields][16];
-    alignas(64) int32_t edge_first[3][16], edge_last[3][16], edge_kind[3][16], edge_in[3][16];
-    auto put = [&](int32_t* dst, __m512i v) {
-      _mm512_store_si512(dst, _mm512_maskz_compress_epi32(m, v));
-    };
-    put(rec[kX0], box.i0);
-    put(rec[kX1], box.i1);
-    put(rec[kY0], box.j0);
-    put(rec[kY1], box.j1);
+    // The records (ScanPolygon's 22 fields, one vector per field, a face
+    // per lane), transposed into a record per register and stored whole,
+    // the faces of vector_setup in order.
+    static_assert(sizeof(ScanPolygon) == 22 * 4, "ScanPolygon: 22 int32 fields");
+    constexpr auto field = [](size_t offset) { return int(offset / 4); };
+    __m512i r[32];
+    r[field(offsetof(ScanPolygon, x_min))] = box.i0;
+    r[field(offsetof(ScanPolygon, x_max))] = box.i1;
+    r[field(offsetof(ScanPolygon, y_min))] = box.j0;
+    r[field(offsetof(ScanPolygon, y_max))] = box.j1;
     for (int k = 0; k < 3; ++k) {
-      put(rec[kW + k], _mm512_sub_epi32(s.w[k], s.bias[k]));  // biased
-      put(rec[kSx + k], s.sx[k]);
-      put(rec[kSy + k], s.sy[k]);
+      r[field(offsetof(ScanPolygon, w)) + k] = _mm512_sub_epi32(s.w[k], s.bias[k]);  // biased
+      r[field(offsetof(ScanPolygon, step_x)) + k] = s.sx[k];
+      r[field(offsetof(ScanPolygon, step_y)) + k] = s.sy[k];
     }
-    put(rec[kB1], s.bias[1]);
-    put(rec[kB2], s.bias[2]);
-    put(rec[kZ0], _mm512_castps_si512(s.z0));
-    put(rec[kA1], _mm512_castps_si512(s.a1));
-    put(rec[kA2], _mm512_castps_si512(s.a2));
-    put(rec[kLo], _mm512_castps_si512(s.lo));
-    put(rec[kHi], _mm512_castps_si512(s.hi));
-    put(rec[kId], simd::ids16(mesh, first, f.live));
+    r[field(offsetof(ScanPolygon, bias1))] = s.bias[1];
+    r[field(offsetof(ScanPolygon, bias2))] = s.bias[2];
+    r[field(offsetof(ScanPolygon, z0))] = _mm512_castps_si512(s.z0);
+    r[field(offsetof(ScanPolygon, a1))] = _mm512_castps_si512(s.a1);
+    r[field(offsetof(ScanPolygon, a2))] = _mm512_castps_si512(s.a2);
+    r[field(offsetof(ScanPolygon, z_lo))] = _mm512_castps_si512(s.lo);
+    r[field(offsetof(ScanPolygon, z_hi))] = _mm512_castps_si512(s.hi);
+    r[field(offsetof(ScanPolygon, id))] = simd::ids16(mesh, first, f.live);
+    r[field(offsetof(ScanPolygon, large))] = _mm512_set1_epi32(-1);  // every edge value fits int32
+    for (int k = 22; k < 32; ++k) r[k] = _mm512_setzero_si512();
+    transpose16(r);
+    transpose16(r + 16);
+    const __mmask16 m = vector_setup;
+    const int n = __builtin_popcount(m);
+    const size_t base = polys_.size();
+    polys_.resize(base + size_t(n));
+    int32_t* rec = reinterpret_cast<int32_t*>(polys_.data() + base);
+    for (unsigned left = m; left; left &= left - 1, rec += 22) {
+      const int lane = __builtin_ctz(left);
+      _mm512_storeu_si512(rec, r[lane]);
+      _mm512_mask_storeu_epi32(rec + 16, __mmask16(0x3F), r[16 + lane]);
+    }
+    const __mmask16 first_n = __mmask16((1u << n) - 1);
+    poly_row_.resize(base + size_t(n));
+    _mm512_mask_storeu_epi32(poly_row_.data() + base, first_n, _mm512_maskz_compress_epi32(m, box.j0));
 
     // Edge table entries (add_edge): edge k, from vertex k+1 to k+2, on
     // the rows whose centres lie on its closed y range within the box; a
     // horizontal top edge needs none, a horizontal bottom edge one that
-    // kills its row.
+    // kills its row. Written edge by edge (the 16 faces' edges 0, then
+    // their edges 1, then 2): their order in the table changes nothing.
     const __m512i half = _mm512_set1_epi32(kHalfPixel);
     const __m512i round_up = _mm512_set1_epi32(kHalfPixel - (kSubpixelScale - 1));
     const __m512i zero = _mm512_setzero_si512();
+    // Each face's place in the store: base + its rank among the lanes of m.
+    const __m512i poly = _mm512_add_epi32(
+        _mm512_set1_epi32(int32_t(base)),
+        _mm512_maskz_expand_epi32(m, _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)));
+    size_t ne = edges_.size();
+    const size_t ne0 = ne;
+    edges_.resize(ne + 3 * size_t(n));
+    edge_row_.resize(ne + 3 * size_t(n));
     for (int k = 0; k < 3; ++k) {
       const __m512i ya = f.y[(k + 1) % 3], yb = f.y[(k + 2) % 3];
       const __m512i e_first = _mm512_max_epi32(
@@ -366,53 +388,17 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
           box.j1);
       const __mmask16 horizontal = _mm512_cmpeq_epi32_mask(s.sx[k], zero);
       const __mmask16 top = horizontal & _mm512_cmpeq_epi32_mask(s.bias[k], zero);
-      const __mmask16 in = _mm512_cmple_epi32_mask(e_first, e_last) & ~top;
-      put(edge_first[k], e_first);
-      put(edge_last[k], e_last);
-      put(edge_kind[k], _mm512_mask_blend_epi32(horizontal, _mm512_set1_epi32(k),
-                                                _mm512_set1_epi32(EdgeEntry::kKillRow)));
-      put(edge_in[k], _mm512_maskz_set1_epi32(in, 1));
-    }
-
-    // Append the records and entries (branch-free: whether an edge gets an
-    // entry is random)
-    const int n = __builtin_popcount(m);
-    const size_t base = polys_.size();
-    polys_.resize(base + size_t(n));
-    poly_row_.resize(base + size_t(n));
-    size_t ne = edges_.size();
-    edges_.resize(ne + 3 * size_t(n));
-    edge_row_.resize(ne + 3 * size_t(n));
-    const size_t ne0 = ne;
-    for (int j = 0; j < n; ++j) {
-      ScanPolygon& p = polys_[base + size_t(j)];
-      p.x_min = rec[kX0][j];
-      p.x_max = rec[kX1][j];
-      p.y_min = rec[kY0][j];
-      p.y_max = rec[kY1][j];
-      for (int k = 0; k < 3; ++k) {
-        p.w[k] = rec[kW + k][j];
-        p.step_x[k] = rec[kSx + k][j];
-        p.step_y[k] = rec[kSy + k][j];
-      }
-      p.bias1 = rec[kB1][j];
-      p.bias2 = rec[kB2][j];
-      std::memcpy(&p.z0, &rec[kZ0][j], 4);
-      std::memcpy(&p.a1, &rec[kA1][j], 4);
-      std::memcpy(&p.a2, &rec[kA2][j], 4);
-      std::memcpy(&p.z_lo, &rec[kLo][j], 4);
-      std::memcpy(&p.z_hi, &rec[kHi][j], 4);
-      p.id = rec[kId][j];
-      p.large = -1;  // under 16 pixels across: every edge value fits int32
-      poly_row_[base + size_t(j)] = rec[kY0][j];
-      for (int k = 0; k < 3; ++k) {
-        EdgeEntry& e = edges_[ne];
-        e.poly = int32_t(base) + j;
-        e.last_row = edge_last[k][j];
-        e.k = edge_kind[k][j];
-        edge_row_[ne] = edge_first[k][j];
-        ne += size_t(edge_in[k][j]);
-      }
+      const __mmask16 in = m & _mm512_cmple_epi32_mask(e_first, e_last) & ~top;
+      const int n_in = __builtin_popcount(in);
+      const __m512i entry[3] = {
+          _mm512_maskz_compress_epi32(in, poly), _mm512_maskz_compress_epi32(in, e_last),
+          _mm512_maskz_compress_epi32(in, _mm512_mask_blend_epi32(horizontal, _mm512_set1_epi32(k),
+                                                                  _mm512_set1_epi32(EdgeEntry::kKillRow)))};
+      static_assert(sizeof(EdgeEntry) == 3 * sizeof(int32_t), "entries are written as 3 ints");
+      simd::interleave16(entry, n_in, reinterpret_cast<int32_t*>(edges_.data() + ne));
+      _mm512_mask_storeu_epi32(edge_row_.data() + ne, __mmask16((1u << n_in) - 1),
+                               _mm512_maskz_compress_epi32(in, e_first));
+      ne += size_t(n_in);
     }
     edges_.resize(ne);
     edge_row_.resize(ne);
