@@ -48,16 +48,54 @@ inline void transpose16(__m512i* r) {
 
 // Stable counting sort by row: fills start[0 .. height] with bucket offsets
 // and position[i] with item i's place in the sorted order.
+//
+// The items are cut into four blocks, counted and placed side by side, each
+// block with counters of its own: consecutive items of a mesh in spatial
+// order often share a row, and one counter incremented item after item
+// chains every increment to the one before (a store forwarded to the next
+// load); four blocks run four chains at once. A row's items stay in their
+// order: block by block, each block in order.
 void bucket_by_row(const std::vector<int32_t>& row, int height, std::vector<int32_t>& start,
                    std::vector<int32_t>& position) {
-  start.assign(size_t(height) + 2, 0);
-  for (int32_t y : row) ++start[size_t(y) + 2];
-  for (int y = 0; y < height; ++y) start[size_t(y) + 2] += start[size_t(y) + 1];
-  // start[y + 1] is now where bucket y begins; hand out places from it.
-  position.resize(row.size());
-  for (size_t i = 0; i < row.size(); ++i) position[i] = start[size_t(row[i]) + 1]++;
-  // ... which leaves start[y + 1] at the end of bucket y: start[y] .. start[y + 1].
-  start.pop_back();
+  constexpr int kBlocks = 4;
+  const size_t n = row.size(), h = size_t(height);
+  const size_t block = (n + kBlocks - 1) / kBlocks;
+  thread_local std::vector<int32_t> counters;
+  counters.assign(kBlocks * h, 0);
+  int32_t* c[kBlocks];
+  const int32_t* r[kBlocks];
+  size_t len[kBlocks];
+  for (int b = 0; b < kBlocks; ++b) {
+    c[b] = counters.data() + size_t(b) * h;
+    const size_t first = std::min(n, size_t(b) * block);
+    r[b] = row.data() + first;
+    len[b] = std::min(n, first + block) - first;
+  }
+  const size_t common = len[kBlocks - 1];  // the shortest: the blocks before are full
+  // Counts per block and row: the four blocks together, then their rests.
+  for (size_t j = 0; j < common; ++j)
+    for (int b = 0; b < kBlocks; ++b) ++c[b][r[b][j]];
+  for (int b = 0; b < kBlocks; ++b)
+    for (size_t j = common; j < len[b]; ++j) ++c[b][r[b][j]];
+  // Each block's first place in each row, row by row.
+  start.resize(h + 1);
+  int32_t at = 0;
+  for (size_t y = 0; y < h; ++y) {
+    start[y] = at;
+    for (int b = 0; b < kBlocks; ++b) {
+      const int32_t count = c[b][y];
+      c[b][y] = at;
+      at += count;
+    }
+  }
+  start[h] = at;
+  position.resize(n);
+  int32_t* p[kBlocks];
+  for (int b = 0; b < kBlocks; ++b) p[b] = position.data() + (r[b] - row.data());
+  for (size_t j = 0; j < common; ++j)
+    for (int b = 0; b < kBlocks; ++b) p[b][j] = c[b][r[b][j]]++;
+  for (int b = 0; b < kBlocks; ++b)
+    for (size_t j = common; j < len[b]; ++j) p[b][j] = c[b][r[b][j]]++;
 }
 
 // The key row (scanline.h: row_): a pixel's depth bits above its id, so
