@@ -100,8 +100,9 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
       }
     }
     for (const Algorithm& algo : algorithms()) {
-      std::vector<float> depth(size_t(w) * h);
-      std::vector<int32_t> ids(size_t(w) * h);
+      // Stale values in the planes: render() clears them.
+      std::vector<float> depth(size_t(w) * h, 0.25f);
+      std::vector<int32_t> ids(size_t(w) * h, 12345);
       DepthTarget target{depth.data(), ids.data(), w, h};
       RenderStats stats;
       render(algo, input, target, stats);
