@@ -548,6 +548,8 @@ void ScanlineTables::add_polygon(const ScreenVertex* v, int n, int64_t area, int
 // Pixels [lo, hi] of row y of polygon p (none if lo > hi), into the key
 // row: the raster core's coverage and depth, with the edge values at (lo, y)
 // stepped from the box's first pixel in exact (wrapping) int32 arithmetic.
+// (AVX-512 builds draw the int32 form in draw_active; only large triangles
+// come here.)
 inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int hi,
                                       Counts& counts) {
   if (p.large >= 0) {  // rare: a triangle too big for int32 edge values
@@ -561,36 +563,11 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
     }
     return;
   }
-  uint64_t* const row = row_.data();
-#ifdef ZBUFFER_AVX512
-  const int width = hi - lo + 1;  // (the loop below runs no pass when lo > hi)
-  const uint32_t dx = uint32_t(lo - p.x_min), dy = uint32_t(y - p.y_min);
-  __m512i w[3];
-  for (int k = 0; k < 3; ++k) {
-    const uint32_t v = uint32_t(p.w[k]) + dx * uint32_t(p.step_x[k]) + dy * uint32_t(p.step_y[k]);
-    w[k] = simd::row16(int32_t(v), p.step_x[k]);
-  }
-  const simd::DepthPlane16 plane(p.z0, p.a1, p.a2, p.z_lo, p.z_hi);
-  const __m512i id = _mm512_set1_epi32(p.id);
-  const __m512i bias1 = _mm512_set1_epi32(p.bias1), bias2 = _mm512_set1_epi32(p.bias2);
-  int64_t covered = 0, written = 0;
-  for (int x = 0; x < width; x += 16) {
-    const __mmask16 in_span = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(width - x, 16))));
-    const __mmask16 inside = simd::covered16(in_span, w[0], w[1], w[2]);
-    const __m512 z = simd::depth16(plane, _mm512_add_epi32(w[1], bias1), _mm512_add_epi32(w[2], bias2));
-    written += __builtin_popcount(write16_keys(inside, z, id, row + lo + x));
-    covered += __builtin_popcount(inside);
-    for (int k = 0; k < 3; ++k)
-      w[k] = _mm512_add_epi32(w[k], _mm512_set1_epi32(int32_t(16u * uint32_t(p.step_x[k]))));
-  }
-  counts.tested += width;
-  counts.covered += covered;
-  counts.written += written;
-#else
   // The scalar loop of the raster core (rasterize_span_scalar) on the
   // int32 form: the same integers, and float(int32) is float(int64) of the
   // same value, so the same bits; no second record to fetch.
   if (lo > hi) return;
+  uint64_t* const row = row_.data();
   const uint32_t dx = uint32_t(lo - p.x_min), dy = uint32_t(y - p.y_min);
   int32_t w[3];
   for (int k = 0; k < 3; ++k)
@@ -611,7 +588,6 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
   counts.tested += hi - lo + 1;
   counts.covered += covered;
   counts.written += written;
-#endif
 }
 
 // The Active Polygon List, 16 at a Time
@@ -779,20 +755,39 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
       }
       counts.written += written;
     }
-    // The others one span at a time
+    // The others one span at a time, 16 consecutive pixels per pass, from
+    // the lanes' own fields (every pixel of a span is covered)
     const __mmask16 one_by_one = drawn & ~lanes;
     if (one_by_one) {
-      alignas(64) int32_t idx[16], los[16], his[16];
-      _mm512_store_si512(idx, f[kIndex]);
+      alignas(64) int32_t at[kActiveFields][16], los[16], widths[16];
+      for (int k = kW1; k < kActiveFields; ++k) _mm512_store_si512(at[k], f[k]);
+      _mm512_store_si512(at[kW1], _mm512_add_epi32(f[kW1], _mm512_mullo_epi32(lo, f[kSx1])));
+      _mm512_store_si512(at[kW2], _mm512_add_epi32(f[kW2], _mm512_mullo_epi32(lo, f[kSx2])));
       _mm512_store_si512(los, lo);
-      _mm512_store_si512(his, hi);
+      _mm512_store_si512(widths, width);
+      int64_t written = 0;
       for (unsigned m = one_by_one; m; m &= m - 1) {
         const int k = __builtin_ctz(m);
-        const int64_t tested = counts.tested, covered = counts.covered;
-        draw_span(polys_[size_t(idx[k])], y, los[k], his[k], counts);
-        counts.tested = tested;  // counted above with the others
-        counts.covered = covered;
+        float z0, a1, a2, z_lo, z_hi;
+        std::memcpy(&z0, &at[kZ0][k], 4);
+        std::memcpy(&a1, &at[kA1][k], 4);
+        std::memcpy(&a2, &at[kA2][k], 4);
+        std::memcpy(&z_lo, &at[kZLo][k], 4);
+        std::memcpy(&z_hi, &at[kZHi][k], 4);
+        const simd::DepthPlane16 plane(z0, a1, a2, z_lo, z_hi);
+        const __m512i id = _mm512_set1_epi32(at[kId][k]);
+        __m512i w1 = simd::row16(at[kW1][k], at[kSx1][k]), w2 = simd::row16(at[kW2][k], at[kSx2][k]);
+        const __m512i step1 = _mm512_set1_epi32(int32_t(16u * uint32_t(at[kSx1][k])));
+        const __m512i step2 = _mm512_set1_epi32(int32_t(16u * uint32_t(at[kSx2][k])));
+        uint64_t* const row = row_.data() + los[k];
+        for (int x = 0; x < widths[k]; x += 16) {
+          const __mmask16 in_span = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(widths[k] - x, 16))));
+          written += __builtin_popcount(write16_keys(in_span, simd::depth16(plane, w1, w2), id, row + x));
+          w1 = _mm512_add_epi32(w1, step1);
+          w2 = _mm512_add_epi32(w2, step2);
+        }
       }
+      counts.written += written;
     }
 
     // Next row: step the edge values, keep the polygons that go on

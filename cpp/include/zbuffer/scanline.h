@@ -237,12 +237,13 @@ class ScanlineTables {
   // edges (bounds_), exactly: every pixel of it is covered, so no edge value
   // is tested and edge 0 is not kept at all. Good: 14 fields a polygon
   // loaded and compacted per row instead of 21; a row's polygons are loaded
-  // by plain vector loads, drawn 16 at a time pixel by pixel (lane k at
-  // pixel lo_k + j: a span of 2 pixels fills 2 passes of 16 lanes, not 2
-  // lanes of a 16-lane pass), and compacted by compress. Bad: a record
-  // copied once per polygon, and long spans (and spans starting at one
-  // column in one group, whose pixels would collide in a scatter) are drawn
-  // by the one-span loop instead.
+  // by plain vector loads, their short spans drawn 16 at a time pixel by
+  // pixel (lane k at pixel lo_k + j: a span of 2 pixels fills 2 passes of
+  // 16 lanes, not 2 lanes of a 16-lane pass), the others (longer, or
+  // starting at one column with another of the group: their pixels would
+  // collide in a scatter) a span at a time, 16 consecutive pixels per pass,
+  // from the same fields; compacted by compress. Bad: a record copied once
+  // per polygon.
   enum ActiveField {
     kIndex, kYMax, kW1, kW2, kSx1, kSx2, kSy1, kSy2, kZ0, kA1, kA2, kZLo, kZHi, kId,
     kActiveFields
