@@ -593,9 +593,10 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 // The Active Polygon List, 16 at a Time
 
 // Polygon table entries [begin, end), those entering at the current row:
-// their span bounds start as the image's columns; those in the int32 form
-// are copied into the vector active list, 16 records loaded and transposed
-// at a time, the others listed in active_polys_.
+// those in the int32 form are copied into the vector active list, 16
+// records loaded and transposed at a time (their span bounds are written by
+// their edges on every row: step_edges), the others listed in
+// active_polys_, their span bounds starting as the image's columns.
 void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
 #ifdef ZBUFFER_AVX512
   const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
@@ -612,11 +613,6 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
                 kZLoF = field(offsetof(ScanPolygon, z_lo)), kZHiF = field(offsetof(ScanPolygon, z_hi)),
                 kIdF = field(offsetof(ScanPolygon, id)), kLargeF = field(offsetof(ScanPolygon, large));
   const __m512i zero = _mm512_setzero_si512();
-  // A polygon's span bounds start as the image's columns (first pixel,
-  // minus the last), one 64-bit pair.
-  const __m512i image_columns = _mm512_set1_epi64(
-      int64_t(uint64_t(uint32_t(-(width_ - 1))) << 32 | uint64_t(uint32_t(0))));
-  int32_t* bounds = bounds_.data();
   for (int32_t i = begin; i < end; i += 16) {
     const int count = std::min(end - i, 16);
     const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(count)));
@@ -633,11 +629,13 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
     }
     transpose16(f);
     transpose16(f + 16);
-    _mm512_mask_i32scatter_epi64(bounds, __mmask8(live), _mm512_castsi512_si256(p), image_columns, 8);
-    _mm512_mask_i32scatter_epi64(bounds, __mmask8(live >> 8), _mm512_extracti64x4_epi64(p, 1),
-                                 image_columns, 8);
     const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, f[kLargeF], zero);
-    for (unsigned m = live & ~vec; m; m &= m - 1) active_polys_.push_back(idx[__builtin_ctz(m)]);
+    for (unsigned m = live & ~vec; m; m &= m - 1) {
+      const int32_t large = idx[__builtin_ctz(m)];
+      active_polys_.push_back(large);
+      bounds_[2 * size_t(large)] = 0;  // the image's columns
+      bounds_[2 * size_t(large) + 1] = -(width_ - 1);
+    }
     // The unbiased edge values at pixel (0, y_min) from the biased ones at
     // (x_min, y_min), in wrapping int32.
     auto at_column_0 = [&](int k, int bias_field) {
@@ -674,8 +672,8 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
 }
 
 // Draw row y of every polygon in the vector active list (their bounds
-// narrowed by the active edges), reset their bounds, step their edge values
-// to the next row and drop those that end here.
+// written by the active edges), step their edge values to the next row and
+// drop those that end here.
 void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& touched_lo,
                                  int& touched_hi) {
 #ifdef ZBUFFER_AVX512
@@ -688,9 +686,6 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
   constexpr int kLaneSpan = 4;
   const __m512i zero = _mm512_setzero_si512();
   const __m512i one = _mm512_set1_epi32(1);
-  // The bounds' reset value: the image's columns (as in enter_polygons).
-  const __m512i image_columns = _mm512_set1_epi64(
-      int64_t(uint64_t(uint32_t(-(width_ - 1))) << 32 | uint64_t(uint32_t(0))));
   int32_t* bounds = bounds_.data();
   const size_t n = n_active_;
   size_t kept = 0;
@@ -701,19 +696,20 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
     for (int k = 0; k < kActiveFields; ++k)
       f[k] = _mm512_maskz_loadu_epi32(live, active_[k].data() + i);
 
-    // Spans: the bounds the edges left, then reset for the next row. A
-    // polygon's two bounds are adjacent: gathered and scattered as one
-    // 64-bit pair (first pixel, minus the last), half the elements.
+    // Spans: the bounds the edges wrote. A polygon's two bounds are
+    // adjacent: gathered as one 64-bit pair (first pixel, minus the last),
+    // half the elements.
     const __m256i index_lo = _mm512_castsi512_si256(f[kIndex]);
     const __m256i index_hi = _mm512_extracti64x4_epi64(f[kIndex], 1);
     const __mmask8 live_lo = __mmask8(live), live_hi = __mmask8(live >> 8);
     const __m512i pairs_lo = _mm512_mask_i32gather_epi64(zero, live_lo, index_lo, bounds, 8);
     const __m512i pairs_hi = _mm512_mask_i32gather_epi64(zero, live_hi, index_hi, bounds, 8);
-    const __m512i lo = _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kEven), pairs_hi);
-    const __m512i hi = _mm512_sub_epi32(
-        zero, _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kOdd), pairs_hi));
-    _mm512_mask_i32scatter_epi64(bounds, live_lo, index_lo, image_columns, 8);
-    _mm512_mask_i32scatter_epi64(bounds, live_hi, index_hi, image_columns, 8);
+    // (Within the image's columns: an edge's bound may lie outside them.)
+    const __m512i lo = _mm512_max_epi32(
+        _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kEven), pairs_hi), zero);
+    const __m512i hi = _mm512_min_epi32(
+        _mm512_sub_epi32(zero, _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kOdd), pairs_hi)),
+        _mm512_set1_epi32(width_ - 1));
     const __m512i width = _mm512_add_epi32(_mm512_sub_epi32(hi, lo), one);
     const __mmask16 drawn = _mm512_mask_cmpgt_epi32_mask(live, width, zero);
     spans += __builtin_popcount(drawn);
@@ -885,29 +881,31 @@ void ScanlineTables::enter_edges(int y, int32_t begin, int32_t end) {
     auto join = [](const __m512i* v) {
       return _mm512_inserti64x4(v[0], _mm512_castsi512_si256(v[1]), 1);
     };
-    // A kill entry: a left bound beyond any column, for its one row.
-    const __m512i slot = _mm512_add_epi32(
-        _mm512_add_epi32(poly, poly),
-        _mm512_maskz_set1_epi32(edge & _mm512_cmple_epi32_mask(sx, zero), 1));
+    // Kill entries (a left bound beyond any column, for their one row) into
+    // their own list, applied after the edges' bounds (step_edges).
+    const __m512i left_slot = _mm512_add_epi32(poly, poly);
+    _mm512_storeu_si512(kills_.data() + n_kills_, _mm512_maskz_compress_epi32(kill, left_slot));
+    n_kills_ += size_t(__builtin_popcount(kill));
     __m512i f[kEdgeFields];
-    f[kER] = _mm512_maskz_mov_epi32(edge, join(r32));
-    f[kEDiv] = _mm512_mask_blend_epi32(edge, _mm512_set1_epi32(1), _mm512_abs_epi32(sx));
-    f[kEDr] = _mm512_maskz_mov_epi32(edge, join(dr32));
-    f[kEQ] = _mm512_mask_blend_epi32(edge, _mm512_set1_epi32(int32_t(1) << 30), join(q32));
-    f[kEDq] = _mm512_maskz_mov_epi32(edge, join(dq32));
-    f[kESlot] = slot;
+    f[kER] = join(r32);
+    f[kEDiv] = _mm512_abs_epi32(sx);
+    f[kEDr] = join(dr32);
+    f[kEQ] = join(q32);
+    f[kEDq] = join(dq32);
+    f[kESlot] = _mm512_add_epi32(left_slot, _mm512_maskz_set1_epi32(_mm512_cmple_epi32_mask(sx, zero), 1));
     f[kELast] = last;
     for (int j = 0; j < kEdgeFields; ++j)
-      _mm512_storeu_si512(aedge_[j].data() + n_aedges_, _mm512_maskz_compress_epi32(vec, f[j]));
-    n_aedges_ += size_t(__builtin_popcount(vec));
+      _mm512_storeu_si512(aedge_[j].data() + n_aedges_, _mm512_maskz_compress_epi32(edge, f[j]));
+    n_aedges_ += size_t(__builtin_popcount(edge));
   }
 #else
   (void)y, (void)begin, (void)end;
 #endif
 }
 
-// The vector active edge list on row y: tighten the bounds of their
-// polygons' spans, step to the next row, drop those that end here.
+// The vector active edge list on row y: write the bounds of their
+// polygons' spans, step to the next row, drop those that end here; then the
+// row's kill entries.
 void ScanlineTables::step_edges(int y) {
 #ifdef ZBUFFER_AVX512
   int32_t* bounds = bounds_.data();
@@ -919,22 +917,9 @@ void ScanlineTables::step_edges(int y) {
     __m512i f[kEdgeFields];
     for (int j = 0; j < kEdgeFields; ++j)
       f[j] = _mm512_maskz_loadu_epi32(live, aedge_[j].data() + i);
-    // Bounds: max(bound, q), by gather and scatter where no two lanes
-    // share a bound, else lane by lane
-    const __m512i same = _mm512_and_si512(_mm512_maskz_conflict_epi32(live, f[kESlot]),
-                                          _mm512_set1_epi32(int32_t(live)));
-    if (!_mm512_test_epi32_mask(same, same)) {
-      const __m512i b = _mm512_mask_i32gather_epi32(f[kEQ], live, f[kESlot], bounds, 4);
-      _mm512_mask_i32scatter_epi32(bounds, live, f[kESlot], _mm512_max_epi32(b, f[kEQ]), 4);
-    } else {
-      alignas(64) int32_t slots[16], qs[16];
-      _mm512_store_si512(slots, f[kESlot]);
-      _mm512_store_si512(qs, f[kEQ]);
-      for (unsigned m = live; m; m &= m - 1) {
-        const int k = __builtin_ctz(m);
-        bounds[slots[k]] = std::max(bounds[slots[k]], qs[k]);
-      }
-    }
+    // Bounds: q, written (scanline.h: bounds_; two edges writing one bound
+    // on one row write the same q).
+    _mm512_mask_i32scatter_epi32(bounds, live, f[kESlot], f[kEQ], 4);
     // ScanEdge::step(), 16 lanes
     __m512i r = _mm512_add_epi32(f[kER], f[kEDr]);
     const __mmask16 carry = _mm512_cmpge_epi32_mask(r, f[kEDiv]);
@@ -947,6 +932,8 @@ void ScanlineTables::step_edges(int y) {
     kept += size_t(__builtin_popcount(keep));
   }
   n_aedges_ = kept;
+  for (size_t i = 0; i < n_kills_; ++i) bounds[kills_[i]] = int32_t(1) << 30;
+  n_kills_ = 0;
 #else
   (void)y;
 #endif
@@ -983,9 +970,11 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     if (field.size() < polys_.size() + 16) field.resize(polys_.size() + 16);
   for (auto& field : aedge_)
     if (field.size() < edges_.size() + 16) field.resize(edges_.size() + 16);
+  if (kills_.size() < edges_.size() + 16) kills_.resize(edges_.size() + 16);
 #endif
   n_active_ = 0;
   n_aedges_ = 0;
+  n_kills_ = 0;
   active_polys_.clear();
   active_edges_.clear();
   row_.assign(size_t(width), kEmptyKey);
@@ -1018,7 +1007,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
                           gedge_table_.begin() + gedge_start_[size_t(y) + 1]);
     ++stats.scanline_rows;
     const int64_t n_polys = int64_t(n_active_ + active_polys_.size() + active_gpolys_.size());
-    const int64_t n_edges = int64_t(n_aedges_ + active_edges_.size() + active_gedges_.size());
+    const int64_t n_edges =
+        int64_t(n_aedges_ + n_kills_ + active_edges_.size() + active_gedges_.size());
     stats.active_polygons_sum += n_polys;
     stats.active_edges_sum += n_edges;
     stats.active_polygons_max = std::max(stats.active_polygons_max, n_polys);
