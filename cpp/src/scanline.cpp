@@ -613,6 +613,7 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
                 kZLoF = field(offsetof(ScanPolygon, z_lo)), kZHiF = field(offsetof(ScanPolygon, z_hi)),
                 kIdF = field(offsetof(ScanPolygon, id)), kLargeF = field(offsetof(ScanPolygon, large));
   const __m512i zero = _mm512_setzero_si512();
+  const __mmask16 vector_lanes = vector_lists_ ? 0xFFFF : 0;  // else all to active_polys_
   for (int32_t i = begin; i < end; i += 16) {
     const int count = std::min(end - i, 16);
     const __mmask16 live = __mmask16(_bzhi_u32(0xFFFF, uint32_t(count)));
@@ -629,7 +630,7 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
     }
     transpose16(f);
     transpose16(f + 16);
-    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, f[kLargeF], zero);
+    const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live & vector_lanes, f[kLargeF], zero);
     for (unsigned m = live & ~vec; m; m &= m - 1) {
       const int32_t large = idx[__builtin_ctz(m)];
       active_polys_.push_back(large);
@@ -972,6 +973,9 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     if (field.size() < edges_.size() + 16) field.resize(edges_.size() + 16);
   if (kills_.size() < edges_.size() + 16) kills_.resize(edges_.size() + 16);
 #endif
+#ifdef ZBUFFER_AVX512
+  vector_lists_ = polys_.size() <= vector_limit_;
+#endif
   n_active_ = 0;
   n_aedges_ = 0;
   n_kills_ = 0;
@@ -987,12 +991,12 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
     image_ids_ = target.triangle_id + size_t(y) * size_t(width);
     // Polygons and edges entering at this row
     enter_polygons(poly_start_[size_t(y)], poly_start_[size_t(y) + 1]);
-#ifdef ZBUFFER_AVX512
-    enter_edges(y, edge_start_[size_t(y)], edge_start_[size_t(y) + 1]);
-#else
-    for (int32_t i = edge_start_[size_t(y)]; i < edge_start_[size_t(y) + 1]; ++i)
-      start_edge(edge_table_[size_t(i)], y, active_edges_.emplace_back());
-#endif
+    if (vector_lists_) {
+      enter_edges(y, edge_start_[size_t(y)], edge_start_[size_t(y) + 1]);
+    } else {  // (every build without AVX-512, and huge frames)
+      for (int32_t i = edge_start_[size_t(y)]; i < edge_start_[size_t(y) + 1]; ++i)
+        start_edge(edge_table_[size_t(i)], y, active_edges_.emplace_back());
+    }
     // The polygons entering two rows down, into cache meanwhile: the store
     // is in arrival order, so they are scattered over it.
     if (y + 2 < height)

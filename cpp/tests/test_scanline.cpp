@@ -103,6 +103,22 @@ void test_vector_tables_equal_scalar_tables() {
       scalar.render(slow.target, ss);
       CHECK(same_pixels(fast, slow));
       CHECK(same_pixels(fast, plain));
+      // A frame with more polygons than the vector lists take (the limit
+      // lowered to 0 here) runs the scalar lists: the same pixels, the
+      // same counts.
+      {
+        Frame limited(w, h);
+        RenderStats ls;
+        ScanlineTables tables;
+        tables.limit_vector_lists(0);
+        tables.reset(w, h);
+        tables.add_faces(mesh, mvp, vp, screen, 0, mesh.n_faces, cull != 0, ls);
+        tables.render(limited.target, ls);
+        CHECK(same_pixels(fast, limited));
+        CHECK(ls.spans_drawn == fs.spans_drawn && ls.pixels_covered == fs.pixels_covered &&
+              ls.active_edges_sum == fs.active_edges_sum &&
+              ls.active_polygons_sum == fs.active_polygons_sum);
+      }
       CHECK(fs.rasterized == ss.rasterized && fs.clipped == ss.clipped &&
             fs.culled_frustum == ss.culled_frustum && fs.culled_backface == ss.culled_backface &&
             fs.culled_degenerate == ss.culled_degenerate && fs.clip_pieces == ss.clip_pieces);

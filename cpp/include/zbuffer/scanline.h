@@ -167,6 +167,13 @@ class ScanlineTables {
   // (docs/rasterization.md, "Polygons").
   void add_polygon(const ScreenVertex* v, int n, int64_t area, int32_t id, RenderStats& stats);
 
+  // The vector lists gather from the polygon store at int32 offsets (index
+  // x 22 ints): a frame with more polygons than this (about 97.6 million)
+  // keeps every polygon and edge in the scalar lists instead, as builds
+  // without AVX-512 do. (A lower limit may be set, for tests.)
+  static constexpr size_t kVectorPolygons = size_t(INT32_MAX) / (sizeof(ScanPolygon) / 4);
+  void limit_vector_lists(size_t polygons) { vector_limit_ = polygons; }
+
   // Sort the tables by starting row, walk the rows and draw into target
   // (already cleared to +inf and -1: rows are written where drawn only).
   void render(DepthTarget& target, RenderStats& stats);
@@ -278,6 +285,8 @@ class ScanlineTables {
   // once the edges have written theirs.
   std::vector<int32_t> kills_;
   size_t n_kills_ = 0;
+  size_t vector_limit_ = kVectorPolygons;
+  bool vector_lists_ = false;  // this frame uses the vector lists
   void enter_edges(int y, int32_t begin, int32_t end);
   void step_edges(int y);
   void enter_polygons(int32_t begin, int32_t end);
