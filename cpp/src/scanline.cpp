@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "setup16.h"
+#include "setup8.h"
 #include "simd.h"
 #include "timing.h"
 #include "zbuffer/algorithms.h"
@@ -217,24 +218,24 @@ void ScanlineTables::reset(int width, int height) {
 
 // Edge Table Entries
 
-void ScanlineTables::add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb,
-                              int32_t poly, RenderStats& stats) {
+void ScanlineTables::add_edge(int64_t y_min, int64_t y_max, int64_t step_x, int64_t bias, int k,
+                              int64_t ya, int64_t yb, int32_t poly, RenderStats& stats) {
   // Rows whose centres lie on the edge's closed y range, within the box.
   // On such a row the edges spanning it give the span exactly; an edge not
   // spanning the row is > 0 all along the span (a zero would be a point of
   // the closed triangle on that edge, at a y outside its range), so its
   // constraint holds without being applied.
-  const int64_t first = std::max<int64_t>(first_pixel_at_or_after(std::min(ya, yb)), s.y_min);
-  const int64_t last = std::min<int64_t>(last_pixel_at_or_before(std::max(ya, yb)), s.y_max);
+  const int64_t first = std::max<int64_t>(first_pixel_at_or_after(std::min(ya, yb)), y_min);
+  const int64_t last = std::min<int64_t>(last_pixel_at_or_before(std::max(ya, yb)), y_max);
   if (first > last) return;
   // A horizontal edge exactly on a row of pixel centres: a top edge (bias
   // 0) admits the whole row, a bottom edge (bias 1, edge value 0 there)
   // none of it. Only the latter needs an entry.
-  if (s.step_x[k] == 0 && s.bias[k] == 0) return;
+  if (step_x == 0 && bias == 0) return;
   EdgeEntry& e = edges_.emplace_back();
   e.poly = poly;
   e.last_row = int32_t(last);
-  e.k = s.step_x[k] == 0 ? EdgeEntry::kKillRow : k;
+  e.k = step_x == 0 ? EdgeEntry::kKillRow : k;
   edge_row_.push_back(int32_t(first));
   ++stats.edges_inserted;
 }
@@ -321,7 +322,8 @@ void ScanlineTables::add_triangle(const ScreenTriangle& t, RenderStats& stats) {
   poly_row_.push_back(s.y_min);
   ++stats.polygons_inserted;
   for (int k = 0; k < 3; ++k)
-    add_edge(s, k, t.v[(k + 1) % 3].y_fx, t.v[(k + 2) % 3].y_fx, poly, stats);
+    add_edge(s.y_min, s.y_max, s.step_x[k], s.bias[k], k, t.v[(k + 1) % 3].y_fx,
+             t.v[(k + 2) % 3].y_fx, poly, stats);
 }
 
 // Faces, 16 at a Time
@@ -335,6 +337,10 @@ void ScanlineTables::add_faces(const MeshView& mesh, const double* mvp, const Vi
     for (; f < end; f += 16)
       add_16_faces(mesh, mvp, vp, sv, f, int(std::min<int64_t>(end - f, 16)), cull_backfaces,
                    stats);
+#elif defined(ZBUFFER_AVX2)
+  if (mesh.n_vertices > 0)
+    for (; f < end; f += 8)
+      add_8_faces(mesh, mvp, vp, sv, f, int(std::min<int64_t>(end - f, 8)), cull_backfaces, stats);
 #endif
   for (; f < end; ++f)
     assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats, [&](const ScreenTriangle& t) {
@@ -448,6 +454,85 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
   if (scalar_setup) {
     // Large faces: the scalar setup from the assembled triangle.
     const simd::Lanes16 lanes(f);
+    for (unsigned m = scalar_setup; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      add_triangle(lanes.triangle(lane, mesh.id(first + lane)), stats);
+    }
+  }
+
+  // Faces that need clipping: the scalar assembly.
+  for (unsigned m = f.clip; m; m &= m - 1)
+    assemble_triangle(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces, stats,
+                      [&](const ScreenTriangle& t) {
+                        ++stats.rasterized;
+                        add_triangle(t, stats);
+                      });
+}
+#endif
+
+#ifdef ZBUFFER_AVX2
+// add_triangle for the faces of 8 lanes (AVX2 builds): setup8.h's assembly
+// and setup for those less than 16 pixels across (int32 records, written
+// lane by lane), then add_triangle itself for the others and the scalar
+// assembly for those that need clipping -- as add_16_faces does with 16.
+void ScanlineTables::add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                                 const ScreenVertices& sv, int64_t first, int count,
+                                 bool cull_backfaces, RenderStats& stats) {
+  simd::Faces8 f;
+  simd::assemble8(mesh, sv, first, count, cull_backfaces, stats, f);
+  simd::Box8 box;
+  simd::box8(f, width_, height_, box, 16 * kSubpixelScale, 8 * kSubpixelScale);
+  const unsigned vector_setup = f.draw & box.nonempty & box.small;
+  const unsigned scalar_setup = f.draw & box.nonempty & ~box.small;
+
+  if (vector_setup) {
+    simd::Setup8 s;
+    simd::setup8(f, box, s);
+    // ScanPolygon's 22 fields, a row per field and a column per lane; the
+    // edges' biases and the vertices' y for the edge table.
+    static_assert(sizeof(ScanPolygon) == 22 * 4, "ScanPolygon: 22 int32 fields");
+    constexpr auto field = [](size_t offset) { return int(offset / 4); };
+    alignas(32) int32_t rec[22][8], bias[3][8], ys[3][8];
+    auto put = [](int32_t* row, __m256i v) { _mm256_store_si256(reinterpret_cast<__m256i*>(row), v); };
+    auto put_f = [&](int32_t* row, __m256 v) { put(row, _mm256_castps_si256(v)); };
+    put(rec[field(offsetof(ScanPolygon, x_min))], box.i0);
+    put(rec[field(offsetof(ScanPolygon, x_max))], box.i1);
+    put(rec[field(offsetof(ScanPolygon, y_min))], box.j0);
+    put(rec[field(offsetof(ScanPolygon, y_max))], box.j1);
+    for (int k = 0; k < 3; ++k) {
+      put(rec[field(offsetof(ScanPolygon, w)) + k], _mm256_sub_epi32(s.w[k], s.bias[k]));  // biased
+      put(rec[field(offsetof(ScanPolygon, step_x)) + k], s.sx[k]);
+      put(rec[field(offsetof(ScanPolygon, step_y)) + k], s.sy[k]);
+      put(bias[k], s.bias[k]);
+      put(ys[k], f.y[k]);
+    }
+    put(rec[field(offsetof(ScanPolygon, bias1))], s.bias[1]);
+    put(rec[field(offsetof(ScanPolygon, bias2))], s.bias[2]);
+    put_f(rec[field(offsetof(ScanPolygon, z0))], s.z0);
+    put_f(rec[field(offsetof(ScanPolygon, a1))], s.a1);
+    put_f(rec[field(offsetof(ScanPolygon, a2))], s.a2);
+    put_f(rec[field(offsetof(ScanPolygon, z_lo))], s.lo);
+    put_f(rec[field(offsetof(ScanPolygon, z_hi))], s.hi);
+    put(rec[field(offsetof(ScanPolygon, id))], simd::ids8(mesh, first, f.live));
+    put(rec[field(offsetof(ScanPolygon, large))], _mm256_set1_epi32(-1));  // every edge value fits int32
+    for (unsigned m = vector_setup; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      int32_t record[22];
+      for (int q = 0; q < 22; ++q) record[q] = rec[q][lane];
+      const int32_t poly = int32_t(polys_.size());
+      std::memcpy(&polys_.emplace_back(), record, sizeof record);
+      const ScanPolygon& p = polys_.back();
+      poly_row_.push_back(p.y_min);
+      ++stats.polygons_inserted;
+      for (int k = 0; k < 3; ++k)
+        add_edge(p.y_min, p.y_max, p.step_x[k], bias[k][lane], k, ys[(k + 1) % 3][lane],
+                 ys[(k + 2) % 3][lane], poly, stats);
+    }
+  }
+
+  if (scalar_setup) {
+    // Large faces: the scalar setup from the assembled triangle.
+    const simd::Lanes8 lanes(f);
     for (unsigned m = scalar_setup; m; m &= m - 1) {
       const int lane = __builtin_ctz(m);
       add_triangle(lanes.triangle(lane, mesh.id(first + lane)), stats);

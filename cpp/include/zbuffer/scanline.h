@@ -17,9 +17,11 @@
 // AVX-512 builds run the same steps 16 at a time: faces assembled and set
 // up 16 per instruction (setup16.h, shared with TriangleBatch), edges
 // started, applied and stepped 16 per instruction, and a row's active
-// polygons drawn 16 at a time, a polygon per lane (draw_active). The
-// structures and their order of events are the same; tests hold these
-// paths to the scalar ones (cpp/tests/test_scanline.cpp).
+// polygons drawn 16 at a time, a polygon per lane (draw_active). AVX2
+// builds assemble and set up 8 faces per instruction (setup8.h) and walk
+// the rows with the scalar lists. The structures and their order of events
+// are the same; tests hold these paths to the scalar ones
+// (cpp/tests/test_scanline.cpp).
 #pragma once
 
 #include <cstdint>
@@ -155,7 +157,8 @@ class ScanlineTables {
   // Assemble faces [begin, end) of the mesh (vertex_stage.h: culling,
   // clipping, orientation) and insert the triangles that survive, counting
   // them in stats. AVX-512 builds assemble and set up 16 faces per
-  // instruction (setup16.h); the tables end up with the same entries as
+  // instruction (setup16.h), AVX2 builds 8 (setup8.h); the tables end up
+  // with the same entries as
   // through assemble_triangle and add_triangle, in another order where
   // faces need clipping or are 16 pixels or more across.
   void add_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
@@ -179,12 +182,15 @@ class ScanlineTables {
   void render(DepthTarget& target, RenderStats& stats);
 
  private:
-  void add_edge(const TriangleSetup& s, int k, int64_t ya, int64_t yb, int32_t poly,
-                RenderStats& stats);
+  void add_edge(int64_t y_min, int64_t y_max, int64_t step_x, int64_t bias, int k, int64_t ya,
+                int64_t yb, int32_t poly, RenderStats& stats);
   void start_edge(const EdgeEntry& entry, int y, ScanEdge& e) const;
   void add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                     const ScreenVertices& sv, int64_t first, int count, bool cull_backfaces,
                     RenderStats& stats);
+  void add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                   const ScreenVertices& sv, int64_t first, int count, bool cull_backfaces,
+                   RenderStats& stats);
   struct Counts {
     int64_t tested = 0, covered = 0, written = 0;
   };
