@@ -99,80 +99,13 @@ void bucket_by_row(const std::vector<int32_t>& row, int height, std::vector<int3
     for (size_t j = common; j < len[b]; ++j) p[b][j] = c[b][r[b][j]]++;
 }
 
-// The key row (scanline.h: row_): a pixel's depth bits above its id, so
-// that the depth write keeps the smaller key.
-constexpr uint64_t kEmptyKey = uint64_t(0x7F800000u) << 32 | 0xFFFFFFFFu;  // +inf, id -1
-
-inline uint64_t row_key(float z, int32_t id) {
-  uint32_t bits;
-  std::memcpy(&bits, &z, sizeof bits);
-  return uint64_t(bits) << 32 | uint32_t(id);
-}
-
-// The depth write on the key row: 1 if the key won.
-inline int write_key(uint64_t* row, int x, uint64_t key) {
-  const bool win = key < row[x];
-  row[x] = win ? key : row[x];
-  return win;
-}
-
-#ifdef ZBUFFER_AVX512
-// Dword permutations between 8 + 8 (a, b) pairs and 16 lanes.
-alignas(64) constexpr int32_t kEven[16] = {0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30};
-alignas(64) constexpr int32_t kOdd[16] = {1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31};
-alignas(64) constexpr int32_t kPairsLo[16] = {0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23};
-alignas(64) constexpr int32_t kPairsHi[16] = {8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31};
-
-// The pairs (a_k, b_k) of lanes 0-7 and of lanes 8-15, as 64-bit elements
-// with a_k in the low half.
-inline void pairs16(__m512i a, __m512i b, __m512i& lo, __m512i& hi) {
-  lo = _mm512_permutex2var_epi32(a, _mm512_load_si512(kPairsLo), b);
-  hi = _mm512_permutex2var_epi32(a, _mm512_load_si512(kPairsHi), b);
-}
-
-// The depth write of 16 lanes (the lanes of `inside`) at pixels x of the key
-// row: a gather and a scatter of keys (two of 8 elements each). The lanes
-// must name distinct pixels (a gather reads all lanes before the scatter
-// writes any: two lanes at one pixel would both compare with its old key).
-inline __mmask16 write16_keys_at(__mmask16 inside, __m512 z, __m512i id, __m512i x, uint64_t* row) {
-  __m512i key[2];
-  pairs16(id, _mm512_castps_si512(z), key[0], key[1]);
-  const __m256i at[2] = {_mm512_castsi512_si256(x), _mm512_extracti64x4_epi64(x, 1)};
-  __mmask16 win = 0;
-  for (int h = 0; h < 2; ++h) {
-    const __mmask8 in = __mmask8(inside >> (8 * h));
-    if (!in) continue;  // a gather and a scatter cost the same whatever their mask
-    const __m512i old = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), in, at[h], row, 8);
-    const __mmask8 won = _mm512_mask_cmplt_epu64_mask(in, key[h], old);
-    _mm512_mask_i32scatter_epi64(row, won, at[h], key[h], 8);
-    win |= __mmask16(won) << (8 * h);
-  }
-  return win;
-}
-
-// The same for 16 consecutive pixels from row[0].
-inline __mmask16 write16_keys(__mmask16 inside, __m512 z, __m512i id, uint64_t* row) {
-  __m512i key[2];
-  pairs16(id, _mm512_castps_si512(z), key[0], key[1]);
-  __mmask16 win = 0;
-  for (int h = 0; h < 2; ++h) {
-    const __mmask8 in = __mmask8(inside >> (8 * h));
-    const __m512i old = _mm512_maskz_loadu_epi64(in, row + 8 * h);
-    const __mmask8 won = _mm512_mask_cmplt_epu64_mask(in, key[h], old);
-    _mm512_mask_storeu_epi64(row + 8 * h, won, key[h]);
-    win |= __mmask16(won) << (8 * h);
-  }
-  return win;
-}
-#endif
-
 // Row pixels [lo, hi] into the image's row (depth, ids) and reset: copied,
 // or, where the raster core drew into the image's row too (`merge`), the
 // smaller of the two.
 void flush_row(uint64_t* row, int lo, int hi, float* depth, int32_t* ids, bool merge) {
   int x = lo;
 #ifdef ZBUFFER_AVX512
-  const __m512i empty = _mm512_set1_epi64(int64_t(kEmptyKey));
+  const __m512i empty = _mm512_set1_epi64(int64_t(kEmptyDepthKey));
   for (; x <= hi; x += 16) {
     const __mmask16 m = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(hi - x + 1, 16))));
     const __mmask8 m_lo = __mmask8(m), m_hi = __mmask8(m >> 8);
@@ -180,23 +113,23 @@ void flush_row(uint64_t* row, int lo, int hi, float* depth, int32_t* ids, bool m
     __m512i k_hi = _mm512_maskz_loadu_epi64(m_hi, row + x + 8);
     if (merge) {
       __m512i t_lo, t_hi;
-      pairs16(_mm512_maskz_loadu_epi32(m, ids + x), _mm512_maskz_loadu_epi32(m, depth + x), t_lo, t_hi);
+      simd::pairs16(_mm512_maskz_loadu_epi32(m, ids + x), _mm512_maskz_loadu_epi32(m, depth + x), t_lo, t_hi);
       k_lo = _mm512_min_epu64(k_lo, t_lo);
       k_hi = _mm512_min_epu64(k_hi, t_hi);
     }
-    _mm512_mask_storeu_epi32(depth + x, m, _mm512_permutex2var_epi32(k_lo, _mm512_load_si512(kOdd), k_hi));
-    _mm512_mask_storeu_epi32(ids + x, m, _mm512_permutex2var_epi32(k_lo, _mm512_load_si512(kEven), k_hi));
+    _mm512_mask_storeu_epi32(depth + x, m, _mm512_permutex2var_epi32(k_lo, _mm512_load_si512(simd::kOdd), k_hi));
+    _mm512_mask_storeu_epi32(ids + x, m, _mm512_permutex2var_epi32(k_lo, _mm512_load_si512(simd::kEven), k_hi));
     _mm512_mask_storeu_epi64(row + x, m_lo, empty);
     _mm512_mask_storeu_epi64(row + x + 8, m_hi, empty);
   }
 #endif
   for (; x <= hi; ++x) {
     uint64_t key = row[x];
-    if (merge) key = std::min(key, row_key(depth[x], ids[x]));
+    if (merge) key = std::min(key, depth_key(depth[x], ids[x]));
     const uint32_t bits = uint32_t(key >> 32);
     std::memcpy(&depth[x], &bits, sizeof bits);
     ids[x] = int32_t(uint32_t(key));
-    row[x] = kEmptyKey;
+    row[x] = kEmptyDepthKey;
   }
 }
 
@@ -342,12 +275,38 @@ void ScanlineTables::add_faces(const MeshView& mesh, const double* mvp, const Vi
     for (; f < end; f += 8)
       add_8_faces(mesh, mvp, vp, sv, f, int(std::min<int64_t>(end - f, 8)), cull_backfaces, stats);
 #endif
-  for (; f < end; ++f)
-    assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats, [&](const ScreenTriangle& t) {
-      ++stats.rasterized;
-      add_triangle(t, stats);
-    });
+  for (; f < end; ++f) add_face(mesh, mvp, vp, sv, f, cull_backfaces, stats);
 }
+
+// Face f through the scalar assembly (culling, clipping) into the tables.
+void ScanlineTables::add_face(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                              const ScreenVertices& sv, int64_t f, bool cull_backfaces,
+                              RenderStats& stats) {
+  assemble_triangle(mesh, mvp, vp, sv, f, cull_backfaces, stats, [&](const ScreenTriangle& t) {
+    ++stats.rasterized;
+    add_triangle(t, stats);
+  });
+}
+
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+// The faces of a vector step (16 or 8) that the vector setup leaves: those
+// 16 pixels or more across (lanes of `large`) through the scalar setup of
+// their assembled triangle, those that need clipping through add_face.
+template <class Lanes, class Faces>
+void ScanlineTables::add_left_over(const Faces& f, unsigned large, const MeshView& mesh,
+                                   const double* mvp, const Viewport& vp, const ScreenVertices& sv,
+                                   int64_t first, bool cull_backfaces, RenderStats& stats) {
+  if (large) {
+    const Lanes lanes(f);
+    for (unsigned m = large; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      add_triangle(lanes.triangle(lane, mesh.id(first + lane)), stats);
+    }
+  }
+  for (unsigned m = f.clip; m; m &= m - 1)
+    add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces, stats);
+}
+#endif
 
 #ifdef ZBUFFER_AVX512
 // add_triangle for the faces of 16 lanes: setup16.h's setup for those less
@@ -451,22 +410,7 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
     stats.edges_inserted += int64_t(ne - ne0);
   }
 
-  if (scalar_setup) {
-    // Large faces: the scalar setup from the assembled triangle.
-    const simd::Lanes16 lanes(f);
-    for (unsigned m = scalar_setup; m; m &= m - 1) {
-      const int lane = __builtin_ctz(m);
-      add_triangle(lanes.triangle(lane, mesh.id(first + lane)), stats);
-    }
-  }
-
-  // Faces that need clipping: the scalar assembly.
-  for (unsigned m = f.clip; m; m &= m - 1)
-    assemble_triangle(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces, stats,
-                      [&](const ScreenTriangle& t) {
-                        ++stats.rasterized;
-                        add_triangle(t, stats);
-                      });
+  add_left_over<simd::Lanes16>(f, scalar_setup, mesh, mvp, vp, sv, first, cull_backfaces, stats);
 }
 #endif
 
@@ -530,22 +474,7 @@ void ScanlineTables::add_8_faces(const MeshView& mesh, const double* mvp, const 
     }
   }
 
-  if (scalar_setup) {
-    // Large faces: the scalar setup from the assembled triangle.
-    const simd::Lanes8 lanes(f);
-    for (unsigned m = scalar_setup; m; m &= m - 1) {
-      const int lane = __builtin_ctz(m);
-      add_triangle(lanes.triangle(lane, mesh.id(first + lane)), stats);
-    }
-  }
-
-  // Faces that need clipping: the scalar assembly.
-  for (unsigned m = f.clip; m; m &= m - 1)
-    assemble_triangle(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces, stats,
-                      [&](const ScreenTriangle& t) {
-                        ++stats.rasterized;
-                        add_triangle(t, stats);
-                      });
+  add_left_over<simd::Lanes8>(f, scalar_setup, mesh, mvp, vp, sv, first, cull_backfaces, stats);
 }
 #endif
 
@@ -665,7 +594,7 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
       float z = p.z0 + (float(w[1] + p.bias1) * p.a1 + float(w[2] + p.bias2) * p.a2);
       z = z < p.z_lo ? p.z_lo : z;  // depth_at's clamp
       z = z > p.z_hi ? p.z_hi : z;
-      written += write_key(row, x, row_key(z, p.id));
+      written += depth_write_key(row, size_t(x), depth_key(z, p.id));
     }
     w[0] += p.step_x[0];
     w[1] += p.step_x[1];
@@ -717,12 +646,7 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
     transpose16(f);
     transpose16(f + 16);
     const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live & vector_lanes, f[kLargeF], zero);
-    for (unsigned m = live & ~vec; m; m &= m - 1) {
-      const int32_t large = idx[__builtin_ctz(m)];
-      active_polys_.push_back(large);
-      bounds_[2 * size_t(large)] = 0;  // the image's columns
-      bounds_[2 * size_t(large) + 1] = -(width_ - 1);
-    }
+    for (unsigned m = live & ~vec; m; m &= m - 1) enter_scalar_list(idx[__builtin_ctz(m)]);
     // The unbiased edge values at pixel (0, y_min) from the biased ones at
     // (x_min, y_min), in wrapping int32.
     auto at_column_0 = [&](int k, int bias_field) {
@@ -749,13 +673,15 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
     n_active_ += size_t(__builtin_popcount(vec));
   }
 #else
-  for (int32_t i = begin; i < end; ++i) {
-    const int32_t p = poly_table_[size_t(i)];
-    active_polys_.push_back(p);
-    bounds_[2 * size_t(p)] = 0;  // the image's columns
-    bounds_[2 * size_t(p) + 1] = -(width_ - 1);
-  }
+  for (int32_t i = begin; i < end; ++i) enter_scalar_list(poly_table_[size_t(i)]);
 #endif
+}
+
+// Polygon p into the scalar active list, its span bounds the image's columns.
+void ScanlineTables::enter_scalar_list(int32_t p) {
+  active_polys_.push_back(p);
+  bounds_[2 * size_t(p)] = 0;
+  bounds_[2 * size_t(p) + 1] = -(width_ - 1);
 }
 
 // Draw row y of every polygon in the vector active list (their bounds
@@ -793,9 +719,9 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
     const __m512i pairs_hi = _mm512_mask_i32gather_epi64(zero, live_hi, index_hi, bounds, 8);
     // (Within the image's columns: an edge's bound may lie outside them.)
     const __m512i lo = _mm512_max_epi32(
-        _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kEven), pairs_hi), zero);
+        _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(simd::kEven), pairs_hi), zero);
     const __m512i hi = _mm512_min_epi32(
-        _mm512_sub_epi32(zero, _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(kOdd), pairs_hi)),
+        _mm512_sub_epi32(zero, _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(simd::kOdd), pairs_hi)),
         _mm512_set1_epi32(width_ - 1));
     const __m512i width = _mm512_add_epi32(_mm512_sub_epi32(hi, lo), one);
     const __mmask16 drawn = _mm512_mask_cmpgt_epi32_mask(live, width, zero);
@@ -829,7 +755,7 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
       for (int j = 0; j < passes; ++j) {
         const __mmask16 in_span = _mm512_mask_cmpgt_epi32_mask(lanes, left, zero);
         const __m512 z = simd::depth16(plane, w1, w2);
-        const __mmask16 win = write16_keys_at(in_span, z, f[kId], x, row_.data());
+        const __mmask16 win = simd::write16_keys_at(in_span, z, f[kId], x, row_.data());
         written += __builtin_popcount(win);
         w1 = _mm512_add_epi32(w1, f[kSx1]);
         w2 = _mm512_add_epi32(w2, f[kSx2]);
@@ -865,7 +791,7 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
         uint64_t* const row = row_.data() + los[k];
         for (int x = 0; x < widths[k]; x += 16) {
           const __mmask16 in_span = __mmask16(_bzhi_u32(0xFFFF, uint32_t(std::min(widths[k] - x, 16))));
-          written += __builtin_popcount(write16_keys(in_span, simd::depth16(plane, w1, w2), id, row + x));
+          written += __builtin_popcount(simd::write16_keys(in_span, simd::depth16(plane, w1, w2), id, row + x));
           w1 = _mm512_add_epi32(w1, step1);
           w2 = _mm512_add_epi32(w2, step2);
         }
@@ -1067,7 +993,7 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   n_kills_ = 0;
   active_polys_.clear();
   active_edges_.clear();
-  row_.assign(size_t(width), kEmptyKey);
+  row_.assign(size_t(width), kEmptyDepthKey);
   stats.depth_storage_bytes = int64_t(width) * int64_t(sizeof(float));
   Counts counts;
 

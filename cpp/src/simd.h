@@ -175,6 +175,56 @@ ZBUFFER_INLINE __mmask16 write16(__mmask16 inside, __m512 z, __m512i id, float* 
   return win;
 }
 
+// Dword permutations between 8 + 8 (a, b) pairs and 16 lanes.
+alignas(64) inline constexpr int32_t kEven[16] = {0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30};
+alignas(64) inline constexpr int32_t kOdd[16] = {1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31};
+alignas(64) inline constexpr int32_t kPairsLo[16] = {0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23};
+alignas(64) inline constexpr int32_t kPairsHi[16] = {8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31};
+
+// The pairs (a_k, b_k) of lanes 0-7 and of lanes 8-15, as 64-bit elements
+// with a_k in the low half.
+ZBUFFER_INLINE void pairs16(__m512i a, __m512i b, __m512i& lo, __m512i& hi) {
+  lo = _mm512_permutex2var_epi32(a, _mm512_load_si512(kPairsLo), b);
+  hi = _mm512_permutex2var_epi32(a, _mm512_load_si512(kPairsHi), b);
+}
+
+// depth_write_key (raster.h) for 16 lanes, the lanes of `inside`, at pixels
+// x of a row of keys: a gather and a scatter of keys (two of 8 elements
+// each). The lanes must name distinct pixels (a gather reads all lanes
+// before the scatter writes any: two lanes at one pixel would both compare
+// with its old key).
+ZBUFFER_INLINE __mmask16 write16_keys_at(__mmask16 inside, __m512 z, __m512i id, __m512i x,
+                                         uint64_t* row) {
+  __m512i key[2];
+  pairs16(id, _mm512_castps_si512(z), key[0], key[1]);
+  const __m256i at[2] = {_mm512_castsi512_si256(x), _mm512_extracti64x4_epi64(x, 1)};
+  __mmask16 win = 0;
+  for (int h = 0; h < 2; ++h) {
+    const __mmask8 in = __mmask8(inside >> (8 * h));
+    if (!in) continue;  // a gather and a scatter cost the same whatever their mask
+    const __m512i old = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), in, at[h], row, 8);
+    const __mmask8 won = _mm512_mask_cmplt_epu64_mask(in, key[h], old);
+    _mm512_mask_i32scatter_epi64(row, won, at[h], key[h], 8);
+    win |= __mmask16(won) << (8 * h);
+  }
+  return win;
+}
+
+// The same for 16 consecutive pixels from row[0].
+ZBUFFER_INLINE __mmask16 write16_keys(__mmask16 inside, __m512 z, __m512i id, uint64_t* row) {
+  __m512i key[2];
+  pairs16(id, _mm512_castps_si512(z), key[0], key[1]);
+  __mmask16 win = 0;
+  for (int h = 0; h < 2; ++h) {
+    const __mmask8 in = __mmask8(inside >> (8 * h));
+    const __m512i old = _mm512_maskz_loadu_epi64(in, row + 8 * h);
+    const __mmask8 won = _mm512_mask_cmplt_epu64_mask(in, key[h], old);
+    _mm512_mask_storeu_epi64(row + 8 * h, won, key[h]);
+    win |= __mmask16(won) << (8 * h);
+  }
+  return win;
+}
+
 // Edge values of 16 consecutive pixels of a row: w at the first, `step` from
 // one pixel to the next (wrapping int32 arithmetic: lanes that leave the
 // range of exact values must be masked off by the caller).

@@ -86,6 +86,28 @@ void test_tie_goes_to_smaller_id() {
   }
 }
 
+// The depth write on (depth, id) keys keeps what depth_write keeps, write by
+// write: depths in [0, 1] (0 and 1 included, many exact ties), ids from 0
+// up to 2^31 - 1, from an empty pixel.
+void test_key_depth_write_equals_depth_write() {
+  Lcg next{2024};
+  const float depths[] = {0.0f, 1.0f, 0.5f, 0.25f, 1e-30f, 0.9999999f};
+  for (int run = 0; run < 200; ++run) {
+    float depth = std::numeric_limits<float>::infinity();
+    int32_t id = -1;
+    uint64_t key = kEmptyDepthKey;
+    CHECK(key == depth_key(depth, id));
+    for (int w = 0; w < 50; ++w) {
+      const float z = next(0, 3) == 0 ? float(next.uniform(0.0, 1.0))
+                                      : depths[next(0, int(sizeof depths / sizeof *depths) - 1)];
+      const int32_t zid = next(0, 4) == 0 ? int32_t(2147483647 - next(0, 3)) : int32_t(next(0, 20));
+      const bool won = depth_write(&depth, &id, 0, z, zid);
+      CHECK(depth_write_key(&key, 0, depth_key(z, zid)) == won);
+      CHECK(key == depth_key(depth, id));
+    }
+  }
+}
+
 // Depth follows the written formula and stays in the triangle's range.
 void test_depth_formula_and_clamp() {
   Frame fr(32, 32);
@@ -419,6 +441,7 @@ int main() {
   test_fast_loop_equals_scalar_loop();
   test_tessellated_square_covered_once();
   test_tie_goes_to_smaller_id();
+  test_key_depth_write_equals_depth_write();
   test_depth_formula_and_clamp();
   test_box_clamped_to_image();
   return check_report("test_raster");

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 #include "zbuffer/conventions.h"
 #include "zbuffer/types.h"
@@ -213,6 +214,25 @@ inline bool depth_write(float* depth, int32_t* ids, size_t p, float z, int32_t i
     return true;
   }
   return false;
+}
+
+// The same depth write on (depth, id) keys, a pixel's depth bits above its
+// id (the scanline keeps its row of depth so). Depths are never negative,
+// -0 or NaN (docs/rasterization.md 3.3) and non-negative floats order as
+// their bits do, so the smaller key wins exactly where depth_write writes;
+// an empty pixel (+inf, id -1) is the largest key.
+constexpr uint64_t kEmptyDepthKey = uint64_t(0x7F800000u) << 32 | 0xFFFFFFFFu;
+
+inline uint64_t depth_key(float z, int32_t id) {
+  uint32_t bits;
+  std::memcpy(&bits, &z, sizeof bits);
+  return uint64_t(bits) << 32 | uint32_t(id);
+}
+
+inline bool depth_write_key(uint64_t* keys, size_t p, uint64_t key) {
+  const bool win = key < keys[p];
+  keys[p] = win ? key : keys[p];
+  return win;
 }
 
 // Rasterize the part of a triangle inside the pixel rectangle

@@ -191,6 +191,13 @@ class ScanlineTables {
   void add_8_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                    const ScreenVertices& sv, int64_t first, int count, bool cull_backfaces,
                    RenderStats& stats);
+  void add_face(const MeshView& mesh, const double* mvp, const Viewport& vp,
+                const ScreenVertices& sv, int64_t f, bool cull_backfaces, RenderStats& stats);
+  template <class Lanes, class Faces>
+  void add_left_over(const Faces& f, unsigned large, const MeshView& mesh, const double* mvp,
+                     const Viewport& vp, const ScreenVertices& sv, int64_t first,
+                     bool cull_backfaces, RenderStats& stats);
+  void enter_scalar_list(int32_t p);
   struct Counts {
     int64_t tested = 0, covered = 0, written = 0;
   };
@@ -313,7 +320,8 @@ class ScanlineTables {
   // key per pixel, the depth's bits above the id.
   // Design decision: the depth write (the smaller depth, on a tie the
   // smaller id; docs/rasterization.md 3.4) is then the smaller key, compared
-  // as unsigned integers -- depths are never negative, -0 or NaN, and
+  // as unsigned integers (raster.h: depth_write_key; simd.h: write16_keys,
+  // write16_keys_at) -- depths are never negative, -0 or NaN, and
   // non-negative floats order as their bits do; an empty pixel (+inf, -1)
   // is the largest key. Good: a row's pixels drawn a polygon per lane
   // (draw_active) cost one gather and one scatter of keys a pass, where
