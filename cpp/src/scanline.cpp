@@ -563,8 +563,8 @@ void ScanlineTables::add_polygon(const ScreenVertex* v, int n, int64_t area, int
 // Pixels [lo, hi] of row y of polygon p (none if lo > hi), into the key
 // row: the raster core's coverage and depth, with the edge values at (lo, y)
 // stepped from the box's first pixel in exact (wrapping) int32 arithmetic.
-// (AVX-512 builds draw the int32 form in draw_active; only large triangles
-// come here.)
+// (AVX-512 builds draw the int32 form in draw_active, except in frames too
+// large for the vector lists; otherwise only large triangles come here.)
 inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int hi,
                                       Counts& counts) {
   if (p.large >= 0) {  // rare: a triangle too big for int32 edge values
