@@ -6,18 +6,19 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace zbuffer_py {
 
 namespace py = pybind11;
 
-// obj must be a C-contiguous numpy array of dtype T whose shape matches
-// `shape` (-1 matches any extent). Returns it without copying.
+// obj must be a numpy array of dtype T whose shape matches `shape` (-1
+// matches any extent), laid out in any way. Returns it without copying.
 template <class T>
-py::array_t<T> require_array(py::handle obj, const char* name,
-                             const std::vector<py::ssize_t>& shape) {
+py::array typed_array(py::handle obj, const char* name, const std::vector<py::ssize_t>& shape) {
   if (!py::isinstance<py::array>(obj))
     throw py::type_error(std::string(name) + " must be a numpy array, got " +
                          std::string(py::str(py::type::of(obj).attr("__name__"))));
@@ -40,8 +41,42 @@ py::array_t<T> require_array(py::handle obj, const char* name,
       got += (k ? ", " : "") + std::to_string(a.shape(k));
     throw py::value_error(std::string(name) + " must have shape " + want + "), got " + got + ")");
   }
+  return a;
+}
+
+// obj must be a C-contiguous numpy array of dtype T whose shape matches
+// `shape` (-1 matches any extent). Returns it without copying.
+template <class T>
+py::array_t<T> require_array(py::handle obj, const char* name,
+                             const std::vector<py::ssize_t>& shape) {
+  py::array a = typed_array<T>(obj, name, shape);
   if (!(a.flags() & py::array::c_style))
     throw py::value_error(std::string(name) + " must be C-contiguous");
+  return py::reinterpret_borrow<py::array_t<T>>(a);
+}
+
+// obj must be a 2-D numpy array of dtype T and shape `shape` whose rows are
+// contiguous: C-contiguous, or with padded rows -- each row's elements
+// adjacent, rows a whole number of elements apart, at least the width --
+// as the planes a render returns at some widths (types.h, padded_pitch).
+// Returns it without copying; `pitch` gets the elements from one row's
+// start to the next's.
+template <class T>
+py::array_t<T> require_rows(py::handle obj, const char* name, const std::vector<py::ssize_t>& shape,
+                            int& pitch) {
+  py::array a = typed_array<T>(obj, name, shape);
+  const py::ssize_t item = py::ssize_t(sizeof(T)), width = a.shape(1);
+  if (a.flags() & py::array::c_style) {
+    pitch = int(width);
+  } else if (a.strides(1) == item && a.strides(0) % item == 0 && a.strides(0) >= width * item &&
+             a.strides(0) / item <= std::numeric_limits<int>::max()) {
+    pitch = int(a.strides(0) / item);
+  } else {
+    throw py::value_error(std::string(name) + " must be C-contiguous or have contiguous, padded rows "
+                          "(strides (k * " + std::to_string(item) + ", " + std::to_string(item) +
+                          ") with k >= its width), got strides (" + std::to_string(a.strides(0)) +
+                          ", " + std::to_string(a.strides(1)) + ")");
+  }
   return py::reinterpret_borrow<py::array_t<T>>(a);
 }
 
@@ -54,6 +89,27 @@ py::array_t<T> require_output(py::handle obj, const char* name,
   return a;
 }
 
+// A plane the core writes into: require_rows' checks, and writeable.
+template <class T>
+py::array_t<T> require_output_rows(py::handle obj, const char* name,
+                                   const std::vector<py::ssize_t>& shape, int& pitch) {
+  auto a = require_rows<T>(obj, name, shape, pitch);
+  if (!a.writeable()) throw py::value_error(std::string(name) + " must be writeable");
+  return a;
+}
+
+// The bytes from an array's first element to just past its last: its
+// nbytes when contiguous, more for a view with gaps (padded rows).
+inline std::pair<const char*, const char*> byte_range(const py::array& a) {
+  const char* lo = static_cast<const char*>(a.data());
+  const char* hi = lo + a.itemsize();
+  for (py::ssize_t k = 0; k < a.ndim(); ++k) {
+    const py::ssize_t reach = (a.shape(k) - 1) * a.strides(k);
+    (reach < 0 ? lo : hi) += reach;
+  }
+  return {lo, hi};
+}
+
 // An array a call reads or writes, named for messages.
 struct NamedArray {
   py::array array;
@@ -64,12 +120,10 @@ struct NamedArray {
 // that of any of `others` (arrays the same call reads or writes): the core
 // would read what it has just written. Empty arrays overlap nothing.
 inline void require_apart(const NamedArray& out, const std::vector<NamedArray>& others) {
-  const auto* lo = static_cast<const char*>(out.array.data());
-  const auto* hi = lo + out.array.nbytes();
+  const auto [lo, hi] = byte_range(out.array);
   for (const NamedArray& other : others) {
     if (!other.array || other.array.nbytes() == 0 || out.array.nbytes() == 0) continue;
-    const auto* o_lo = static_cast<const char*>(other.array.data());
-    const auto* o_hi = o_lo + other.array.nbytes();
+    const auto [o_lo, o_hi] = byte_range(other.array);
     if (lo < o_hi && o_lo < hi)
       throw py::value_error(std::string(out.name) + " shares memory with " + other.name +
                             ": pass arrays of their own to render into");

@@ -63,8 +63,8 @@ py::tuple render(Tree& self, py::handle mvp_obj, int width, int height, bool cul
   if (temporal && self.tree.cluster_of_id.empty() && self.tree.n_input_faces > 0)
     throw py::value_error("temporal coherence needs a tree built without face_ids");
   // (The tree holds its own copies of the mesh: no input array to keep apart.)
-  auto [depth, ids] = output_planes(out_depth_obj, out_ids_obj, width, height, {});
-  zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
+  Planes planes = output_planes(out_depth_obj, out_ids_obj, width, height, {});
+  zbuffer::DepthTarget target = planes.target(width, height);
   zbuffer::RenderStats stats;
   const auto culls = attach_cull_map(record_culls, width, height, input);
   {
@@ -72,7 +72,7 @@ py::tuple render(Tree& self, py::handle mvp_obj, int width, int height, bool cul
     std::lock_guard<std::mutex> lock(self.mutex);
     zbuffer::render_tree_frame(self.tree, input, target, stats, self.frame, temporal);
   }
-  return render_result(depth, ids, stats, culls.get());
+  return render_result(planes.depth, planes.ids, stats, culls.get());
 }
 
 py::dict nodes(Tree& self) {

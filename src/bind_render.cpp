@@ -142,19 +142,19 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
 
   // Outputs are the user's arrays: written in place, handed over uncopied
   // (new ones, or those the caller passed to be rendered into).
-  auto [depth, ids] = output_planes(
+  Planes planes = output_planes(
       out_depth_obj, out_ids_obj, width, height,
       {{positions, "positions"}, {faces, "faces"}, {face_ids, "face_ids"},
        {cell_start, "cell_start"}, {cell_centre, "cell_centre"},
        {polygon_offsets, "polygon_offsets"}, {polygon_indices, "polygon_indices"}});
-  zbuffer::DepthTarget target{depth.mutable_data(), ids.mutable_data(), width, height};
+  zbuffer::DepthTarget target = planes.target(width, height);
   zbuffer::RenderStats stats;
   const auto culls = attach_cull_map(record_culls, width, height, input);
   {
     py::gil_scoped_release release;
     zbuffer::render(*algorithm, input, target, stats);
   }
-  return render_result(depth, ids, stats, culls.get());
+  return render_result(planes.depth, planes.ids, stats, culls.get());
 }
 
 }  // namespace
@@ -199,7 +199,8 @@ void bind_render(py::module_& m) {
   m.def(
       "pyramid_levels",
       [](py::handle depth_obj) {
-        auto depth = require_array<float>(depth_obj, "depth", {-1, -1});
+        int pitch = 0;
+        auto depth = require_rows<float>(depth_obj, "depth", {-1, -1}, pitch);
         const int h = int(depth.shape(0)), w = int(depth.shape(1));
         if (w <= 0 || h <= 0) throw py::value_error("depth must not be empty");
         py::list levels;
@@ -207,7 +208,7 @@ void bind_render(py::module_& m) {
         std::unique_ptr<zbuffer::ZPyramid> pyramid;
         {
           py::gil_scoped_release release;
-          pyramid = std::make_unique<zbuffer::ZPyramid>(depth.data(), w, h);
+          pyramid = std::make_unique<zbuffer::ZPyramid>(depth.data(), w, h, 1, false, pitch);
         }
         for (int k = 1; k < pyramid->levels(); ++k) {
           py::array_t<float> level({py::ssize_t(pyramid->height(k)), py::ssize_t(pyramid->width(k))});

@@ -20,7 +20,8 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
                            const std::string& color_source, py::handle colors_obj,
                            py::handle normals_obj, py::handle out_obj,
                            bool pixels_beyond_faces) {
-  auto ids = require_array<int32_t>(ids_obj, "triangle_id", {-1, -1});
+  int pitch = 0;
+  auto ids = require_rows<int32_t>(ids_obj, "triangle_id", {-1, -1}, pitch);
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
   auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
   auto mvp = require_array<double>(mvp_obj, "mvp", {4, 4});
@@ -32,12 +33,20 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   zbuffer::ShadingInput in;
   in.height = int(ids.shape(0));
   in.width = int(ids.shape(1));
+  in.pitch = pitch;
   in.mesh = {positions.data(), positions.shape(0), faces.data(), faces.shape(0)};
 
   // Every id must name a face and every face index a vertex: the pass reads
   // them without further checks.
-  const int32_t* id = ids.data();
-  if (zbuffer::find_bad_triangle_id(id, ids.size(), in.mesh.n_faces) >= 0)
+  bool bad = false;
+  if (in.id_pitch() == size_t(in.width)) {
+    bad = zbuffer::find_bad_triangle_id(ids.data(), ids.size(), in.mesh.n_faces) >= 0;
+  } else {  // row by row: the padding is not the plane's
+    for (int y = 0; y < in.height && !bad; ++y)
+      bad = zbuffer::find_bad_triangle_id(ids.data() + size_t(y) * in.id_pitch(), in.width,
+                                          in.mesh.n_faces) >= 0;
+  }
+  if (bad)
     throw py::value_error("triangle_id holds ids outside [-1, " +
                           std::to_string(in.mesh.n_faces) + ")");
   if (zbuffer::find_bad_face_index(in.mesh) >= 0)
@@ -86,7 +95,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   uint8_t* out = image.mutable_data();
   {
     py::gil_scoped_release release;
-    zbuffer::shade(in, id, out);
+    zbuffer::shade(in, ids.data(), out);
   }
   return image;
 }

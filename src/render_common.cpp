@@ -116,12 +116,14 @@ py::tuple render_result(py::array_t<float> depth, py::array_t<int32_t> ids,
   return py::make_tuple(depth, ids, stats_dict(stats), levels);
 }
 
-// The depth and id planes, as two C-contiguous (H, W) arrays in one block.
-// Their start addresses differ by 2 KiB modulo 4 KiB: at widths that are a
-// multiple of 1024 pixels every row of both planes would otherwise fall in
-// the same L1 cache set, and a triangle's rows would evict each other.
-std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height) {
-  const size_t n = size_t(width) * size_t(height);
+// Both planes in one block, their rows padded at widths where rows would
+// otherwise lie 4 KiB apart (zbuffer::padded_pitch), and their start
+// addresses 2 KiB apart modulo 4 KiB: at widths that are a multiple of 1024
+// pixels every row of both planes would otherwise fall in the same L1 cache
+// set, and a triangle's rows would evict each other.
+Planes allocate_planes(int width, int height) {
+  const int pitch = zbuffer::padded_pitch(width);
+  const size_t n = size_t(pitch) * size_t(height);
   py::array_t<uint8_t> block(py::ssize_t(2 * 4 * n + 4096 + 64));
   uint8_t* base = block.mutable_data();
   const size_t depth_at = (64 - reinterpret_cast<uintptr_t>(base) % 64) % 64;
@@ -130,26 +132,30 @@ std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, i
   const uintptr_t want = (depth_addr + 2048) % 4096;
   const uintptr_t ids_addr = ids_min + (want - ids_min % 4096 + 4096) % 4096;
   const std::vector<py::ssize_t> shape = {height, width};
-  const std::vector<py::ssize_t> strides = {py::ssize_t(4) * width, 4};
+  const std::vector<py::ssize_t> strides = {py::ssize_t(4) * pitch, 4};
   py::array_t<float> depth(shape, strides, reinterpret_cast<float*>(depth_addr), block);
   py::array_t<int32_t> ids(shape, strides, reinterpret_cast<int32_t*>(ids_addr), block);
-  return {depth, ids};
+  return {depth, ids, pitch};
 }
 
-std::pair<py::array_t<float>, py::array_t<int32_t>> output_planes(
-    py::handle out_depth, py::handle out_ids, int width, int height,
-    const std::vector<NamedArray>& inputs) {
+Planes output_planes(py::handle out_depth, py::handle out_ids, int width, int height,
+                     const std::vector<NamedArray>& inputs) {
   if (out_depth.is_none() && out_ids.is_none()) return allocate_planes(width, height);
   if (out_depth.is_none() || out_ids.is_none())
     throw py::value_error("give both out_depth and out_ids, or neither");
   const std::vector<py::ssize_t> shape = {height, width};
-  auto depth = require_output<float>(out_depth, "out_depth", shape);
-  auto ids = require_output<int32_t>(out_ids, "out_ids", shape);
+  int depth_pitch = 0, ids_pitch = 0;
+  auto depth = require_output_rows<float>(out_depth, "out_depth", shape, depth_pitch);
+  auto ids = require_output_rows<int32_t>(out_ids, "out_ids", shape, ids_pitch);
+  if (depth_pitch != ids_pitch && height > 1)
+    throw py::value_error("out_depth and out_ids must have their rows the same number of pixels "
+                          "apart, got " + std::to_string(depth_pitch) + " and " +
+                          std::to_string(ids_pitch));
   std::vector<NamedArray> others = inputs;
   others.push_back({ids, "out_ids"});
   require_apart({depth, "out_depth"}, others);
   require_apart({ids, "out_ids"}, inputs);
-  return {depth, ids};
+  return {depth, ids, height > 1 ? depth_pitch : width};
 }
 
 void read_mvp(py::handle mvp_obj, double* out) {

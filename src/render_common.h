@@ -40,15 +40,27 @@ std::unique_ptr<zbuffer::CullMap> attach_cull_map(bool record_culls, int width, 
 py::tuple render_result(py::array_t<float> depth, py::array_t<int32_t> ids,
                         const zbuffer::RenderStats& stats, const zbuffer::CullMap* culls);
 
-// The depth and id planes, as two C-contiguous (H, W) arrays in one block.
-std::pair<py::array_t<float>, py::array_t<int32_t>> allocate_planes(int width, int height);
+// The (H, W) depth and id planes a render writes, and the pixels from one
+// row's start to the next's in both (DepthTarget.pitch).
+struct Planes {
+  py::array_t<float> depth;
+  py::array_t<int32_t> ids;
+  int pitch = 0;
+
+  zbuffer::DepthTarget target(int width, int height) {
+    return {depth.mutable_data(), ids.mutable_data(), width, height, pitch};
+  }
+};
+
+// New planes, in one block: rows padded to zbuffer::padded_pitch(width).
+Planes allocate_planes(int width, int height);
 
 // The planes a render writes: the caller's (out_depth float32 and out_ids
-// int32, both (height, width), C-contiguous, writeable, apart from each
-// other and from every array in `inputs`), or, when both are None, new ones
+// int32, both (height, width), with contiguous rows the same number of
+// pixels apart (require_rows), writeable, apart from each other and from
+// every array in `inputs`), or, when both are None, new ones
 // (allocate_planes). ValueError/TypeError naming what is wrong otherwise.
-std::pair<py::array_t<float>, py::array_t<int32_t>> output_planes(
-    py::handle out_depth, py::handle out_ids, int width, int height,
-    const std::vector<NamedArray>& inputs);
+Planes output_planes(py::handle out_depth, py::handle out_ids, int width, int height,
+                     const std::vector<NamedArray>& inputs);
 
 }  // namespace zbuffer_py

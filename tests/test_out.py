@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import zbuffer
-from zbuffer import scenes
+from zbuffer import _core, scenes
 
 ALGOS = zbuffer.algorithms()
 W, H = 96, 64
@@ -122,6 +122,66 @@ def test_planes_sharing_cache_sets_get_the_same_bits(apart):
         np.testing.assert_array_equal(ids, ref.triangle_id)
 
 
+@pytest.mark.parametrize("w", [1024, 1536, 1000, 512])
+def test_planes_are_padded_where_rows_would_alias(w):
+    # At widths that are multiples of 512 from 1024 up the planes' rows are
+    # 16 pixels longer than the image (types.h, padded_pitch); every
+    # algorithm's pixels, the shading and the pyramid are those of
+    # contiguous planes.
+    mesh = scenes.instance_grid(scenes.default_scene(), (2, 2, 2))
+    h = 24
+    cam = zbuffer.Camera.fit(mesh, aspect=w / h)
+    ref = zbuffer.reference.render(mesh, cam, w, h)
+    pitch = w + 16 if w >= 1024 and w % 512 == 0 else w
+    for algo in ALGOS:
+        for shading in ("none", "flat", "smooth"):
+            res = zbuffer.render(mesh, algo, cam, w, h, shading=shading)
+            assert res.depth.strides == res.triangle_id.strides == (4 * pitch, 4)
+            np.testing.assert_array_equal(res.depth, ref.depth)
+            np.testing.assert_array_equal(res.triangle_id, ref.triangle_id)
+            if shading != "none":
+                depth, ids, image = stale(w, h)
+                flat = zbuffer.render(mesh, algo, cam, w, h, shading=shading,
+                                      out=(depth, ids, image))
+                np.testing.assert_array_equal(res.image, flat.image)
+    padded = zbuffer.render(mesh, "hiz", cam, w, h, shading="none")
+    levels = padded.pyramid()
+    assert levels[0] is padded.depth
+    theirs = _core.pyramid_levels(np.ascontiguousarray(padded.depth))
+    assert len(levels) == len(theirs)
+    for mine, other in zip(levels, theirs):
+        np.testing.assert_array_equal(mine, other)
+
+
+def test_rendering_into_views_with_padded_rows():
+    # Views of wider arrays (rows 37 pixels longer than the image, not a
+    # multiple of 16): the same bits, and not a pixel of the rest of the
+    # arrays written.
+    mesh = scenes.instance_grid(scenes.default_scene(), (2, 2, 2))
+    w, h, extra = 1024, 24, 37
+    cam = zbuffer.Camera.fit(mesh, aspect=w / h)
+    ref = zbuffer.reference.render(mesh, cam, w, h)
+    scene = zbuffer.Scene(mesh)
+    renders = [lambda out, a=a: zbuffer.render(mesh, a, cam, w, h, shading="flat", out=out)
+               for a in ALGOS]
+    renders += [lambda out, a=a: scene.render(cam, a, w, h, shading="flat", out=out)
+                for a in ("hiz_octree", "hiz_bvh")]
+    renders += [lambda out: scene.render(cam, "hiz_octree", w, h, shading="flat", out=out,
+                                         temporal=True)] * 2
+    fresh = zbuffer.render(mesh, "zbuffer", cam, w, h, shading="flat")
+    for render in renders:
+        big_depth = np.full((h, w + extra), 0.25, np.float32)
+        big_ids = np.full((h, w + extra), 7, np.int32)
+        image = np.full((h, w, 3), 9, np.uint8)
+        depth, ids = big_depth[:, :w], big_ids[:, :w]
+        res = render((depth, ids, image))
+        assert res.depth is depth and res.triangle_id is ids
+        np.testing.assert_array_equal(depth, ref.depth)
+        np.testing.assert_array_equal(ids, ref.triangle_id)
+        np.testing.assert_array_equal(image, fresh.image)
+        assert (big_depth[:, w:] == 0.25).all() and (big_ids[:, w:] == 7).all()
+
+
 def test_arrays_that_cannot_be_rendered_into_are_refused():
     mesh, cam = mesh_and_camera()
     depth, ids, image = stale()
@@ -140,8 +200,15 @@ def test_arrays_that_cannot_be_rendered_into_are_refused():
         render((depth[:, 1:].copy(), ids))
     with pytest.raises(ValueError, match="image has shape"):
         render((depth, ids, image[..., :2].copy()))
-    with pytest.raises(ValueError, match="C-contiguous"):
+    with pytest.raises(ValueError, match="C-contiguous or have contiguous, padded rows"):
         render((np.asfortranarray(depth), ids))
+    wide = np.zeros((H, 2 * W), np.float32)
+    with pytest.raises(ValueError, match="C-contiguous or have contiguous, padded rows"):
+        render((wide[:, ::2], ids))  # pixels of a row not adjacent
+    with pytest.raises(ValueError, match="image must be C-contiguous$"):
+        render((depth, ids, np.zeros((H, 2 * W, 3), np.uint8)[:, :W]))
+    with pytest.raises(ValueError, match="rows the same number of pixels apart, got 192 and 96"):
+        render((wide[:, :W], ids))
     frozen = depth.copy()
     frozen.flags.writeable = False
     with pytest.raises(ValueError, match="writeable"):

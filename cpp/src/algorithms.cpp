@@ -44,14 +44,24 @@ std::string algorithm_names() {
 }
 
 void clear_target(DepthTarget& target) {
-  const size_t n = size_t(target.width) * size_t(target.height);
-  std::fill_n(target.depth, n, std::numeric_limits<float>::infinity());
-  std::fill_n(target.triangle_id, n, int32_t(-1));
+  const size_t pitch = target.row_pitch(), width = size_t(target.width);
+  const float far = std::numeric_limits<float>::infinity();
+  if (pitch == width) {  // one stretch
+    std::fill_n(target.depth, width * size_t(target.height), far);
+    std::fill_n(target.triangle_id, width * size_t(target.height), int32_t(-1));
+    return;
+  }
+  for (size_t y = 0; y < size_t(target.height); ++y) {  // the rows, not their padding
+    std::fill_n(target.depth + y * pitch, width, far);
+    std::fill_n(target.triangle_id + y * pitch, width, int32_t(-1));
+  }
 }
 
 bool planes_share_cache_sets(const DepthTarget& target) {
   constexpr uintptr_t kPage = 4096, kNear = 512;
-  if (target.width % 1024 != 0) return false;
+  // (Padded rows, whose pitch is never a multiple of 1024, have their own
+  // remedy: types.h, padded_pitch.)
+  if (target.row_pitch() != size_t(target.width) || target.width % 1024 != 0) return false;
   const uintptr_t apart = (reinterpret_cast<uintptr_t>(target.triangle_id) -
                            reinterpret_cast<uintptr_t>(target.depth)) % kPage;
   return apart < kNear || apart > kPage - kNear;

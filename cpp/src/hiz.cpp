@@ -27,7 +27,7 @@ void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stat
   // slower. Keeping 4x4 cells too (as the tree algorithms do) made them
   // 1-4% slower, and so did finer cells (16 x 16 x 16: up to 25% on small
   // meshes, whose cells then hold a few faces each).
-  ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true);
+  ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true, target.pitch);
   pyramid.record_culls(input.culls);
   render_faces_batched(input, target, stats, &pyramid, TriangleBatch::kCapacity,
                        /*lazy_upkeep=*/true);

@@ -603,7 +603,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   // a traversal keeps, many small triangles are hidden, and finer cells
   // prove more of them so (a third more culled on the orthographic grid of
   // benchmarks/bench_hiz.py, for a little more upkeep).
-  ZPyramid pyramid(target.depth, target.width, target.height, 2, /*cleared=*/true);
+  ZPyramid pyramid(target.depth, target.width, target.height, 2, /*cleared=*/true, target.pitch);
   pyramid.record_culls(input.culls);
   TriangleBatch batch(target, stats, &pyramid);
   // Per-thread scratch, looked up once here: each use of a thread_local in
@@ -801,7 +801,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     uint32_t* seen = frame.visible_stamp.data();
     std::vector<int32_t>& visible = frame.visible_clusters;
     for (int y = 0; y < target.height; y += stride) {
-      const int32_t* row = target.triangle_id + size_t(y) * size_t(target.width);
+      const int32_t* row = target.triangle_id + size_t(y) * target.row_pitch();
       int32_t last = -1;  // neighbouring pixels mostly show the same triangle
       for (int x = 0; x < target.width; ++x) {
         const int32_t id = row[x];

@@ -36,8 +36,8 @@ constexpr int kSpanMinWidth = 64;
 // `spans` at row y0 (raster.h: TriangleSpans): `run(w1, w2, n, depth, ids, room)` draws the n
 // pixels of a run, all covered, from the exact unbiased edge values w1, w2
 // of its first pixel (the depth formula and the depth write only), with
-// `room` pixels of the target from its first one to the end of the planes;
-// it returns how many it wrote. Only covered pixels are tested, so
+// `room` pixels from its first one that it may load and store back whole
+// (to the end of contiguous planes; the run itself in padded ones); it returns how many it wrote. Only covered pixels are tested, so
 // pixels_tested counts them.
 template <class Run>
 ZBUFFER_INLINE void rasterize_spans(const TriangleSetup& s, TriangleSpans spans, int x0, int y0,
@@ -46,7 +46,7 @@ ZBUFFER_INLINE void rasterize_spans(const TriangleSetup& s, TriangleSpans spans,
   const int64_t dy = int64_t(y0) - s.y_min;
   int64_t row1 = s.w_origin[1] + s.bias[1] + dy * s.step_y[1];  // exact, at (x_min, y)
   int64_t row2 = s.w_origin[2] + s.bias[2] + dy * s.step_y[2];
-  const size_t pitch = size_t(target.width), pixels = pitch * size_t(target.height);
+  const size_t pitch = target.row_pitch(), whole = target.whole_pixels();
   int64_t covered = 0, written = 0;
   for (int y = y0; y <= y1; ++y) {
     int lo, hi;
@@ -55,7 +55,8 @@ ZBUFFER_INLINE void rasterize_spans(const TriangleSetup& s, TriangleSpans spans,
       const int64_t dx = int64_t(lo) - s.x_min;
       const size_t p = size_t(y) * pitch + size_t(lo);
       written += run(row1 + dx * s.step_x[1], row2 + dx * s.step_x[2], hi - lo + 1,
-                     target.depth + p, target.triangle_id + p, pixels - p);
+                     target.depth + p, target.triangle_id + p,
+                     p < whole ? whole - p : size_t(target.width - lo));
       covered += hi - lo + 1;
     }
     spans.next_row();
@@ -95,7 +96,7 @@ void rasterize_rect_scalar(const TriangleSetup& s, int x0, int y0, int x1, int y
   int64_t covered = 0, written = 0;
   for (int y = y0; y <= y1; ++y) {
     int64_t w0 = row[0], w1 = row[1], w2 = row[2];
-    const size_t base = size_t(y) * size_t(target.width);
+    const size_t base = size_t(y) * target.row_pitch();
     for (int x = x0; x <= x1; ++x) {
       if ((w0 | w1 | w2) >= 0) {  // all biased edge values >= 0: inside
         ++covered;
@@ -197,7 +198,7 @@ ZBUFFER_INLINE void rasterize_rect_i32(const TriangleSetup& s, int x0, int y0, i
   const __m512i bias2 = _mm512_set1_epi32(int32_t(s.bias[2]));
   const simd::DepthPlane16 plane(s.z0, s.a1, s.a2, s.z_lo, s.z_hi);
   const __m512i id = _mm512_set1_epi32(s.id);
-  const size_t pitch = size_t(target.width);
+  const size_t pitch = target.row_pitch();
   int64_t covered = 0, written = 0;
 
   // Coverage (of the biased edge values) and depth (of the unbiased ones).
@@ -289,7 +290,7 @@ ZBUFFER_INLINE void rasterize_rect_i64(const TriangleSetup& s, int x0, int y0, i
   const __m512i bias2 = _mm512_set1_epi64(s.bias[2]);
   const simd::DepthPlane16 plane(s.z0, s.a1, s.a2, s.z_lo, s.z_hi);
   const __m512i id = _mm512_set1_epi32(s.id);
-  const size_t pitch = size_t(target.width);
+  const size_t pitch = target.row_pitch();
   float* depth_row = target.depth + size_t(y0) * pitch + x0;
   int32_t* id_row = target.triangle_id + size_t(y0) * pitch + x0;
   int64_t covered = 0, written = 0;
@@ -456,7 +457,8 @@ ZBUFFER_INLINE void rasterize_span_avx512(const TriangleSetup& s, int y, int x0,
 // are drawn by spans). A box at most 4 pixels wide is walked two rows at a time
 // (lanes 0-3 row y, lanes 4-7 row y + 1), a wider one 8 pixels of a row at
 // a time. Loads and stores of 8 (or twice 4) pixels that lie inside the
-// image are whole (simd::write8); at the image's end they are masked.
+// row, or inside contiguous planes, are whole (simd::write8); the others
+// are masked.
 ZBUFFER_INLINE void rasterize_rect_avx2_i32(const TriangleSetup& s, int x0, int y0, int x1, int y1,
                                             const int64_t row0[3], DepthTarget& target,
                                             RenderStats& stats) {
@@ -478,8 +480,7 @@ ZBUFFER_INLINE void rasterize_rect_avx2_i32(const TriangleSetup& s, int x0, int 
   const __m256i bias2 = _mm256_set1_epi32(int32_t(s.bias[2]));
   const simd::DepthPlane8 plane(s.z0, s.a1, s.a2, s.z_lo, s.z_hi);
   const __m256i id = _mm256_set1_epi32(s.id);
-  const size_t pitch = size_t(target.width);
-  const size_t pixels = pitch * size_t(target.height);
+  const size_t pitch = target.row_pitch(), pixels = target.whole_pixels();
   int64_t covered = 0, written = 0;
   auto edges = [&](int k) { return _mm256_add_epi32(_mm256_set1_epi32(int32_t(row[k])), lane_w[k]); };
 
@@ -495,7 +496,7 @@ ZBUFFER_INLINE void rasterize_rect_avx2_i32(const TriangleSetup& s, int x0, int 
       const size_t p0 = size_t(y) * pitch + size_t(x0), p1 = second ? p0 + pitch : p0;
       const __m256i win = simd::write8_rows(inside, z, id, target.depth + p0, target.depth + p1,
                                             target.triangle_id + p0, target.triangle_id + p1,
-                                            second, p1 + 4 <= pixels);
+                                            second, x0 + 4 <= target.width || p1 + 4 <= pixels);
       covered += simd::lanes8(inside);
       written += simd::lanes8(win);
       for (int k = 0; k < 3; ++k) row[k] += uint32_t(int32_t(2 * s.step_y[k]));
@@ -513,7 +514,8 @@ ZBUFFER_INLINE void rasterize_rect_avx2_i32(const TriangleSetup& s, int x0, int 
           const __m256 z = simd::depth8x32(plane, _mm256_add_epi32(w1, bias1),
                                            _mm256_add_epi32(w2, bias2));
           const __m256i win = simd::write8(inside, z, id, target.depth + p + x,
-                                           target.triangle_id + p + x, p + x + 8 <= pixels);
+                                           target.triangle_id + p + x,
+                                           x0 + x + 8 <= target.width || p + x + 8 <= pixels);
           covered += simd::lanes8(inside);
           written += simd::lanes8(win);
         }

@@ -999,8 +999,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
 
   drawn_in_image_ = false;
   for (int y = 0; y < height; ++y) {
-    image_depth_ = target.depth + size_t(y) * size_t(width);
-    image_ids_ = target.triangle_id + size_t(y) * size_t(width);
+    image_depth_ = target.depth + size_t(y) * target.row_pitch();
+    image_ids_ = target.triangle_id + size_t(y) * target.row_pitch();
     // Polygons and edges entering at this row
     enter_polygons(poly_start_[size_t(y)], poly_start_[size_t(y) + 1]);
     if (vector_lists_) {

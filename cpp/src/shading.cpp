@@ -328,7 +328,7 @@ void shade_scalar(const ShadingInput& in, const int32_t* triangle_id, uint8_t* i
     for (int i = 0; i < in.width; ++i) {
       const size_t p = size_t(j) * size_t(in.width) + size_t(i);
       uint8_t* out = image + 3 * p;
-      const int32_t f = triangle_id[p];
+      const int32_t f = triangle_id[size_t(j) * in.id_pitch() + size_t(i)];
       if (f < 0) {
         out[0] = in.background[0];
         out[1] = in.background[1];
@@ -514,9 +514,10 @@ __attribute__((noinline)) void finish_exact(const ShadingInput& in, const FaceTa
   for (size_t k = 0; k < n_steps; ++k) {
     const int y = int(table.exact_steps[3 * k]), x = int(table.exact_steps[3 * k + 1]);
     const size_t at = size_t(y) * size_t(in.width) + size_t(x);
+    const int32_t* ids = triangle_id + size_t(y) * in.id_pitch() + size_t(x);
     for (unsigned lanes = table.exact_steps[3 * k + 2]; lanes; lanes &= lanes - 1) {
       const int j = __builtin_ctz(lanes);
-      const int32_t face = triangle_id[at + size_t(j)];
+      const int32_t face = ids[j];
       const FaceShade& s =
           *table.exact_face(table.rows.data() + size_t(table.row_floats) * size_t(table.row(face)));
       shade_pixel(in, s, face, x + j, y, smooth, image + 3 * (at + size_t(j)));
@@ -969,6 +970,72 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
 }
 #endif
 
+// Calls sight(face) for the id of every run of one id among the `count`
+// ids at `ids` (and maybe again for a face sighted before), skipping -1.
+template <class Sight>
+void sight_runs(const int32_t* ids, size_t count, Sight&& sight) {
+  size_t p = 0;
+  int32_t previous = -1;
+#ifdef ZBUFFER_AVX512
+  // The id of each run of one id, 16 pixels per instruction, packed
+  // into a short list, then sighted (a loop over each 16 pixels' runs
+  // would mispredict its trip count).
+  constexpr size_t kChunk = 2048;
+  alignas(64) int32_t runs[kChunk + 16];
+  __m512i before = _mm512_set1_epi32(-1);
+  while (p + 16 <= count) {
+    const size_t chunk_end = std::min(count - count % 16, p + kChunk);
+    size_t n = 0;
+    for (; p < chunk_end; p += 16) {
+      const __m512i f = _mm512_loadu_si512(ids + p);
+      const __m512i shifted = _mm512_alignr_epi32(f, before, 15);  // lane k: pixel p + k - 1
+      const __mmask16 start = _mm512_cmpneq_epi32_mask(f, shifted) &
+                              _mm512_cmpge_epi32_mask(f, _mm512_setzero_si512());
+      _mm512_storeu_si512(runs + n, _mm512_maskz_compress_epi32(start, f));
+      n += size_t(__builtin_popcount(start));
+      before = f;
+    }
+    for (size_t k = 0; k < n; ++k) sight(runs[k]);
+  }
+  if (p > 0) previous = ids[p - 1];
+#elif defined(ZBUFFER_AVX2)
+  // The same, 8 pixels per instruction, packed by a permutation per mask
+  // (AVX2 has no compress).
+  static const auto kPack = [] {
+    std::array<std::array<int32_t, 8>, 256> t{};
+    for (int m = 0; m < 256; ++m)
+      for (int b = 0, k = 0; b < 8; ++b)
+        if (m >> b & 1) t[size_t(m)][size_t(k++)] = b;
+    return t;
+  }();
+  constexpr size_t kChunk = 2048;
+  alignas(32) int32_t runs[kChunk + 8];
+  if (count > 0 && ids[0] >= 0) sight(ids[0]);
+  p = 1;
+  while (p + 8 <= count) {
+    const size_t chunk_end = p + std::min((count - p) / 8 * 8, kChunk);
+    size_t n = 0;
+    for (; p < chunk_end; p += 8) {
+      const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + p));
+      const __m256i before = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + p - 1));
+      const __m256i start = _mm256_andnot_si256(_mm256_cmpeq_epi32(f, before),
+                                                _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
+      const unsigned bits = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(start)));
+      const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(kPack[bits].data()));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(runs + n), _mm256_permutevar8x32_epi32(f, to));
+      n += size_t(__builtin_popcount(bits));
+    }
+    for (size_t k = 0; k < n; ++k) sight(runs[k]);
+  }
+  if (count > 0) previous = ids[p - 1];
+#endif
+  for (; p < count; ++p) {
+    const int32_t f = ids[p];
+    if (f != previous && f >= 0) sight(f);
+    previous = f;
+  }
+}
+
 // Prepares the table for every face that shows up in triangle_id (maybe
 // more): all faces when there are few, else those found by a pass over the
 // ids (each run of one id looked up once), a slot each in the order of
@@ -995,65 +1062,11 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
       found += (word & bit) == 0;
       word |= bit;
     };
-    size_t p = 0;
-    int32_t previous = -1;
-#ifdef ZBUFFER_AVX512
-    // The id of each run of one id, 16 pixels per instruction, packed
-    // into a short list, then sighted (a loop over each 16 pixels' runs
-    // would mispredict its trip count).
-    constexpr size_t kChunk = 2048;
-    alignas(64) int32_t runs[kChunk + 16];
-    __m512i before = _mm512_set1_epi32(-1);
-    while (p + 16 <= n_pixels) {
-      const size_t chunk_end = std::min(n_pixels - n_pixels % 16, p + kChunk);
-      size_t n = 0;
-      for (; p < chunk_end; p += 16) {
-        const __m512i f = _mm512_loadu_si512(triangle_id + p);
-        const __m512i shifted = _mm512_alignr_epi32(f, before, 15);  // lane k: pixel p + k - 1
-        const __mmask16 start = _mm512_cmpneq_epi32_mask(f, shifted) &
-                                _mm512_cmpge_epi32_mask(f, _mm512_setzero_si512());
-        _mm512_storeu_si512(runs + n, _mm512_maskz_compress_epi32(start, f));
-        n += size_t(__builtin_popcount(start));
-        before = f;
-      }
-      for (size_t k = 0; k < n; ++k) sight(runs[k]);
-    }
-    if (p > 0) previous = triangle_id[p - 1];
-#elif defined(ZBUFFER_AVX2)
-    // The same, 8 pixels per instruction, packed by a permutation per mask
-    // (AVX2 has no compress).
-    static const auto kPack = [] {
-      std::array<std::array<int32_t, 8>, 256> t{};
-      for (int m = 0; m < 256; ++m)
-        for (int b = 0, k = 0; b < 8; ++b)
-          if (m >> b & 1) t[size_t(m)][size_t(k++)] = b;
-      return t;
-    }();
-    constexpr size_t kChunk = 2048;
-    alignas(32) int32_t runs[kChunk + 8];
-    if (n_pixels > 0 && triangle_id[0] >= 0) sight(triangle_id[0]);
-    p = 1;
-    while (p + 8 <= n_pixels) {
-      const size_t chunk_end = p + std::min((n_pixels - p) / 8 * 8, kChunk);
-      size_t n = 0;
-      for (; p < chunk_end; p += 8) {
-        const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(triangle_id + p));
-        const __m256i before = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(triangle_id + p - 1));
-        const __m256i start = _mm256_andnot_si256(_mm256_cmpeq_epi32(f, before),
-                                                  _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
-        const unsigned bits = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(start)));
-        const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(kPack[bits].data()));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(runs + n), _mm256_permutevar8x32_epi32(f, to));
-        n += size_t(__builtin_popcount(bits));
-      }
-      for (size_t k = 0; k < n; ++k) sight(runs[k]);
-    }
-    if (n_pixels > 0) previous = triangle_id[p - 1];
-#endif
-    for (; p < n_pixels; ++p) {
-      const int32_t f = triangle_id[p];
-      if (f != previous && f >= 0) sight(f);
-      previous = f;
+    const size_t pitch = in.id_pitch(), width = size_t(in.width);
+    if (pitch == width) {
+      sight_runs(triangle_id, n_pixels, sight);
+    } else {  // row by row: the padding between rows holds no ids
+      for (size_t y = 0; y < size_t(in.height); ++y) sight_runs(triangle_id + y * pitch, width, sight);
     }
     list.resize(found);
     if (table.slot.size() < n_faces) {
@@ -1232,7 +1245,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   };
 
   for (int j = 0; j < in.height; ++j) {
-    const int32_t* ids = triangle_id + size_t(j) * size_t(in.width);
+    const int32_t* ids = triangle_id + size_t(j) * in.id_pitch();
     uint8_t* row = image + 3 * size_t(j) * size_t(in.width);
     const __m512 yn = _mm512_set1_ps(1.0f - (float(j) + 0.5f) / half_h);
     for (int i = 0; i < in.width; i += 16) {
@@ -1427,7 +1440,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
   };
 
   for (int j = 0; j < in.height; ++j) {
-    const int32_t* ids = triangle_id + size_t(j) * size_t(in.width);
+    const int32_t* ids = triangle_id + size_t(j) * in.id_pitch();
     uint8_t* row = image + 3 * size_t(j) * size_t(in.width);
     const __m256 yn = _mm256_set1_ps(1.0f - (float(j) + 0.5f) / half_h);
     for (int i = 0; i < in.width; i += 8) {

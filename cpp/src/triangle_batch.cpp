@@ -575,7 +575,7 @@ struct TriangleBatch::Lanes16 {
     bias1 = _mm512_set1_epi32(b.bias1_[i]);
     bias2 = _mm512_set1_epi32(b.bias2_[i]);
     id = _mm512_set1_epi32(b.id_[i]);
-    const size_t first = size_t(b.x0_[i]) + size_t(b.y0_[i]) * size_t(b.target_.width);
+    const size_t first = size_t(b.x0_[i]) + size_t(b.y0_[i]) * b.target_.row_pitch();
     depth = b.target_.depth + first;
     ids = b.target_.triangle_id + first;
   }
@@ -607,7 +607,7 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& writte
   const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
   const __m512i col = _mm512_and_si512(lane, _mm512_set1_epi32(7));
   const __m512i second_row = _mm512_srli_epi32(lane, 3);
-  const size_t pitch = size_t(target_.width);
+  const size_t pitch = target_.row_pitch();
   __m512i covered = _mm512_setzero_si512(), written = _mm512_setzero_si512();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
@@ -636,7 +636,7 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& writte
 template <int kRows>
 void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_out) {
   const __m512i col = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
-  const size_t pitch = size_t(target_.width);
+  const size_t pitch = target_.row_pitch();
   __m512i covered = _mm512_setzero_si512(), written = _mm512_setzero_si512();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
@@ -727,7 +727,8 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
 // image, else lanes masked to the box's columns; a row past the box (the
 // last of an odd number) is neither loaded nor stored. Loads and stores are
 // of whole vectors (simd::write8: lanes that do not win store back what
-// they loaded), except at the end of the planes.
+// they loaded), except where they would reach past the end of the planes
+// or, in planes with padded rows, past the end of the row.
 template <int kPasses>
 void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -735,7 +736,7 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
   const __m256i row4 = _mm256_srli_epi32(lane, 2);
   const __m256i low_half = _mm256_cmpgt_epi32(_mm256_set1_epi32(4), lane);
   const __m256i all = _mm256_set1_epi32(-1);
-  const size_t pitch = size_t(target_.width), pixels = pitch * size_t(target_.height);
+  const size_t pitch = target_.row_pitch(), pixels = target_.whole_pixels();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
     const __m256i area_b0 = _mm256_set1_epi32(area_b0_[i]);
@@ -812,7 +813,7 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
 template <int kRows>
 void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {
   const __m256i col = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  const size_t pitch = size_t(target_.width), pixels = pitch * size_t(target_.height);
+  const size_t pitch = target_.row_pitch(), pixels = target_.whole_pixels();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
     const __m256i sx1 = _mm256_set1_epi32(sx1_[i]), sx2 = _mm256_set1_epi32(sx2_[i]);

@@ -9,8 +9,9 @@
 
 namespace zbuffer {
 
-ZPyramid::ZPyramid(const float* depth, int width, int height, int first_level, bool cleared)
-    : depth_(depth), first_(std::max(1, first_level)) {
+ZPyramid::ZPyramid(const float* depth, int width, int height, int first_level, bool cleared,
+                   int pitch)
+    : depth_(depth), pitch0_(size_t(pitch ? pitch : width)), first_(std::max(1, first_level)) {
   pyramid_level_sizes(width, height, widths_, heights_);
   // A pyramid shorter than first_level keeps at least its top level.
   first_ = std::min(first_, std::max(1, levels() - 1));
@@ -30,13 +31,14 @@ inline bool ZPyramid::refresh(int k, int i, int j) {
   const int shift = k - below;
   const float* cells = level(below);
   const int bw = widths_[below], bh = heights_[below];
+  const size_t stride = pitch(below);
   const int x0 = i << shift, y0 = j << shift;
   const int x1 = std::min(bw, x0 + (1 << shift)), y1 = std::min(bh, y0 + (1 << shift));
-  float m = cells[size_t(y0) * bw + x0];
+  float m = cells[size_t(y0) * stride + x0];
 #if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
   if (shift == 3 && x1 - x0 == 8) {  // a whole row of 8 pixels per instruction (AVX)
     __m256 v = _mm256_set1_ps(m);
-    for (int y = y0; y < y1; ++y) v = _mm256_max_ps(v, _mm256_loadu_ps(cells + size_t(y) * bw + x0));
+    for (int y = y0; y < y1; ++y) v = _mm256_max_ps(v, _mm256_loadu_ps(cells + size_t(y) * stride + x0));
     __m128 h = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
     h = _mm_max_ps(h, _mm_movehl_ps(h, h));
     h = _mm_max_ss(h, _mm_movehdup_ps(h));
@@ -44,7 +46,7 @@ inline bool ZPyramid::refresh(int k, int i, int j) {
   } else
 #endif
   for (int y = y0; y < y1; ++y)
-    for (int x = x0; x < x1; ++x) m = std::max(m, cells[size_t(y) * bw + x]);
+    for (int x = x0; x < x1; ++x) m = std::max(m, cells[size_t(y) * stride + x]);
   float& cell = cells_[offset_[size_t(k)] + size_t(j) * widths_[k] + i];
   const bool changed = cell != m;
   cell = m;
@@ -98,7 +100,7 @@ int ZPyramid::refresh_block(int bx, int by, int top, bool& changed) {
     // The whole block in registers: sixteen rows of sixteen pixels, folded
     // into levels 1 (8 x 8 cells), 2 (4 x 4) and 3 (2 x 2); the kept ones
     // stored.
-    const size_t pitch = size_t(widths_[0]);
+    const size_t pitch = pitch0_;
     const float* d = depth_ + size_t(y0) * pitch + size_t(x0);
     const __m512i evens = _mm512_set_epi32(30, 28, 26, 24, 22, 20, 18, 16, 14, 12, 10, 8, 6, 4, 2, 0);
     // Level 1: rows 2m and 2m + 1 in lanes 0-7 and 8-15 of l1[m].
@@ -218,7 +220,7 @@ int64_t ZPyramid::climb(int k, std::vector<int32_t>& cells) {
 
 float ZPyramid::max_over_cells(int k, int x0, int y0, int x1, int y1) const {
   const float* cells = level(k);
-  const size_t w = size_t(widths_[k]);
+  const size_t w = pitch(k);
   const int i0 = x0 >> k, i1 = x1 >> k, j0 = y0 >> k, j1 = y1 >> k;
   float m = -std::numeric_limits<float>::infinity();
 #ifdef ZBUFFER_AVX512
@@ -254,7 +256,7 @@ float ZPyramid::max_over_cells(int k, int x0, int y0, int x1, int y1) const {
 float ZPyramid::max_over(int x0, int y0, int x1, int y1) const {
   const int k = query_level(x0, y0, x1, y1);
   const float* cells = level(k);
-  const int w = widths_[k];
+  const size_t w = pitch(k);
   const int i0 = x0 >> k, i1 = x1 >> k, j0 = y0 >> k, j1 = y1 >> k;
   float m = cells[size_t(j0) * w + i0];
   if (i1 != i0) m = std::max(m, cells[size_t(j0) * w + i1]);

@@ -1,5 +1,6 @@
 // Every registered algorithm produces the plain Z-buffer's bits, on random
 // scenes with heavy occlusion (so that hierarchical culling really happens).
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <cstring>
@@ -122,6 +123,28 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
       if (std::string(algo.name) != "zbuffer" && std::string(algo.name) != "scanline")
         CHECK(stats.culled_hidden > 0);
       nodes_hidden[algo.name] += stats.nodes_hidden;
+      // Into planes with padded rows (rows `pitch` pixels apart, the last
+      // one ending the allocation): the same pixels, the padding untouched.
+      {
+        const int pitch = w + 3 + 5 * scene;
+        const size_t n = size_t(h - 1) * pitch + size_t(w);
+        std::vector<float> pdepth(n, -7.0f);
+        std::vector<int32_t> pids(n, -7);
+        DepthTarget padded{pdepth.data(), pids.data(), w, h, pitch};
+        RenderStats pstats;
+        render(algo, input, padded, pstats);
+        bool rows_same = true, padding_kept = true;
+        for (int y = 0; y < h; ++y) {
+          const size_t at = size_t(y) * pitch, ref_at = size_t(y) * w;
+          rows_same &= std::memcmp(pdepth.data() + at, ref_depth.data() + ref_at, w * sizeof(float)) == 0 &&
+                       std::equal(pids.begin() + at, pids.begin() + at + w, ref_ids.begin() + ref_at);
+          for (size_t p = at + w; p < std::min(n, at + pitch); ++p)
+            padding_kept &= pdepth[p] == -7.0f && pids[p] == -7;
+        }
+        CHECK(rows_same);
+        CHECK(padding_kept);
+        CHECK(pstats.pixels_written == stats.pixels_written && pstats.rasterized == stats.rasterized);
+      }
       if (std::string(algo.name) == "scanline") {
         // Spans are exact: every pixel tested is covered, and the pixels
         // covered are the reference's.

@@ -106,8 +106,9 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         render of the same size (its ``depth``, ``triangle_id`` and, when
         this render shades, its ``image`` if it has one), or a tuple
         ``(depth, triangle_id)`` or ``(depth, triangle_id, image)``: float32
-        and int32 (H, W), uint8 (H, W, 3), C-contiguous, writeable, sharing
-        no memory with each other or the mesh. They are overwritten whole
+        and int32 (H, W) with contiguous rows (C-contiguous or padded, the same
+        number of pixels apart in both), uint8 (H, W, 3) C-contiguous,
+        writeable, sharing no memory with each other or the mesh. They are overwritten whole
         and the returned result holds them. Saves allocating (and the
         operating system zeroing) new arrays every frame: about 13 ms a
         frame at 4096 x 4096 (docs/api.md).
@@ -162,6 +163,14 @@ def draws_polygons(algo: str, mesh: Mesh) -> bool:
 _OUTPUTS = (("depth", np.float32, ()), ("triangle_id", np.int32, ()), ("image", np.uint8, (3,)))
 
 
+def _padded_rows(a: np.ndarray) -> bool:
+    """Whether a 2-D array's rows are contiguous and a whole number of
+    elements apart, at least its width: a render's planes at the widths
+    where the core pads them (docs/api.md)."""
+    row, col = a.strides
+    return col == a.itemsize and row % a.itemsize == 0 and row >= a.shape[1] * a.itemsize
+
+
 def output_arrays(out, width: int, height: int, mesh: Mesh) -> tuple:
     """``out=`` of :func:`render` and :meth:`Scene.render`, checked, as
     (depth, triangle_id, image): each an array to render into, or None for a
@@ -188,10 +197,15 @@ def output_arrays(out, width: int, height: int, mesh: Mesh) -> tuple:
         if a.shape != (height, width) + tail:
             raise ValueError(f"out: {name} has shape {a.shape}; this render needs "
                              f"{(height, width) + tail}")
-        if not a.flags.c_contiguous:
-            raise ValueError(f"out: {name} must be C-contiguous")
+        if not (a.flags.c_contiguous or (name != "image" and _padded_rows(a))):
+            raise ValueError(f"out: {name} must be C-contiguous"
+                             + ("" if name == "image" else " or have contiguous, padded rows"))
         if not a.flags.writeable:
             raise ValueError(f"out: {name} must be writeable")
+    if height > 1 and arrays[0].strides[0] // 4 != arrays[1].strides[0] // 4:
+        raise ValueError("out: depth and triangle_id must have their rows the same number of "
+                         f"pixels apart, got {arrays[0].strides[0] // 4} and "
+                         f"{arrays[1].strides[0] // 4}")
     present = [(name, a) for (name, _, _), a in zip(_OUTPUTS, arrays) if a is not None]
     for i, (name, a) in enumerate(present):
         for other, b in present[i + 1:]:

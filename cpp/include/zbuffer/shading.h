@@ -25,6 +25,10 @@ enum class ColorSource { kUniform, kPerVertex, kPerFace };
 struct ShadingInput {
   MeshView mesh;
   int width = 0, height = 0;
+  // Pixels from a row of the ids to the next (0: width; DepthTarget.pitch).
+  // The image's rows are contiguous.
+  int pitch = 0;
+  size_t id_pitch() const { return size_t(pitch ? pitch : width); }
   // (n_vertices, 3) unit vertex normals for smooth shading; nullptr shades
   // flat with each face's geometric normal.
   const double* vertex_normals = nullptr;

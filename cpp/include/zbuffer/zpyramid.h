@@ -39,16 +39,20 @@ inline void pyramid_level_sizes(int width, int height, std::vector<int>& widths,
 // reach past the rectangle).
 class ZPyramid {
  public:
-  // A pyramid over the (width x height) depth buffer `depth`, built from its
+  // A pyramid over the (width x height) depth buffer `depth`, whose rows
+  // start `pitch` pixels apart (0: width, as DepthTarget), built from its
   // current contents (or, with `cleared`, knowing them to be all +inf),
   // keeping levels 0 and first_level and up.
   ZPyramid(const float* depth, int width, int height, int first_level = 1,
-           bool cleared = false);
+           bool cleared = false, int pitch = 0);
 
   int levels() const { return int(widths_.size()); }  // including level 0
   int first_level() const { return first_; }           // first kept level above 0
   int width(int level) const { return widths_[level]; }
   int height(int level) const { return heights_[level]; }
+  // Cells from one row of a level to the next: the depth buffer's pitch at
+  // level 0, the width above.
+  size_t pitch(int level) const { return level == 0 ? pitch0_ : size_t(widths_[level]); }
   // Cells of a kept level (0, or first_level() and up).
   const float* level(int k) const { return k == 0 ? depth_ : cells_.data() + offset_[size_t(k)]; }
   // All kept levels above 0 lie in one array: level k (>= first_level)
@@ -130,6 +134,7 @@ class ZPyramid {
   int64_t climb(int k, std::vector<int32_t>& cells);
 
   const float* depth_;
+  size_t pitch0_;  // of the depth buffer
   int first_;
   std::vector<uint32_t> stamp_;  // per cell of the parent level: the last round that listed it
   uint32_t round_ = 0;
