@@ -31,14 +31,16 @@ std::vector<T> read(FILE* f, int64_t n, const char* path) {
   return v;
 }
 
-// A frame's two planes in one allocation, 2 KiB apart modulo 4 KiB as the
-// planes of a Python result are (src/render_common.cpp, allocate_planes).
+// A frame's two planes in one allocation, 2 KiB apart modulo 4 KiB, their
+// rows `pitch` pixels apart, as the planes of a Python result are
+// (src/render_common.cpp, allocate_planes).
 struct Planes {
   std::vector<char> memory;
   float* depth;
   int32_t* ids;
-  size_t n;
-  Planes(int w, int h) : n(size_t(w) * size_t(h)) {
+  int w, h, pitch;
+  Planes(int w_, int h_, int pitch_) : w(w_), h(h_), pitch(pitch_) {
+    const size_t n = size_t(pitch) * size_t(h);
     const size_t bytes = ((n * 4 + 4095) & ~size_t(4095)) + 2048;
     memory.resize(bytes + n * 4 + 4096);
     char* base = reinterpret_cast<char*>((reinterpret_cast<uintptr_t>(memory.data()) + 4095) &
@@ -46,18 +48,24 @@ struct Planes {
     depth = reinterpret_cast<float*>(base);
     ids = reinterpret_cast<int32_t*>(base + bytes);
   }
-  uint64_t hash(const std::vector<uint8_t>& image) const {  // FNV-1a over both planes and the image
-    uint64_t h = 1469598103934665603ull;
+  // FNV-1a over both planes' pixels (not their padding) and the image.
+  uint64_t hash(const std::vector<uint8_t>& image) const {
+    uint64_t hv = 1469598103934665603ull;
     auto mix = [&](const void* p, size_t bytes) {
       const unsigned char* c = static_cast<const unsigned char*>(p);
-      for (size_t k = 0; k < bytes; ++k) h = (h ^ c[k]) * 1099511628211ull;
+      for (size_t k = 0; k < bytes; ++k) hv = (hv ^ c[k]) * 1099511628211ull;
     };
-    mix(depth, n * 4);
-    mix(ids, n * 4);
+    for (int y = 0; y < h; ++y) mix(depth + size_t(y) * pitch, size_t(w) * 4);
+    for (int y = 0; y < h; ++y) mix(ids + size_t(y) * pitch, size_t(w) * 4);
     mix(image.data(), image.size());
-    return h;
+    return hv;
   }
 };
+
+// The row pitch of the planes the Python binding allocates (types.h,
+// padded_pitch): 16 pixels more at widths that are multiples of 512 from
+// 1024 up.
+int padded_pitch(int width) { return width >= 1024 && width % 512 == 0 ? width + 16 : width; }
 
 }  // namespace
 
@@ -107,7 +115,10 @@ int main(int argc, char** argv) {
                      shading == "smooth" ? normals.data() : nullptr, viewer.data(), light.data(),
                      images[side].data()};
     }
-    Planes planes(w, h);
+    // Each side draws into planes of its own, padded as its tree's Python
+    // results are (a tree without a row pitch: contiguous).
+    std::vector<Planes> planes;
+    for (int side = 0; side < 2; ++side) planes.emplace_back(w, h, padded_pitch(w));
     std::vector<double> ms[2];
     double out[2][3] = {};
     uint64_t hash[2] = {0, 0};
@@ -115,15 +126,24 @@ int main(int argc, char** argv) {
       for (int turn = 0; turn < 2; ++turn) {
         const int side = (frame & 1) ? 1 - turn : turn;  // A B, B A, ...
         auto render = side == 0 ? ab_render_a : ab_render_b;
-        if (render(algo, positions.data(), nv, faces.data(), face_ids.data(), nf,
-                   cell_start.empty() ? nullptr : cell_start.data(),
-                   cell_centre.empty() ? nullptr : cell_centre.data(), nc, mvp.data(),
-                   planes.depth, planes.ids, w, h, shading == "none" ? nullptr : &shade[side],
-                   out[side]) != 0) {
+        auto draw = [&] {
+          const Planes& p = planes[size_t(side)];
+          return render(algo, positions.data(), nv, faces.data(), face_ids.data(), nf,
+                        cell_start.empty() ? nullptr : cell_start.data(),
+                        cell_centre.empty() ? nullptr : cell_centre.data(), nc, mvp.data(),
+                        p.depth, p.ids, w, h, p.pitch, shading == "none" ? nullptr : &shade[side],
+                        out[side]);
+        };
+        int status = draw();
+        if (status == 3) {  // a tree without a row pitch
+          planes[size_t(side)] = Planes(w, h, w);
+          status = draw();
+        }
+        if (status != 0) {
           std::fprintf(stderr, "unknown algorithm %s\n", algo);
           return 2;
         }
-        if (frame == 0) hash[side] = planes.hash(images[side]);
+        if (frame == 0) hash[side] = planes[size_t(side)].hash(images[side]);
         if (frame >= kWarmup) ms[side].push_back(out[side][0]);
       }
     }
@@ -132,10 +152,11 @@ int main(int argc, char** argv) {
       image_diff = std::max(image_diff, std::abs(int(images[0][k]) - int(images[1][k])));
     std::printf("{\"scene\": \"%s\", \"algo\": \"%s\", \"shading\": \"%s\", \"width\": %d, "
                 "\"height\": %d, \"faces\": %lld, \"same_bits\": %s, \"image_max_diff\": %d, "
-                "\"tested\": [%.0f, %.0f], \"written\": [%.0f, %.0f], \"ms\": [[",
+                "\"pitch\": [%d, %d], \"tested\": [%.0f, %.0f], \"written\": [%.0f, %.0f], "
+                "\"ms\": [[",
                 path, algo, shading.c_str(), w, h, static_cast<long long>(nf),
-                hash[0] == hash[1] ? "true" : "false", image_diff, out[0][1], out[1][1], out[0][2],
-                out[1][2]);
+                hash[0] == hash[1] ? "true" : "false", image_diff, planes[0].pitch, planes[1].pitch,
+                out[0][1], out[1][1], out[0][2], out[1][2]);
     for (int side = 0; side < 2; ++side) {
       for (size_t k = 0; k < ms[side].size(); ++k)
         std::printf("%s%.6f", k ? ", " : "", ms[side][k]);

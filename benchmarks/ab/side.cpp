@@ -41,6 +41,18 @@ bool render_built_once(const std::string& algo, const zbuffer::RenderInput& in,
   zbuffer::render_tree_frame(tree, in, target, stats, frame);
   return true;
 }
+
+// Sets t.pitch where the side's core has one (DepthTarget, ShadingInput);
+// false where it has none.
+template <class T>
+auto set_pitch(T& t, int pitch, int) -> decltype(t.pitch = pitch, bool()) {
+  t.pitch = pitch;
+  return true;
+}
+template <class T>
+bool set_pitch(T&, int, long) {
+  return false;
+}
 }  // namespace
 
 // The declaration the definition below must match (side.h: AbRender).
@@ -50,7 +62,7 @@ extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vert
                        const int32_t* faces, const int32_t* face_ids, int64_t n_faces,
                        const int32_t* cell_start, const double* cell_centre, int64_t n_cells,
                        const double* mvp, float* depth, int32_t* ids, int width, int height,
-                       const AbShading* shading, double* out) {
+                       int pitch, const AbShading* shading, double* out) {
   zbuffer::RenderInput in;
   in.mesh.positions = positions;
   in.mesh.n_vertices = n_vertices;
@@ -66,6 +78,7 @@ extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vert
   target.triangle_id = ids;
   target.width = width;
   target.height = height;
+  if (!set_pitch(target, pitch, 0) && pitch != width) return 3;
   zbuffer::RenderStats stats;
   if (const zbuffer::Algorithm* algorithm = zbuffer::find_algorithm(algo))
     zbuffer::render(*algorithm, in, target, stats);
@@ -82,6 +95,7 @@ extern "C" int AB_SIDE(const char* algo, const double* positions, int64_t n_vert
     s.mesh.n_faces = shading->n_faces;
     s.width = width;
     s.height = height;
+    set_pitch(s, pitch, 0);
     s.vertex_normals = shading->normals;
     std::memcpy(s.mvp, mvp, sizeof(s.mvp));
     std::memcpy(s.viewer, shading->viewer, sizeof(s.viewer));

@@ -19,12 +19,14 @@ struct AbShading {
   uint8_t* image;        // (height, width, 3)
 };
 
-// Renders one frame; with `shading`, shades it too. out: the time measured
-// (the render's total_ms, or with `shading` the shading call's), pixels
-// tested, pixels written. Returns 1 for an unknown algorithm.
+// Renders one frame into planes whose rows start `pitch` pixels apart;
+// with `shading`, shades it too. out: the time measured (the render's
+// total_ms, or with `shading` the shading call's), pixels tested, pixels
+// written. Returns 1 for an unknown algorithm, 3 if pitch != width and the
+// side's core has no row pitch (trees before bc41dc3).
 using AbRender = int(const char* algo, const double* positions, int64_t n_vertices,
                      const int32_t* faces, const int32_t* face_ids, int64_t n_faces,
                      const int32_t* cell_start, const double* cell_centre, int64_t n_cells,
                      const double* mvp, float* depth, int32_t* ids, int width, int height,
-                     const AbShading* shading, double* out);
+                     int pitch, const AbShading* shading, double* out);
 extern "C" AbRender ab_render_a, ab_render_b;
