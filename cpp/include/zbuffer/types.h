@@ -58,9 +58,10 @@ struct DepthTarget {
 // where rows `width` pixels apart would fall 4 KiB apart within one or two
 // rows -- widths that are multiples of 512 from 1024 up. There a column's
 // pixels in consecutive rows share an L1 cache set and every load of a row
-// 4K-aliases the stores of the row above it; padded rows drew bunny_69k
-// 11-15% faster at 1024 x 1024, 17% at 1536, 26% at 2048 and 13% at 2560
-// (benchmarks/README.md), while 512, 640, 768 and 1280 gained 0-3%.
+// 4K-aliases the stores of the row above it. Padded rows drew bunny_69k
+// 13% faster at 1024 x 1024 and 37% at 2048 x 2048 (benchmarks/ab.py), 17%
+// at 1536 and 13% at 2560 (the same frame drawn into wider planes); 512,
+// 640, 768 and 1280 gained 0-3% (benchmarks/README.md).
 inline int padded_pitch(int width) {
   return width >= 1024 && width % 512 == 0 ? width + 16 : width;
 }
