@@ -56,43 +56,63 @@ struct Buckets {
     add_run(b, 1, f, f, lo, hi);
   }
 #ifdef ZBUFFER_AVX512
-  // add() for faces f .. f + 15, buckets b and grid boxes lo/hi by axis: the
-  // faces of each bucket among them are folded in as one run, bucket by
-  // bucket (usually one: meshes visited in spatial order list neighbours
-  // together). Counts and boxes do not depend on the order runs come in.
+  // add() for faces f .. f + 15, buckets b and grid boxes lo/hi by axis.
+  // Those in the current run's bucket -- most of them: a bucket holds
+  // hundreds of consecutive faces -- go into the run's lane-wise bounds,
+  // reduced once when the run ends; the others straight into their buckets,
+  // a bucket at a time, a face alone without a reduction (an octree's faces
+  // that straddle a cell border and belong to a coarser node, or the first
+  // faces of the next run). A step with no face in the run ends it; the next
+  // is lane 15's bucket. Counts and boxes do not depend on the order faces
+  // come in. (Ending the run for every other bucket present, six masked
+  // reductions each, was a third of the octree's build.)
   void add16(int64_t f, __m512i b, const __m512i* lo, const __m512i* hi) {
     _mm512_storeu_si512(&of_face[size_t(f)], b);
-    // All 16 in the current run (most steps: a bucket holds hundreds of
-    // consecutive faces): their boxes go into the run's lane-wise bounds,
-    // reduced once when the run ends.
-    if (run_ >= 0 && _mm512_cmpeq_epi32_mask(b, _mm512_set1_epi32(run_)) == 0xFFFF) {
-      in_order_ &= run_ >= last_;
-      last_ = run_;
-      for (int a = 0; a < 3; ++a) {
-        _mm512_storeu_si512(lane_lo_[a], _mm512_min_epu32(_mm512_loadu_si512(lane_lo_[a]), lo[a]));
-        _mm512_storeu_si512(lane_hi_[a], _mm512_max_epu32(_mm512_loadu_si512(lane_hi_[a]), hi[a]));
-      }
-      run_count_ += 16;
-      run_last_ = f + 15;
-      return;
-    }
-    alignas(64) int32_t bs[16];
-    _mm512_store_si512(bs, b);
     // In order while no face's bucket is below the one before it.
     const __m512i before = _mm512_alignr_epi32(b, _mm512_set1_epi32(last_), 15);
     in_order_ &= _mm512_cmplt_epi32_mask(b, before) == 0;
-    last_ = bs[15];
-    for (__mmask16 left = 0xFFFF; left;) {
-      const int32_t bucket = bs[__builtin_ctz(left)];
-      const __mmask16 same = _mm512_mask_cmpeq_epi32_mask(left, b, _mm512_set1_epi32(bucket));
-      uint32_t l[3], h[3];
+    const int32_t last = _mm_extract_epi32(_mm512_extracti32x4_epi32(b, 3), 3);
+    last_ = last;
+    __mmask16 in_run = run_ >= 0 ? _mm512_cmpeq_epi32_mask(b, _mm512_set1_epi32(run_)) : 0;
+    if (!in_run) {
+      end_run();
+      in_run = _mm512_cmpeq_epi32_mask(b, _mm512_set1_epi32(last));
+      run_ = last;
+      run_count_ = 0;
+      run_first_ = f + __builtin_ctz(in_run);
       for (int a = 0; a < 3; ++a) {
-        l[a] = _mm512_mask_reduce_min_epu32(same, lo[a]);
-        h[a] = _mm512_mask_reduce_max_epu32(same, hi[a]);
+        run_lo_[a] = ~uint32_t(0);
+        run_hi_[a] = 0;
       }
-      add_run(bucket, __builtin_popcount(same), f + __builtin_ctz(same),
-              f + 31 - __builtin_clz(same), l, h);
+    }
+    for (int a = 0; a < 3; ++a) {
+      _mm512_storeu_si512(lane_lo_[a], _mm512_mask_min_epu32(_mm512_loadu_si512(lane_lo_[a]), in_run,
+                                                             _mm512_loadu_si512(lane_lo_[a]), lo[a]));
+      _mm512_storeu_si512(lane_hi_[a], _mm512_mask_max_epu32(_mm512_loadu_si512(lane_hi_[a]), in_run,
+                                                             _mm512_loadu_si512(lane_hi_[a]), hi[a]));
+    }
+    run_count_ += __builtin_popcount(in_run);
+    run_last_ = f + 31 - __builtin_clz(in_run);
+    __mmask16 left = __mmask16(~in_run);
+    if (!left) return;
+    alignas(64) int32_t bs[16];
+    alignas(64) uint32_t l[3][16], h[3][16];
+    _mm512_store_si512(bs, b);
+    for (int a = 0; a < 3; ++a) {
+      _mm512_store_si512(l[a], lo[a]);
+      _mm512_store_si512(h[a], hi[a]);
+    }
+    while (left) {
+      const int k = __builtin_ctz(left);
+      const __mmask16 same = _mm512_mask_cmpeq_epi32_mask(left, b, _mm512_set1_epi32(bs[k]));
       left &= __mmask16(~same);
+      uint32_t fl[3], fh[3];
+      for (int a = 0; a < 3; ++a) {
+        const bool one = (same & (same - 1)) == 0;  // a face alone: no reduction
+        fl[a] = one ? l[a][k] : _mm512_mask_reduce_min_epu32(same, lo[a]);
+        fh[a] = one ? h[a][k] : _mm512_mask_reduce_max_epu32(same, hi[a]);
+      }
+      add_to_bucket(bs[k], __builtin_popcount(same), f + k, f + 31 - __builtin_clz(same), fl, fh);
     }
   }
 #endif
@@ -193,15 +213,21 @@ struct Buckets {
     }
     clear_lanes();
 #endif
-    start[size_t(run_) + 1] += run_count_;
-    first_face[size_t(run_)] = std::min(first_face[size_t(run_)], run_first_);
-    last_face[size_t(run_)] = std::max(last_face[size_t(run_)], run_last_);
-    uint16_t* bx = &box[6 * size_t(run_)];
-    for (int a = 0; a < 3; ++a) {
-      bx[a] = std::min<uint16_t>(bx[a], uint16_t(run_lo_[a]));
-      bx[3 + a] = std::max<uint16_t>(bx[3 + a], uint16_t(run_hi_[a]));
-    }
+    add_to_bucket(run_, run_count_, run_first_, run_last_, run_lo_, run_hi_);
     run_ = -1;
+  }
+  // `count` faces, from `first` to `last`, with the grid box lo .. hi, into
+  // bucket b's count, face span and box.
+  void add_to_bucket(int32_t b, int64_t count, int64_t first, int64_t last, const uint32_t* lo,
+                     const uint32_t* hi) {
+    start[size_t(b) + 1] += count;
+    first_face[size_t(b)] = std::min(first_face[size_t(b)], first);
+    last_face[size_t(b)] = std::max(last_face[size_t(b)], last);
+    uint16_t* bx = &box[6 * size_t(b)];
+    for (int a = 0; a < 3; ++a) {
+      bx[a] = std::min<uint16_t>(bx[a], uint16_t(lo[a]));
+      bx[3 + a] = std::max<uint16_t>(bx[3 + a], uint16_t(hi[a]));
+    }
   }
   int32_t run_ = -1;
   int32_t last_ = -1;      // the bucket of the latest face
