@@ -184,9 +184,11 @@ void bind_render(py::module_& m) {
         "algorithm that draws polygons draws them natively, each with its first triangle's id.\n"
         "With cells (spatial_order's cell_start and cell_centre for these faces), the\n"
         "image-space algorithms visit the faces cell by cell, nearest cell first.\n"
-        "With out_depth and out_ids (float32 and int32 (height, width), C-contiguous,\n"
-        "writeable, sharing no memory with each other or the inputs), renders into them\n"
-        "and returns them instead of new arrays.");
+        "With out_depth and out_ids (float32 and int32 (height, width), rows contiguous and\n"
+        "the same number of pixels apart in both (C-contiguous or padded), writeable,\n"
+        "sharing no memory with each other or the inputs), renders into them and returns\n"
+        "them instead of new arrays; new ones have padded rows at widths that are multiples\n"
+        "of 512 from 1024 up.");
   m.def(
       "polygon_algorithms",
       [] {

@@ -127,8 +127,9 @@ void bind_shading(py::module_& m) {
         py::arg("color_source") = "uniform", py::arg("colors") = py::none(),
         py::arg("vertex_normals") = py::none(), py::arg("out") = py::none(),
         py::arg("pixels_beyond_faces") = false,
-        "Lambert-shade a visibility result; returns an (H, W, 3) uint8 image (out, if\n"
-        "given: C-contiguous, writeable, sharing no memory with the inputs). With\n"
+        "Lambert-shade a visibility result (triangle_id (H, W) int32, C-contiguous or with\n"
+        "padded rows); returns an (H, W, 3) uint8 image (out, if given: C-contiguous,\n"
+        "writeable, sharing no memory with the inputs). With\n"
         "pixels_beyond_faces (polygons drawn natively: a pixel carries its polygon's\n"
         "first triangle, which it may lie outside), interpolated shading runs the\n"
         "scalar pass, the one whose clamping holds for such pixels.");
