@@ -106,9 +106,9 @@ struct Buckets {
       const int k = __builtin_ctz(left);
       const __mmask16 same = _mm512_mask_cmpeq_epi32_mask(left, b, _mm512_set1_epi32(bs[k]));
       left &= __mmask16(~same);
+      const bool one = (same & (same - 1)) == 0;  // a face alone: no reduction
       uint32_t fl[3], fh[3];
       for (int a = 0; a < 3; ++a) {
-        const bool one = (same & (same - 1)) == 0;  // a face alone: no reduction
         fl[a] = one ? l[a][k] : _mm512_mask_reduce_min_epu32(same, lo[a]);
         fh[a] = one ? h[a][k] : _mm512_mask_reduce_max_epu32(same, hi[a]);
       }

@@ -37,8 +37,9 @@ constexpr int kSpanMinWidth = 64;
 // pixels of a run, all covered, from the exact unbiased edge values w1, w2
 // of its first pixel (the depth formula and the depth write only), with
 // `room` pixels from its first one that it may load and store back whole
-// (to the end of contiguous planes; the run itself in padded ones); it returns how many it wrote. Only covered pixels are tested, so
-// pixels_tested counts them.
+// (to the end of contiguous planes, of the row in padded ones); it returns
+// how many it wrote. Only covered pixels are tested, so pixels_tested
+// counts them.
 template <class Run>
 ZBUFFER_INLINE void rasterize_spans(const TriangleSetup& s, TriangleSpans spans, int x0, int y0,
                                     int x1, int y1, DepthTarget& target, RenderStats& stats,

@@ -106,10 +106,10 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         render of the same size (its ``depth``, ``triangle_id`` and, when
         this render shades, its ``image`` if it has one), or a tuple
         ``(depth, triangle_id)`` or ``(depth, triangle_id, image)``: float32
-        and int32 (H, W) with contiguous rows (C-contiguous or padded, the same
-        number of pixels apart in both), uint8 (H, W, 3) C-contiguous,
-        writeable, sharing no memory with each other or the mesh. They are overwritten whole
-        and the returned result holds them. Saves allocating (and the
+        and int32 (H, W) with contiguous rows (C-contiguous or padded, the
+        same number of pixels apart in both), uint8 (H, W, 3) C-contiguous,
+        writeable, sharing no memory with each other or the mesh. They are
+        overwritten whole and the returned result holds them. Saves allocating (and the
         operating system zeroing) new arrays every frame: about 13 ms a
         frame at 4096 x 4096 (docs/api.md).
 
