@@ -39,13 +39,11 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   // Every id must name a face and every face index a vertex: the pass reads
   // them without further checks.
   bool bad = false;
-  if (in.id_pitch() == size_t(in.width)) {
-    bad = zbuffer::find_bad_triangle_id(ids.data(), ids.size(), in.mesh.n_faces) >= 0;
-  } else {  // row by row: the padding is not the plane's
-    for (int y = 0; y < in.height && !bad; ++y)
-      bad = zbuffer::find_bad_triangle_id(ids.data() + size_t(y) * in.id_pitch(), in.width,
-                                          in.mesh.n_faces) >= 0;
-  }
+  zbuffer::for_each_run(size_t(in.width), size_t(in.height), in.id_pitch(),
+                        [&](size_t at, size_t n) {
+                          bad = bad || zbuffer::find_bad_triangle_id(ids.data() + at, int64_t(n),
+                                                                     in.mesh.n_faces) >= 0;
+                        });
   if (bad)
     throw py::value_error("triangle_id holds ids outside [-1, " +
                           std::to_string(in.mesh.n_faces) + ")");

@@ -98,6 +98,19 @@ def planes_sharing_cache_sets(width, height, apart):
     return depth, ids
 
 
+def every_render(mesh, cam, w, h, shading):
+    """Functions render(out) for every algorithm through zbuffer.render, the
+    Scene's two trees, and two temporal frames of its octree."""
+    scene = zbuffer.Scene(mesh)
+    renders = [lambda out, a=a: zbuffer.render(mesh, a, cam, w, h, shading=shading, out=out)
+               for a in ALGOS]
+    renders += [lambda out, a=a: scene.render(cam, a, w, h, shading=shading, out=out)
+                for a in ("hiz_octree", "hiz_bvh")]
+    renders += [lambda out: scene.render(cam, "hiz_octree", w, h, shading=shading, out=out,
+                                         temporal=True)] * 2
+    return renders
+
+
 @pytest.mark.parametrize("apart", [0, 64, 4032, 2048])
 def test_planes_sharing_cache_sets_get_the_same_bits(apart):
     # Every algorithm, the Scene's trees (temporal frames too), each into
@@ -106,15 +119,8 @@ def test_planes_sharing_cache_sets_get_the_same_bits(apart):
     mesh = scenes.instance_grid(scenes.default_scene(), (2, 2, 2))
     w, h = 1024, 40
     cam = zbuffer.Camera.fit(mesh, aspect=w / h)
-    scene = zbuffer.Scene(mesh)
     ref = zbuffer.reference.render(mesh, cam, w, h)
-    renders = [lambda out, a=a: zbuffer.render(mesh, a, cam, w, h, shading="none", out=out)
-               for a in ALGOS]
-    renders += [lambda out, a=a: scene.render(cam, a, w, h, shading="none", out=out)
-                for a in ("hiz_octree", "hiz_bvh")]
-    renders += [lambda out: scene.render(cam, "hiz_octree", w, h, shading="none", out=out,
-                                         temporal=True)] * 2
-    for render in renders:
+    for render in every_render(mesh, cam, w, h, "none"):
         depth, ids = planes_sharing_cache_sets(w, h, apart)
         res = render((depth, ids))
         assert res.depth is depth and res.triangle_id is ids
@@ -153,6 +159,25 @@ def test_planes_are_padded_where_rows_would_alias(w):
         np.testing.assert_array_equal(mine, other)
 
 
+def test_shading_reads_the_rows_of_padded_ids_only():
+    # The binding's id check and the pass read a row's pixels, not the
+    # padding between rows (here holding ids no face has).
+    mesh = scenes.default_scene()
+    w, h = 1024, 8
+    res = zbuffer.render(mesh, "zbuffer", None, w, h, shading="none")
+    big = np.full((h, w + 16), 10**6, np.int32)
+    ids = big[:, :w]
+    ids[:] = res.triangle_id
+    args = (mesh.vertices, mesh.faces, res.mvp, np.array([0.0, 0.0, 1.0, 0.0]),
+            np.array([0.0, 0.0, -1.0]), 0.2, 0.8, np.array([255, 255, 255], np.uint8),
+            np.array([0.8, 0.8, 0.8], np.float32))
+    image = _core.shade(ids, *args)
+    np.testing.assert_array_equal(image, _core.shade(np.ascontiguousarray(ids), *args))
+    ids[3, 5] = 10**6
+    with pytest.raises(ValueError, match="ids outside"):
+        _core.shade(ids, *args)
+
+
 def test_rendering_into_views_with_padded_rows():
     # Views of wider arrays (rows 37 pixels longer than the image, not a
     # multiple of 16): the same bits, and not a pixel of the rest of the
@@ -161,15 +186,8 @@ def test_rendering_into_views_with_padded_rows():
     w, h, extra = 1024, 24, 37
     cam = zbuffer.Camera.fit(mesh, aspect=w / h)
     ref = zbuffer.reference.render(mesh, cam, w, h)
-    scene = zbuffer.Scene(mesh)
-    renders = [lambda out, a=a: zbuffer.render(mesh, a, cam, w, h, shading="flat", out=out)
-               for a in ALGOS]
-    renders += [lambda out, a=a: scene.render(cam, a, w, h, shading="flat", out=out)
-                for a in ("hiz_octree", "hiz_bvh")]
-    renders += [lambda out: scene.render(cam, "hiz_octree", w, h, shading="flat", out=out,
-                                         temporal=True)] * 2
     fresh = zbuffer.render(mesh, "zbuffer", cam, w, h, shading="flat")
-    for render in renders:
+    for render in every_render(mesh, cam, w, h, "flat"):
         big_depth = np.full((h, w + extra), 0.25, np.float32)
         big_ids = np.full((h, w + extra), 7, np.int32)
         image = np.full((h, w, 3), 9, np.uint8)

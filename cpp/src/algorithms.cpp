@@ -44,17 +44,11 @@ std::string algorithm_names() {
 }
 
 void clear_target(DepthTarget& target) {
-  const size_t pitch = target.row_pitch(), width = size_t(target.width);
-  const float far = std::numeric_limits<float>::infinity();
-  if (pitch == width) {  // one stretch
-    std::fill_n(target.depth, width * size_t(target.height), far);
-    std::fill_n(target.triangle_id, width * size_t(target.height), int32_t(-1));
-    return;
-  }
-  for (size_t y = 0; y < size_t(target.height); ++y) {  // the rows, not their padding
-    std::fill_n(target.depth + y * pitch, width, far);
-    std::fill_n(target.triangle_id + y * pitch, width, int32_t(-1));
-  }
+  for_each_run(size_t(target.width), size_t(target.height), target.row_pitch(),
+               [&](size_t at, size_t n) {
+                 std::fill_n(target.depth + at, n, std::numeric_limits<float>::infinity());
+                 std::fill_n(target.triangle_id + at, n, int32_t(-1));
+               });
 }
 
 bool planes_share_cache_sets(const DepthTarget& target) {

@@ -1062,12 +1062,8 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
       found += (word & bit) == 0;
       word |= bit;
     };
-    const size_t pitch = in.id_pitch(), width = size_t(in.width);
-    if (pitch == width) {
-      sight_runs(triangle_id, n_pixels, sight);
-    } else {  // row by row: the padding between rows holds no ids
-      for (size_t y = 0; y < size_t(in.height); ++y) sight_runs(triangle_id + y * pitch, width, sight);
-    }
+    for_each_run(size_t(in.width), size_t(in.height), in.id_pitch(),
+                 [&](size_t at, size_t n) { sight_runs(triangle_id + at, n, sight); });
     list.resize(found);
     if (table.slot.size() < n_faces) {
       table.slot.clear();

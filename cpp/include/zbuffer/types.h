@@ -53,6 +53,20 @@ struct DepthTarget {
   }
 };
 
+// Calls run(offset, count) for the pixels of a width x height plane whose
+// rows start `pitch` pixels apart, as stretches of consecutive pixels: the
+// whole plane at once when its rows are contiguous, else row by row (the
+// padding between rows is not the plane's). For passes over every pixel:
+// clearing, scanning the ids.
+template <class Run>
+void for_each_run(size_t width, size_t height, size_t pitch, Run&& run) {
+  if (pitch == width) {
+    run(size_t(0), width * height);
+    return;
+  }
+  for (size_t y = 0; y < height; ++y) run(y * pitch, width);
+}
+
 // The pitch of the planes the core allocates itself (the Python binding)
 // for an image `width` pixels wide: `width`, or 16 pixels (64 bytes) more
 // where rows `width` pixels apart would fall 4 KiB apart within one or two
