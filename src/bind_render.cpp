@@ -37,8 +37,8 @@ int64_t run_count(const py::array_t<T>& start, int64_t end, const std::string& w
   return n;
 }
 
-// Checks polygon faces (GIL held): offsets from 0 to the number of indices,
-// at least 3 corners each, indices in range, and as many triangles in the
+// Checks polygon faces (GIL held): offsets rising from 0 to the number of
+// indices, at least 3 corners each, indices in range, and as many triangles in the
 // triangulation as the polygons have (size - 2 each).
 zbuffer::PolygonView polygon_view(const py::array_t<int64_t>& offsets,
                                   const py::array_t<int32_t>& indices,
@@ -50,6 +50,13 @@ zbuffer::PolygonView polygon_view(const py::array_t<int64_t>& offsets,
       run_count(offsets, indices.shape(0), "polygon_offsets", "len(polygon_indices)");
   int64_t triangles = 0;
   for (int64_t p = 0; p < polys.n_polygons; ++p) {
+    // (offsets[p] lies in [0, len(indices)]: checked as offsets[p - 1]'s
+    // successor, or offsets[0] == 0)
+    if (polys.offsets[p + 1] < polys.offsets[p] || polys.offsets[p + 1] > indices.shape(0))
+      throw py::value_error("polygon_offsets[" + std::to_string(p + 1) + "] = " +
+                            std::to_string(polys.offsets[p + 1]) + " is outside [" +
+                            std::to_string(polys.offsets[p]) + ", len(polygon_indices) = " +
+                            std::to_string(indices.shape(0)) + "]");
     const int64_t n = polys.offsets[p + 1] - polys.offsets[p];
     if (n < 3)
       throw py::value_error("polygon " + std::to_string(p) + " has " + std::to_string(n) +

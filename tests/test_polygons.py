@@ -332,6 +332,8 @@ def test_polygon_input_is_checked():
     with pytest.raises(ValueError, match="outside"):
         zbuffer.Mesh(v, faces, polygons=([4], [0, 1, 2, 9]))
     with pytest.raises(ValueError, match="add up"):
+        zbuffer.Mesh(v, faces, polygons=([3, 3], [0, 1, 2, 0, 2]))
+    with pytest.raises(ValueError, match="more than the 3 polygon indices"):
         zbuffer.Mesh(v, faces, polygons=([4], [0, 1, 2]))
     f32 = faces.astype(np.int32)
     offsets, idx = np.array([0, 4], np.int64), np.array([0, 1, 2, 3], np.int32)
@@ -346,6 +348,28 @@ def test_polygon_input_is_checked():
                      np.array([0, 1, 2, 7], np.int32))
     with pytest.raises(TypeError):
         _core.render(v, f32, MVP, 8, 8, "scanline", False, None, offsets, idx.astype(np.int64))
+
+
+def test_polygon_sizes_that_would_wrap_are_refused():
+    """Sizes whose int64 sums wrap around to the right totals (a fuzzer's
+    find: they were accepted, and the scanline read far outside the
+    indices) are refused by Mesh, and wild offsets by the core."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    faces = np.array([[0, 1, 2], [0, 2, 3]] * 3)
+    a, k = 2**32 + 3, 12
+    sizes = np.array([a, 2**63 - 1, 2**63 - 1 - a + k + 2], np.int64)
+    assert sizes.sum() == k and (sizes - 2).sum() == len(faces)  # (wrapped)
+    with pytest.raises(ValueError, match="more than the 12 polygon indices"):
+        zbuffer.Mesh(v, faces, polygons=(sizes, np.arange(k) % 4))
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    assert offsets[0] == 0 and offsets[-1] == k and len(offsets) == 4
+    idx = (np.arange(k) % 4).astype(np.int32)
+    for algo in ("scanline",):
+        with pytest.raises(ValueError, match=r"polygon_offsets\[1\] = 4294967299 is outside"):
+            _core.render(v, faces.astype(np.int32), MVP, 8, 8, algo, False, None, offsets, idx)
+    with pytest.raises(ValueError, match=r"polygon_offsets\[2\] = 2 is outside \[4,"):
+        _core.render(v, faces[:4].astype(np.int32), MVP, 8, 8, "scanline", False, None,
+                     np.array([0, 4, 2, 8], np.int64), idx[:8])
 
 
 @pytest.mark.parametrize("algo", sorted(POLYGON_ALGORITHMS))

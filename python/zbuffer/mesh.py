@@ -220,6 +220,10 @@ class Mesh:
         sizes = sizes.astype(np.int64)
         if sizes.size and sizes.min() < 3:
             raise ValueError(f"polygon {int(np.argmax(sizes < 3))} has fewer than 3 corners")
+        if sizes.size and sizes.max() > len(indices):  # (and the sums below cannot wrap)
+            k = int(np.argmax(sizes > len(indices)))
+            raise ValueError(f"polygon {k} has {int(sizes[k])} corners, more than the "
+                             f"{len(indices)} polygon indices")
         if int(sizes.sum()) != len(indices):
             raise ValueError(f"polygon sizes add up to {int(sizes.sum())}, "
                              f"but there are {len(indices)} polygon indices")
