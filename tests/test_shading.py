@@ -160,6 +160,8 @@ def test_vertex_normals_are_the_numpy_definitions_bits():
     for k in range(60):
         n = int(rng.integers(1, 40))
         v = rng.normal(size=(n, 3)) * 10.0 ** int(rng.integers(-6, 6))
+        if k % 10 == 9:  # scaled by powers of two inside (reference.vertex_normals)
+            v *= 10.0 ** [-250, -150, -70, 70, 150, 250][k // 10]
         f = rng.integers(0, n, size=(int(rng.integers(0, 60)), 3))
         meshes.append(zbuffer.Mesh(v, f))
     meshes.append(zbuffer.Mesh(np.zeros((0, 3)), np.zeros((0, 3), int)))
@@ -173,6 +175,35 @@ def test_vertex_normals_are_the_numpy_definitions_bits():
         np.testing.assert_array_equal(normals, reference.vertex_normals(mesh.vertices, mesh.faces))
     with pytest.raises(ValueError, match="face index out of range"):
         _core.vertex_normals(np.zeros((3, 3)), np.array([[0, 1, 3]], np.int32))
+
+
+@pytest.mark.parametrize("shading", ["flat", "smooth"])
+def test_shading_at_extreme_scales(shading):
+    """A mesh scaled by 1e-150 .. 1e100 shades as at scale 1 (within a
+    level: the camera is fitted anew), compiled and numpy alike: squared
+    normals used to underflow to 0 below ~1e-81 and overflow above ~1e77,
+    leaving ambient light only (a fuzzer's find). Half of the faces of an
+    icosphere (1,280 at 64 x 48: found in the image) and a single face."""
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    one = (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), np.array([[0, 1, 2]]))
+    for v, f in [(sphere.vertices, sphere.faces), one]:
+        images = {}
+        for scale in [1.0, 1e-150, 1e-100, 1e-80, 1e80, 1e100]:
+            mesh = zbuffer.Mesh(v * scale, f)
+            res = zbuffer.render(mesh, width=64, height=48, shading=shading)
+            ref = zbuffer.reference.render(mesh, camera=res.camera, width=64, height=48,
+                                           shading=shading)
+            assert np.abs(res.image.astype(int) - ref.image.astype(int)).max() <= 1, scale
+            images[scale] = res.image
+            if scale != 1.0:
+                same = (res.mask == (images[1.0] != 255).any(axis=2))
+                assert same.mean() > 0.99
+                lit = res.mask & same
+                diff = np.abs(res.image.astype(int) - images[1.0].astype(int))[lit]
+                assert diff.max() <= 1, scale
+        assert images[1.0][(images[1.0] != 255).any(axis=2)].max() > 150  # lit, not ambient
 
 
 def test_prepared_mesh_sees_vertex_colours_set_anew():

@@ -36,6 +36,36 @@ inline Vec3 normalized(Vec3 a) {
   return len > 0.0 ? (1.0 / len) * a : Vec3{0, 0, 0};
 }
 inline Vec3 load3(const double* p) { return {p[0], p[1], p[2]}; }
+inline double largest(Vec3 v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}); }
+
+// v times the power of two that brings its largest component into [1, 2)
+// (exact: the same direction), or v itself where that is 0 or not finite.
+inline Vec3 power_scaled(Vec3 v) {
+  const double m = largest(v);
+  if (!(m > 0.0) || !std::isfinite(m)) return v;
+  const int e = std::ilogb(m);
+  return {std::scalbn(v.x, -e), std::scalbn(v.y, -e), std::scalbn(v.z, -e)};
+}
+
+// A face normal whose largest component lies in [2^-400, 2^400] is used as
+// the cross product gives it; outside, squaring it would underflow to 0 or
+// overflow to inf (coordinates below about 1e-81 or above 1e77 lost their
+// normal so), and it is computed from edges scaled by powers of two.
+constexpr double kNormalLow = 0x1p-400, kNormalHigh = 0x1p400;
+
+// The direction of the normal of the face with corners p: cross(p1 - p0,
+// p2 - p0) where its largest component lies in [kNormalLow, kNormalHigh]
+// (the vector preparations compute only that, and leave other faces to
+// prepare_face), else the cross product of the edges each scaled by a power
+// of two, scaled again -- the same direction, with nothing on the way
+// overflowing or underflowing.
+inline Vec3 face_normal_direction(const Vec3 (&p)[3]) {
+  const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+  const Vec3 ng = cross(e1, e2);
+  const double m = largest(ng);
+  if (m >= kNormalLow && m <= kNormalHigh) return ng;
+  return power_scaled(cross(power_scaled(e1), power_scaled(e2)));
+}
 
 inline uint8_t to_byte(double c) {
   return uint8_t(std::floor(std::min(1.0, std::max(0.0, c)) * 255.0 + 0.5));
@@ -169,7 +199,7 @@ FaceShade prepare_face(const ShadingInput& in, int32_t f, bool need_bary, bool n
   const int32_t* idx = in.mesh.faces + 3 * int64_t(f);
   Vec3 p[3];
   for (int k = 0; k < 3; ++k) p[k] = load3(in.mesh.positions + 3 * int64_t(idx[k]));
-  const Vec3 ng = cross(p[1] - p[0], p[2] - p[0]);
+  const Vec3 ng = face_normal_direction(p);
   s.side = dot(ng, viewer - in.viewer[3] * p[0]) < 0.0 ? -1.0 : 1.0;
   s.normal = s.side * normalized(ng);
   for (double& b : s.bary) b = 0.0;
@@ -551,9 +581,11 @@ inline void transpose8(__m256* r) {
 #ifdef ZBUFFER_AVX512
 // prepare_face for the 8 faces f (lanes `live`), in double: the same
 // operations in the same order, so the same bits; into rows first ..
-// first + 7.
-void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask8 live,
-                    bool bary, bool map, size_t first) {
+// first + 7. Returns the lanes whose normal lies outside [kNormalLow,
+// kNormalHigh] (face_normal_direction), left for prepare_face to prepare
+// again (their rows are written, with normals of no use).
+unsigned prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask8 live,
+                        bool bary, bool map, size_t first) {
   const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
   const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
   __m512d p[3][3];  // corner k, coordinate c
@@ -581,6 +613,15 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
     ng[c] = _mm512_sub_pd(_mm512_mul_pd(e1[a], e2[b]), _mm512_mul_pd(e1[b], e2[a]));
     to_viewer[c] = _mm512_sub_pd(_mm512_set1_pd(in.viewer[c]),
                                  _mm512_mul_pd(_mm512_set1_pd(in.viewer[3]), p[0][c]));
+  }
+  __mmask8 robust;  // face_normal_direction's robust way
+  {
+    const __m512d sign_bit = _mm512_set1_pd(-0.0);
+    const __m512d m = _mm512_max_pd(_mm512_andnot_pd(sign_bit, ng[2]),
+                                    _mm512_max_pd(_mm512_andnot_pd(sign_bit, ng[1]),
+                                                  _mm512_andnot_pd(sign_bit, ng[0])));
+    robust = live & __mmask8(~(_mm512_cmp_pd_mask(m, _mm512_set1_pd(kNormalLow), _CMP_GE_OQ) &
+                               _mm512_cmp_pd_mask(m, _mm512_set1_pd(kNormalHigh), _CMP_LE_OQ)));
   }
   const __mmask8 back = _mm512_cmp_pd_mask(dot(ng, to_viewer), zero, _CMP_LT_OQ);
   const __m512d side = _mm512_mask_blend_pd(back, one, _mm512_set1_pd(-1.0));
@@ -732,7 +773,7 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
   // needs nothing else), the interpolated fields as 8 rows of 16 floats
   // (fields by lane, transposed 8 x 8 at a time).
   _mm256_mask_storeu_epi32(table.rgb.data() + first, live, _mm512_cvtepi64_epi32(rgb));
-  if (!bary && !map) return;
+  if (!bary && !map) return robust;
   __m256 field[2 * FaceTable::kLine];
   for (auto& v : field) v = _mm256_setzero_ps();
   if (bary)
@@ -749,6 +790,7 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
       _mm256_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
     }
   }
+  exact &= __mmask8(~robust);
   if (exact) {
     alignas(64) double fields[13][8];
     for (int c = 0; c < 9; ++c) _mm512_store_pd(fields[c], coef[c]);
@@ -756,15 +798,17 @@ void prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask
     for (int c = 0; c < 3; ++c) _mm512_store_pd(fields[10 + c], normal[c]);
     add_exact_lanes(table, first, exact, fields);
   }
+  return robust;
 }
 #endif
 
 #if defined(ZBUFFER_AVX2) && !defined(ZBUFFER_AVX512)
 // prepare_faces8 for AVX2: the 4 faces f (lanes `live`, all bits set or
 // clear), in double, the same operations in the same order as
-// prepare_face; into rows first .. first + 3.
-void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i live,
-                    bool bary, bool map, size_t first) {
+// prepare_face; into rows first .. first + 3. Returns the lanes left for
+// prepare_face to prepare again, as prepare_faces8 does.
+unsigned prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i live,
+                        bool bary, bool map, size_t first) {
   const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
   const __m256d live_d = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(live));
   const __m256d inf = _mm256_set1_pd(std::numeric_limits<double>::infinity());
@@ -798,6 +842,13 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
     ng[c] = _mm256_sub_pd(_mm256_mul_pd(e1[a], e2[b]), _mm256_mul_pd(e1[b], e2[a]));
     to_viewer[c] = _mm256_sub_pd(_mm256_set1_pd(in.viewer[c]),
                                  _mm256_mul_pd(_mm256_set1_pd(in.viewer[3]), p[0][c]));
+  }
+  unsigned robust;  // face_normal_direction's robust way
+  {
+    const __m256d m = _mm256_max_pd(abs(ng[2]), _mm256_max_pd(abs(ng[1]), abs(ng[0])));
+    const __m256d in_range = _mm256_and_pd(_mm256_cmp_pd(m, _mm256_set1_pd(kNormalLow), _CMP_GE_OQ),
+                                           _mm256_cmp_pd(m, _mm256_set1_pd(kNormalHigh), _CMP_LE_OQ));
+    robust = unsigned(_mm256_movemask_pd(_mm256_andnot_pd(in_range, live_d)));
   }
   const __m256d back = _mm256_cmp_pd(dot(ng, to_viewer), zero, _CMP_LT_OQ);
   const __m256d side = _mm256_blendv_pd(one, _mm256_set1_pd(-1.0), back);
@@ -944,7 +995,7 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
   // Into the table's rows: the colours by a masked store, the interpolated
   // fields as 4 rows (fields by lane, transposed 4 x 4 at a time).
   _mm_maskstore_epi32(table.rgb.data() + first, live, rgb);
-  if (!bary && !map) return;
+  if (!bary && !map) return robust;
   __m128 field[2 * FaceTable::kLine];
   for (auto& v : field) v = _mm_setzero_ps();
   if (bary)
@@ -960,13 +1011,14 @@ void prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i
     for (int j = 0; j < 4; ++j)
       if (lanes & (1 << j)) _mm_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
   }
-  if (const unsigned exact_lanes = unsigned(_mm256_movemask_pd(exact))) {
+  if (const unsigned exact_lanes = unsigned(_mm256_movemask_pd(exact)) & ~robust) {
     alignas(32) double fields[13][4];
     for (int c = 0; c < 9; ++c) _mm256_store_pd(fields[c], coef[c]);
     _mm256_store_pd(fields[9], side);
     for (int c = 0; c < 3; ++c) _mm256_store_pd(fields[10 + c], normal[c]);
     add_exact_lanes(table, first, exact_lanes, fields);
   }
+  return robust;
 }
 #endif
 
@@ -1103,7 +1155,10 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      prepare_faces8(in, table, f, live, bary, map, i);
+      for (unsigned redo = prepare_faces8(in, table, f, live, bary, map, i); redo; redo &= redo - 1) {
+        const size_t r = i + size_t(__builtin_ctz(redo));
+        store_row(table, r, prepare_face(in, face_at(r), bary || map, map), bary, map);
+      }
     }
   }
 #elif defined(ZBUFFER_AVX2)
@@ -1126,7 +1181,10 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      prepare_faces4(in, table, f, live, bary, map, i);
+      for (unsigned redo = prepare_faces4(in, table, f, live, bary, map, i); redo; redo &= redo - 1) {
+        const size_t r = i + size_t(__builtin_ctz(redo));
+        store_row(table, r, prepare_face(in, face_at(r), bary || map, map), bary, map);
+      }
     }
   }
 #endif
@@ -1609,14 +1667,24 @@ void vertex_normals(const MeshView& mesh, double* out) {
   const size_t n = size_t(mesh.n_vertices);
   std::fill_n(out, 3 * n, 0.0);
   const double* p = mesh.positions;
+  // Coordinates whose largest magnitude lies outside [2^-200, 2^200] are
+  // scaled by the power of two that brings it into [1, 2) (exact, and the
+  // same for every face: the same weights), so that the sums and their
+  // squares neither overflow nor underflow; others are taken as they are.
+  double big = 0.0;
+  for (size_t k = 0; k < 3 * n; ++k)
+    if (std::isfinite(p[k])) big = std::max(big, std::abs(p[k]));
+  const double scale = big > 0.0 && (big < 0x1p-200 || big > 0x1p200)
+                           ? std::scalbn(1.0, -std::ilogb(big)) : 1.0;
   for (int corner = 0; corner < 3; ++corner)
     for (int64_t f = 0; f < mesh.n_faces; ++f) {
       const int32_t* idx = mesh.faces + 3 * f;
       const double* a = p + 3 * size_t(idx[0]);
       const double* b = p + 3 * size_t(idx[1]);
       const double* c = p + 3 * size_t(idx[2]);
-      const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-      const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+      auto at = [scale](const double* q, int k) { return q[k] * scale; };
+      const double u[3] = {at(b, 0) - at(a, 0), at(b, 1) - at(a, 1), at(b, 2) - at(a, 2)};
+      const double v[3] = {at(c, 0) - at(a, 0), at(c, 1) - at(a, 1), at(c, 2) - at(a, 2)};
       double* sum = out + 3 * size_t(idx[corner]);
       sum[0] += u[1] * v[2] - u[2] * v[1];
       sum[1] += u[2] * v[0] - u[0] * v[2];

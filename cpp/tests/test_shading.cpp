@@ -80,19 +80,26 @@ struct Eye {
 // With zero_band, the vertex normals of rings 10-12 are zero (as where the
 // faces around a vertex cancel out): smooth shading falls back to the flat
 // normal on the faces between them.
-void test_vector_pass_matches_scalar_pass(int w, int h, Eye eye = {0, 0, 3, 1, 6},
-                                          bool zero_band = false) {
+// With a `scale` (a power of two), the sphere is that much larger and the
+// camera with it (the same clip coordinates, bits and all): the images are
+// returned, for the caller to hold to those at scale 1.
+std::vector<std::vector<uint8_t>> test_vector_pass_matches_scalar_pass(
+    int w, int h, Eye eye = {0, 0, 3, 1, 6}, bool zero_band = false, double scale = 1.0) {
+  std::vector<std::vector<uint8_t>> images;
   std::vector<double> pos, normals;
   std::vector<int32_t> faces;
   sphere(24, 48, pos, faces, normals);
   if (zero_band) std::fill(normals.begin() + 10 * 48 * 3, normals.begin() + 13 * 48 * 3, 0.0);
+  for (double& c : pos) c *= scale;
   const int n_faces = int(faces.size() / 3), n_vertices = int(pos.size() / 3);
   // Perspective camera at the eye looking down -z, 45 degrees, square
   // pixels in NDC: the projection times a translation by -eye.
   const double f = 1.0 / std::tan(M_PI / 8), n = eye.near, fa = eye.far;
   const double a = -(fa + n) / (fa - n), b = -2 * fa * n / (fa - n);
-  const double mvp[16] = {f, 0, 0, -f * eye.x, 0, f, 0, -f * eye.y,
-                          0, 0, a, b - a * eye.z, 0, 0, -1, eye.z};
+  const double mvp[16] = {f / scale, 0,         0,          -f * eye.x,
+                          0,         f / scale, 0,          -f * eye.y,
+                          0,         0,         a / scale,  b - a * eye.z,
+                          0,         0,         -1 / scale, eye.z};
   const MeshView mesh{pos.data(), n_vertices, faces.data(), n_faces};
   const std::vector<int32_t> ids = visible_ids(mesh, mvp, w, h);
 
@@ -106,15 +113,32 @@ void test_vector_pass_matches_scalar_pass(int w, int h, Eye eye = {0, 0, 3, 1, 6
       in.width = w;
       in.height = h;
       for (int k = 0; k < 16; ++k) in.mvp[k] = mvp[k];
-      in.viewer[0] = eye.x;
-      in.viewer[1] = eye.y;
-      in.viewer[2] = eye.z;
+      in.viewer[0] = eye.x * scale;
+      in.viewer[1] = eye.y * scale;
+      in.viewer[2] = eye.z * scale;
       in.viewer[3] = 1;
       set_light(in, 0.3, -0.5, -0.8);
       in.vertex_normals = smooth ? normals.data() : nullptr;
       in.color_source = ColorSource(source);
       in.colors = source == 1 ? colors_v.data() : source == 2 ? colors_f.data() : nullptr;
       CHECK(worst_difference(in, ids) <= (smooth == 0 && source != 1 ? 0 : 1));
+      images.emplace_back(ids.size() * 3);
+      shade(in, ids.data(), images.back().data());
+    }
+  return images;
+}
+
+// Coordinates near 1e-100 and 1e100: the face normals' squares would
+// underflow and overflow (normals lost, ambient light only), so such faces
+// are prepared from edges scaled by powers of two -- the same images as at
+// scale 1, in the vector and the scalar pass alike.
+void test_extreme_scales() {
+  for (const double scale : {0x1p-330, 0x1p330})
+    for (const int w : {77, 400}) {
+      const auto one = test_vector_pass_matches_scalar_pass(w, w, {0, 0, 3, 1, 6});
+      const auto far = test_vector_pass_matches_scalar_pass(w, w, {0, 0, 3, 1, 6}, false, scale);
+      CHECK(one.size() == far.size());
+      for (size_t k = 0; k < one.size() && k < far.size(); ++k) CHECK(one[k] == far[k]);
     }
 }
 
@@ -225,5 +249,6 @@ int main() {
   test_vector_pass_matches_scalar_pass(400, 400, {-0.2, 0.1, 0.0, 0.01, 3.0});
   test_vector_pass_matches_scalar_pass(77, 61, {0, 0, 3, 1, 6}, true);
   test_vector_pass_matches_scalar_pass(400, 400, {0, 0, 3, 1, 6}, true);
+  test_extreme_scales();
   return check_report("test_shading");
 }

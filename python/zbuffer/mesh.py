@@ -260,8 +260,10 @@ class Mesh:
     def face_normals(self) -> np.ndarray:
         """(M, 3) float64 unit normals, right-hand rule on the face's vertex
         order; zero for degenerate faces."""
+        from .shading import face_normal_directions  # (scaled where they would over- or underflow)
+
         p = self.vertices[self.faces]
-        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        n = face_normal_directions(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         length = np.linalg.norm(n, axis=1, keepdims=True)
         return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 

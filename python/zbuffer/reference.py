@@ -584,6 +584,13 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     ``Mesh.vertex_normals`` computes the same bits in the compiled core."""
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    # Coordinates whose largest magnitude lies outside [2**-200, 2**200]:
+    # scaled by the power of two that brings it into [1, 2) (exact; the
+    # same weights), so that nothing below overflows or underflows.
+    finite = vertices[np.isfinite(vertices)]
+    big = float(np.abs(finite).max(initial=0.0))
+    if big > 0.0 and (big < 2.0**-200 or big > 2.0**200):
+        vertices = np.ldexp(vertices, 1 - np.frexp(big)[1])
     p = vertices[faces]
     area_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     corners = faces.T.ravel()

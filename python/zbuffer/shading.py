@@ -120,6 +120,30 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
+def _power_scaled(v: np.ndarray) -> np.ndarray:
+    """Rows of v times the power of two that brings their largest magnitude
+    into [1, 2) (exact: the same directions), where that is positive and
+    finite."""
+    m = np.abs(v).max(axis=1)
+    ok = (m > 0.0) & np.isfinite(m)
+    e = np.frexp(np.where(ok, m, 1.0))[1] - 1
+    return np.where(ok[:, None], np.ldexp(v, -e[:, None]), v)
+
+
+def face_normal_directions(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
+    """The faces' normal directions from their edges e1 = p1 - p0 and
+    e2 = p2 - p0, as the compiled pass computes them (shading.cpp:
+    face_normal_direction): the cross product where its largest magnitude
+    lies in [2**-400, 2**400], else that of the edges scaled by powers of
+    two, scaled again -- squaring it then neither underflows nor overflows."""
+    ng = np.cross(e1, e2)
+    m = np.abs(ng).max(axis=1, initial=0.0)
+    robust = ~((m >= 2.0**-400) & (m <= 2.0**400))
+    if robust.any():
+        ng[robust] = _power_scaled(np.cross(_power_scaled(e1[robust]), _power_scaled(e2[robust])))
+    return ng
+
+
 def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
                 params: ShadingParams) -> np.ndarray:
     """The shading pass in numpy: (H, W, 3) uint8 image of a visibility result."""
@@ -139,7 +163,7 @@ def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
     p0 = v[idx[:, 0]]
     e1 = v[idx[:, 1]] - p0
     e2 = v[idx[:, 2]] - p0
-    ng = np.cross(e1, e2)
+    ng = face_normal_directions(e1, e2)
     viewer = camera.viewer()
     to_viewer = viewer[:3] - viewer[3] * p0
     side = np.where(_dot(ng, to_viewer) < 0.0, -1.0, 1.0)
