@@ -117,6 +117,21 @@ def test_triangulation_covers_the_polygon_exactly(seed):
     np.testing.assert_allclose(np.linalg.norm(tri_areas, axis=1).sum(), np.linalg.norm(target))
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_triangulation_does_not_depend_on_the_scale(seed):
+    # The same triangles for the same polygons scaled by 1e-300 .. 1e300
+    # (concave ones passed for convex, and became fans that cover area
+    # outside them, below ~1e-80 and above ~1e154: a fuzzer's find). Five
+    # polygons of each size at once, one triangle among them.
+    sizes = np.array([3] + [5 + seed % 9] * 5)
+    p = np.concatenate([star(3, seed, concave=False)] +
+                       [star(int(n), seed + 7 * k) for k, n in enumerate(sizes[1:])])
+    expected, _ = triangulate_polygons(p, sizes, np.arange(len(p)))
+    for scale in [1e-300, 1e-100, 1e-80, 1e80, 1e155, 1e300]:
+        faces, _ = triangulate_polygons(p * scale, sizes, np.arange(len(p)))
+        np.testing.assert_array_equal(faces, expected)
+
+
 @pytest.mark.parametrize("turns", [2, 9])
 def test_triangulation_of_a_long_spiral_covers_it_exactly(turns):
     # A thin spiral band (many reflex corners, ears far apart along the

@@ -154,6 +154,19 @@ def _newell_normal(p: np.ndarray) -> np.ndarray:
                      ((p[:, 0] - q[:, 0]) * (p[:, 1] + q[:, 1])).sum()])
 
 
+def _power_scaled(p: np.ndarray) -> np.ndarray:
+    """Polygons' corners (P, n, 3), each polygon times the power of two that
+    brings its largest coordinate magnitude into [1, 2): exact, so every
+    test below decides as before, except where its products (up to the
+    fourth power of the coordinates) would underflow or overflow -- near
+    1e-80 or 1e77 a concave polygon passed for convex and became a fan, and
+    near 1e154 the ear clipping found no ear (a fuzzer's find)."""
+    m = np.abs(p).max(axis=(1, 2))
+    ok = (m > 0.0) & np.isfinite(m)
+    e = np.frexp(np.where(ok, m, 1.0))[1] - 1
+    return np.where(ok[:, None, None], np.ldexp(p, -e[:, None, None]), p)
+
+
 def _ear_clip(p2: np.ndarray) -> List[Tuple[int, int, int]]:
     """Triangles (local indices) of a simple polygon given counter-clockwise
     in 2D, by ear clipping. Falls back to a fan if no ear is found (the
@@ -247,7 +260,7 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
             owners.append(polys)
             continue
         # Convexity: every corner turns the same way as the polygon's normal.
-        p = vertices[idx]                                  # (P, n, 3)
+        p = _power_scaled(vertices[idx])                   # (P, n, 3)
         q = np.roll(p, -1, axis=1)
         normal = np.stack([((p[..., 1] - q[..., 1]) * (p[..., 2] + q[..., 2])).sum(1),
                            ((p[..., 2] - q[..., 2]) * (p[..., 0] + q[..., 0])).sum(1),
@@ -261,7 +274,7 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
         owners.append(np.repeat(polys[convex], n - 2))
         for j in np.flatnonzero(~convex):
             corners = idx[j]
-            pts = vertices[corners]
+            pts = p[j]
             nrm = _newell_normal(pts)
             axis = int(np.argmax(np.abs(nrm)))
             # Project along the dominant axis onto a right-handed 2D frame
