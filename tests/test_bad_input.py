@@ -323,6 +323,11 @@ def test_odd_inputs_get_clear_messages(tmp_path):
         zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, cull_backfaces="no")
     with pytest.raises(TypeError, match="cull_backfaces must be a bool"):
         zbuffer.reference.render((TRI, [[0, 1, 2]]), width=8, height=8, cull_backfaces=1)
+    with pytest.raises(TypeError, match="polygons must be a bool"):
+        zbuffer.reference.render((TRI, [[0, 1, 2]]), width=8, height=8, polygons="no")
+    with pytest.raises(TypeError, match="width and height must be integers"):
+        cam = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0))
+        cam.resolve(zbuffer.Mesh(TRI, [[0, 1, 2]])).mvp(True, 1)
     with pytest.raises(ValueError, match="ambient must be a finite number"):
         zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, ambient=True)
     with pytest.raises(ValueError, match="faces must be a rectangular array"):

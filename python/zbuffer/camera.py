@@ -348,7 +348,9 @@ class Camera:
     def mvp(self, width: int, height: int) -> np.ndarray:
         """(4, 4) float64 C-contiguous, read-only model-view-projection matrix
         (computed once per image size: cameras are immutable)."""
-        try:  # whole numbers only (numpy's too): the matrix and its cache key agree
+        try:  # whole numbers only (numpy's too; not bools): the matrix and its cache key agree
+            if isinstance(width, (bool, np.bool_)) or isinstance(height, (bool, np.bool_)):
+                raise TypeError
             key = (operator.index(width), operator.index(height))
         except TypeError:
             raise TypeError(f"width and height must be integers, got {width!r} and "

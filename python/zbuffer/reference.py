@@ -20,7 +20,7 @@ import numpy as np
 from .camera import Camera
 from .conventions import (GUARD_BAND_PX, HALF_PIXEL, MAX_CLIP_VERTICES, MIN_CLIP_W,
                           SUBPIXEL_BITS, SUBPIXEL_SCALE)
-from .options import DEFAULT_SIZE, prepare
+from .options import DEFAULT_SIZE, check_flag, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, shade_numpy
 
@@ -555,6 +555,7 @@ def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
     as triangles either way.
     """
     start = time.perf_counter()
+    polygons = check_flag("polygons", polygons)
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background,
         cull_backfaces)
