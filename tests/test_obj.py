@@ -79,6 +79,9 @@ def test_indented_records_and_trailing_comments(tmp_path):
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "face 0 refers to vertex 4"),
     ("v 0 0 0\nv 1 0 0\nf -1 -2 -3\n", "face 0 refers to vertex 0"),
     ("v 0 zero 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "non-numeric coordinate"),
+    ("v 1_0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "line 1: a number may hold only ASCII"),
+    ("v 0 0 0\nv 1 0 0\nv 0 \u0661 0\nf 1 2 3\n", "line 3: a number may hold only ASCII"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 1_0\n", "line 4: a number may hold only ASCII"),
 ])
 def test_malformed_records_name_the_problem(tmp_path, text, message):
     with pytest.raises(ValueError, match=message):

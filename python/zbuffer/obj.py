@@ -82,6 +82,9 @@ def read_obj(path: str) -> ObjData:
         parts = line.split()
         if not parts:
             continue
+        if "_" in line or not line.isascii():  # numbers Python reads but OBJ has not: 1_0, ١
+            raise ValueError(f"line {start}: a number may hold only ASCII digits, signs, "
+                             f"'.', 'e' and '/' separators, got {line.strip()!r}")
         tag = parts[0]
         if tag == "v":
             if len(parts) not in (4, 5, 7):
