@@ -283,7 +283,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="camera projection (default perspective)")
     r.add_argument("--fov", type=float, default=45.0, help="vertical field of view in degrees")
     r.add_argument("--view-dir", type=_vec3, default=None, metavar="X,Y,Z",
-                   help="direction from the mesh towards the camera (default 0,0,1)")
+                   help="direction from the mesh towards the camera (default 0,0,1; "
+                        "the built-in scene without view options: its own view)")
     r.add_argument("--eye", type=_vec3, default=None, metavar="X,Y,Z", help="camera position")
     r.add_argument("--target", type=_vec3, default=None, metavar="X,Y,Z",
                    help="point looked at (default: the mesh centre)")
