@@ -8,13 +8,13 @@
 #include "zbuffer/buffer.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <memory>
 #include <vector>
 
+#include "id_runs.h"
 #include "simd.h"
 
 namespace zbuffer {
@@ -1023,68 +1023,19 @@ unsigned prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m
 #endif
 
 // Calls sight(face) for the id of every run of one id among the `count`
-// ids at `ids` (and maybe again for a face sighted before), skipping -1.
+// ids at `ids` (and maybe again for a face sighted before), skipping -1:
+// the runs' ids packed into a short list first (id_runs.h), then sighted (a
+// loop over each 16 pixels' runs would mispredict its trip count).
 template <class Sight>
 void sight_runs(const int32_t* ids, size_t count, Sight&& sight) {
-  size_t p = 0;
-  int32_t previous = -1;
-#ifdef ZBUFFER_AVX512
-  // The id of each run of one id, 16 pixels per instruction, packed
-  // into a short list, then sighted (a loop over each 16 pixels' runs
-  // would mispredict its trip count).
   constexpr size_t kChunk = 2048;
   alignas(64) int32_t runs[kChunk + 16];
-  __m512i before = _mm512_set1_epi32(-1);
-  while (p + 16 <= count) {
-    const size_t chunk_end = std::min(count - count % 16, p + kChunk);
-    size_t n = 0;
-    for (; p < chunk_end; p += 16) {
-      const __m512i f = _mm512_loadu_si512(ids + p);
-      const __m512i shifted = _mm512_alignr_epi32(f, before, 15);  // lane k: pixel p + k - 1
-      const __mmask16 start = _mm512_cmpneq_epi32_mask(f, shifted) &
-                              _mm512_cmpge_epi32_mask(f, _mm512_setzero_si512());
-      _mm512_storeu_si512(runs + n, _mm512_maskz_compress_epi32(start, f));
-      n += size_t(__builtin_popcount(start));
-      before = f;
-    }
+  int32_t left = -1;
+  for (size_t p = 0; p < count; p += kChunk) {
+    const size_t m = std::min(kChunk, count - p);
+    const size_t n = id_run_starts(ids + p, m, left, runs);
     for (size_t k = 0; k < n; ++k) sight(runs[k]);
-  }
-  if (p > 0) previous = ids[p - 1];
-#elif defined(ZBUFFER_AVX2)
-  // The same, 8 pixels per instruction, packed by a permutation per mask
-  // (AVX2 has no compress).
-  static const auto kPack = [] {
-    std::array<std::array<int32_t, 8>, 256> t{};
-    for (int m = 0; m < 256; ++m)
-      for (int b = 0, k = 0; b < 8; ++b)
-        if (m >> b & 1) t[size_t(m)][size_t(k++)] = b;
-    return t;
-  }();
-  constexpr size_t kChunk = 2048;
-  alignas(32) int32_t runs[kChunk + 8];
-  if (count > 0 && ids[0] >= 0) sight(ids[0]);
-  p = 1;
-  while (p + 8 <= count) {
-    const size_t chunk_end = p + std::min((count - p) / 8 * 8, kChunk);
-    size_t n = 0;
-    for (; p < chunk_end; p += 8) {
-      const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + p));
-      const __m256i before = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + p - 1));
-      const __m256i start = _mm256_andnot_si256(_mm256_cmpeq_epi32(f, before),
-                                                _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
-      const unsigned bits = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(start)));
-      const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(kPack[bits].data()));
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(runs + n), _mm256_permutevar8x32_epi32(f, to));
-      n += size_t(__builtin_popcount(bits));
-    }
-    for (size_t k = 0; k < n; ++k) sight(runs[k]);
-  }
-  if (count > 0) previous = ids[p - 1];
-#endif
-  for (; p < count; ++p) {
-    const int32_t f = ids[p];
-    if (f != previous && f >= 0) sight(f);
-    previous = f;
+    left = ids[p + m - 1];
   }
 }
 

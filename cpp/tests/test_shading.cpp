@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <vector>
 
+#include "../src/id_runs.h"
 #include "check.h"
 #include "zbuffer/algorithms.h"
 #include "zbuffer/shading.h"
@@ -236,7 +237,35 @@ void test_vertex_normals() {
 
 }  // namespace
 
+// id_run_starts (the face scan's and temporal coherence's) against its
+// definition: rows of runs of random ids, -1 among them, every length from
+// 0 to 70 (the vector loops' tails), with and without the id before the
+// first continuing its run.
+void test_id_run_starts() {
+  Lcg rng{7};
+  for (size_t count = 0; count <= 70; ++count)
+    for (int trial = 0; trial < 20; ++trial) {
+      std::vector<int32_t> ids(count);
+      int32_t id = -1;
+      for (int32_t& x : ids) {
+        if (rng(0, 9) < 4) id = rng(0, 9) < 3 ? -1 : int32_t(rng(0, 8));
+        x = id;
+      }
+      const int32_t left = trial % 2 && count ? ids[0] : int32_t(trial % 3) - 1;
+      std::vector<int32_t> expected, got(count + 16);
+      int32_t previous = left;
+      for (int32_t x : ids) {
+        if (x != previous && x >= 0) expected.push_back(x);
+        previous = x;
+      }
+      const size_t n = id_run_starts(ids.data(), count, left, got.data());
+      got.resize(n);
+      CHECK(got == expected);
+    }
+}
+
 int main() {
+  test_id_run_starts();
   test_vertex_normals();
   test_hard_faces_match_scalar_pass();
   test_vector_pass_matches_scalar_pass(77, 61);
