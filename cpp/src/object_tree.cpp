@@ -591,6 +591,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     frame.frame = 0;
     frame.cluster_stamp.assign(tree.clusters.size(), 0);
     frame.visible_stamp.assign(tree.clusters.size(), 0);
+    frame.reached_rank.assign(tree.clusters.size(), 0);
     frame.face_stamp.assign(tree.shared ? size_t(tree.n_input_faces) : 0, 0);
     frame.node_fate.assign(tree.nodes.size(), kNodeNotReached);
     frame.visible_clusters.clear();
@@ -706,25 +707,23 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   };
 
   // Temporal coherence: what was visible last frame first, so that the
-  // pyramid the traversal starts from is already close to the final one.
+  // pyramid the traversal starts from is already close to the final one --
+  // in the order the last frame's traversal reached those clusters (front to
+  // back for a camera close to this one), with the pyramid brought up to
+  // date as they go. Not projected or tested against the pyramid first:
+  // a cluster that has left the view or become hidden since is drawn all the
+  // same (its triangles are culled one by one), which cost less than
+  // projecting and testing them all (they were ordered by the nearest depth
+  // of their projected boxes before: temporal frames of the 5 x 5 x 20 spot
+  // grid's orbit 1.09-1.12x the time of plain ones, now 1.07-1.08x).
   constexpr int kFlushAt = 256;  // see the traversal below
   if (temporal && frame.has_visible) {
-    // Nearest first, as the traversal would meet them, with the pyramid
-    // brought up to date as they go; those hidden or outside by now are
-    // left to the traversal.
-    thread_local std::vector<std::pair<ProjectedNode, int32_t>> order;
-    order.clear();
-    for (int32_t c : frame.visible_clusters) {
-      const int32_t i = tree.clusters[size_t(c)].node;
-      ProjectedNode p;
-      if (project_node(tree.nodes[size_t(i)], i, input.mvp, vp, p)) order.emplace_back(p, c);
-    }
-    std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) {
-      return a.first.z_near < b.first.z_near;
+    std::vector<int32_t>& visible = frame.visible_clusters;
+    std::sort(visible.begin(), visible.end(), [&](int32_t a, int32_t b) {
+      return frame.reached_rank[size_t(a)] < frame.reached_rank[size_t(b)];
     });
-    for (const auto& [p, c] : order) {
+    for (int32_t c : visible) {
       if (batch.pending() >= kFlushAt) flush();
-      if (p.testable && p.z_near > farthest_under(pyramid, p)) continue;
       draw_cluster(c);
     }
     flush();
@@ -735,6 +734,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   // if it holds enough triangles (kFlushAt) to be worth bringing the pyramid
   // up to date.
   std::vector<ProjectedNode> stack;
+  uint32_t rank = 0;  // of the clusters reached (TreeFrame::reached_rank)
   ProjectedNode root;
   if (!tree.nodes.empty()) {
     if (project_node(tree.nodes[0], 0, input.mvp, vp, root)) {
@@ -762,6 +762,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     const TreeNode& node = tree.nodes[size_t(item.node)];
     frame.node_fate[size_t(item.node)] = kNodeVisited;
     if (node.cluster >= 0) {
+      frame.reached_rank[size_t(node.cluster)] = rank++;
       draw_cluster(node.cluster);
       frame.node_fate[size_t(item.node)] = kNodeDrawn;
     }

@@ -172,6 +172,7 @@ struct TreeFrame {
   std::vector<uint32_t> visible_stamp;  // frame a cluster was last found visible
   std::vector<uint8_t> node_fate;       // NodeFate of each node in the last frame
   std::vector<int32_t> visible_clusters;  // clusters with a pixel in the last frame
+  std::vector<uint32_t> reached_rank;   // the order the last traversal reached clusters in
   bool has_visible = false;             // visible_clusters belongs to the tree's last frame
   // An indexed tree over at least this many vertices has them transformed
   // as the clusters drawn need them (object_tree.cpp: LazyVertices), a
