@@ -46,6 +46,8 @@ def test_render_a_file_with_options(tmp_path):
     (["render", "--out", "no/such/folder/t.png"], "no folder"),
     (["render", "--out", "none", "--depth", "d.jpg"], "must end in .png"),
     (["render", "--out", "none", "--target", "1,1,1"], "--target needs --eye"),
+    (["render", "--out", "none", "--near", "0.5"], "--near and --far need --eye"),
+    (["render", "--out", "none", "--eye", "0,0,3", "--near", "2", "--far", "1"], "near"),
     (["render", "--out", "none", "--eye", "0,0,3", "--view-dir", "1,0,0"],
      "--view-dir and --eye both place the camera"),
 ])
@@ -140,6 +142,26 @@ def test_render_takes_up_on_the_built_in_scene():
         expected = zbuffer.scenes.default_camera(800 / 600, up=up)
         assert camera == expected and camera.up == tuple(up)
         assert camera.eye == zbuffer.scenes.default_camera(800 / 600).eye
+
+
+def test_render_takes_clip_planes_with_eye():
+    # --near and --far set the camera's clip planes (fitted to the mesh
+    # otherwise), so that a mesh the camera cannot frame by itself (the
+    # error says "pass a camera") can still be rendered from the CLI.
+    from zbuffer.cli import build_parser, render_camera
+
+    mesh = zbuffer.Mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float) * 1e151, [[0, 1, 2]])
+    eye = ["--eye", "1e150,1e150,3e151", "--target", "1e150,1e150,0"]
+    args = build_parser().parse_args(["render", *eye, "--near", "1e151", "--far", "5e151"])
+    camera = render_camera(args, mesh, 64, 48)
+    assert (camera.near, camera.far) == (1e151, 5e151)
+    res = zbuffer.render(mesh, camera=camera, width=64, height=48, shading="none")
+    ref = zbuffer.reference.render(mesh, camera=camera, width=64, height=48, shading="none")
+    assert res.mask.any()
+    np.testing.assert_array_equal(res.depth, ref.depth)
+    args = build_parser().parse_args(["render", *eye])
+    with pytest.raises(ValueError, match="pass a camera"):
+        zbuffer.render(mesh, camera=render_camera(args, mesh, 64, 48), width=64, height=48)
 
 
 def test_bench_knows_the_harness_suites():

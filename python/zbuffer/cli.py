@@ -110,7 +110,7 @@ def _print_stats(stats: dict, out) -> None:
 
 def render_camera(args, mesh, width: int, height: int):
     """The camera ``zbuffer render`` uses: from --eye (looking at --target,
-    else the mesh's centre), else framing the mesh from --view-dir -- for
+    else the mesh's centre; clip planes --near and --far, else fitted), else framing the mesh from --view-dir -- for
     the built-in scene with no view options, its own default view -- with
     --up, --fov and --projection throughout."""
     from .camera import Camera
@@ -119,7 +119,7 @@ def render_camera(args, mesh, width: int, height: int):
     if args.eye is not None:
         target = args.target if args.target is not None else tuple(mesh.bounding_sphere[0])
         return Camera.look_at(args.eye, target, up=args.up, fov_y=args.fov,
-                              projection=args.projection)
+                              near=args.near, far=args.far, projection=args.projection)
     if (args.mesh is None and args.view_dir is None and args.fov == 45.0
             and args.projection == "perspective"):
         return default_camera(width / height, up=args.up)
@@ -139,6 +139,8 @@ def _cmd_render(args) -> int:
                          "from --view-dir)")
     if args.view_dir is not None and args.eye is not None:
         raise ValueError("--view-dir and --eye both place the camera: give one of them")
+    if (args.near is not None or args.far is not None) and args.eye is None:
+        raise ValueError("--near and --far need --eye (framing the mesh fits the clip planes)")
     if args.out is not None:
         _check_output(args.out, "--out", _IMAGE_SUFFIXES)
     if args.depth is not None:
@@ -288,6 +290,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--eye", type=_vec3, default=None, metavar="X,Y,Z", help="camera position")
     r.add_argument("--target", type=_vec3, default=None, metavar="X,Y,Z",
                    help="point looked at (default: the mesh centre)")
+    r.add_argument("--near", type=float, default=None,
+                   help="near clip distance, with --eye (default: fitted to the mesh)")
+    r.add_argument("--far", type=float, default=None,
+                   help="far clip distance, with --eye (default: fitted to the mesh)")
     r.add_argument("--up", type=_vec3, default=(0.0, 1.0, 0.0), metavar="X,Y,Z",
                    help="the camera's up direction (default 0,1,0)")
     r.set_defaults(func=_cmd_render)
