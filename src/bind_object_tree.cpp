@@ -60,8 +60,7 @@ py::tuple render(Tree& self, py::handle mvp_obj, int width, int height, bool cul
   zbuffer::RenderInput input;
   read_mvp(mvp_obj, input.mvp);
   input.cull_backfaces = cull_backfaces;
-  if (temporal && self.tree.cluster_of_id.empty() && self.tree.n_input_faces > 0)
-    throw py::value_error("temporal coherence needs a tree built without face_ids");
+  // (Temporal coherence needs cluster_of_id: the trees built here have it.)
   // (The tree holds its own copies of the mesh: no input array to keep apart.)
   Planes planes = output_planes(out_depth_obj, out_ids_obj, width, height, {});
   zbuffer::DepthTarget target = planes.target(width, height);

@@ -9,13 +9,11 @@
 #include <memory>
 #include <limits>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "array_checks.h"
 #include "render_common.h"
 #include "zbuffer/algorithms.h"
-#include "zbuffer/conventions.h"
 #include "zbuffer/mesh_checks.h"
 #include "zbuffer/mesh_order.h"
 #include "zbuffer/zpyramid.h"
@@ -65,7 +63,7 @@ zbuffer::PolygonView polygon_view(const py::array_t<int64_t>& offsets,
   }
   if (triangles != mesh.n_faces)
     throw py::value_error("the polygons have " + std::to_string(triangles) +
-                          " triangles (size - 2 each) but faces has " +
+                          " triangles (size - 2 each), but faces has " +
                           std::to_string(mesh.n_faces) + " rows");
   for (int64_t k = 0; k < indices.shape(0); ++k)
     if (polys.indices[k] < 0 || polys.indices[k] >= mesh.n_vertices)

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "array_checks.h"
+#include "render_common.h"
 #include "zbuffer/mesh_checks.h"
 #include "zbuffer/shading.h"
 
@@ -24,7 +25,6 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   auto ids = require_rows<int32_t>(ids_obj, "triangle_id", {-1, -1}, pitch);
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
   auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
-  auto mvp = require_array<double>(mvp_obj, "mvp", {4, 4});
   auto viewer = require_array<double>(viewer_obj, "viewer", {4});
   auto light = require_array<double>(light_dir_obj, "light_dir", {3});
   auto background = require_array<uint8_t>(background_obj, "background", {3});
@@ -47,8 +47,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   if (bad)
     throw py::value_error("triangle_id holds ids outside [-1, " +
                           std::to_string(in.mesh.n_faces) + ")");
-  if (zbuffer::find_bad_face_index(in.mesh) >= 0)
-    throw py::value_error("face index out of range in shade()");
+  check_face_indices(in.mesh);
 
   py::array_t<float> colors;
   if (color_source == "uniform") {
@@ -69,7 +68,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
     normals = require_array<double>(normals_obj, "vertex_normals", {in.mesh.n_vertices, 3});
     in.vertex_normals = normals.data();
   }
-  for (int k = 0; k < 16; ++k) in.mvp[k] = mvp.data()[k];
+  read_mvp(mvp_obj, in.mvp);
   for (int k = 0; k < 4; ++k) in.viewer[k] = viewer.data()[k];
   for (int k = 0; k < 3; ++k) {
     in.light_dir[k] = light.data()[k];
@@ -102,8 +101,7 @@ py::array_t<double> vertex_normals(py::handle positions_obj, py::handle faces_ob
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
   auto faces = require_array<int32_t>(faces_obj, "faces", {-1, 3});
   const zbuffer::MeshView mesh{positions.data(), positions.shape(0), faces.data(), faces.shape(0)};
-  if (zbuffer::find_bad_face_index(mesh) >= 0)
-    throw py::value_error("face index out of range in vertex_normals()");
+  check_face_indices(mesh);
   py::array_t<double> normals({positions.shape(0), py::ssize_t(3)});
   double* out = normals.mutable_data();
   {

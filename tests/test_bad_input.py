@@ -59,6 +59,13 @@ def test_compiled_core_checks_on_its_own():
         _core.render(V, F.astype(np.int32), mvp * np.nan, 16, 16)
     with pytest.raises(ValueError, match="too large"):
         _core.render(V, F.astype(np.int32), mvp, 40000, 16)
+    ids = _core.render(V, F.astype(np.int32), mvp, 16, 16)[1]
+    shade_args = (np.zeros(4), np.zeros(3), 0.2, 0.8, np.zeros(3, np.uint8), np.ones(3, np.float32))
+    _core.shade(ids, V, F.astype(np.int32), mvp, *shade_args)  # fine
+    with pytest.raises(ValueError, match="NaN or infinite entry"):
+        _core.shade(ids, V, F.astype(np.int32), mvp * np.nan, *shade_args)
+    with pytest.raises(ValueError, match="face 12 has vertex index 99"):
+        _core.shade(ids, V, bad, mvp, *shade_args)
     faces = F.astype(np.int32)
     start, centre = np.array([0, 6, 12], np.int32), np.zeros((2, 3))
     with pytest.raises(ValueError, match="give both cell_start and cell_centre"):

@@ -173,7 +173,7 @@ def test_vertex_normals_are_the_numpy_definitions_bits():
         assert normals.dtype == np.float64 and normals.shape == mesh.vertices.shape
         assert not normals.flags.writeable
         np.testing.assert_array_equal(normals, reference.vertex_normals(mesh.vertices, mesh.faces))
-    with pytest.raises(ValueError, match="face index out of range"):
+    with pytest.raises(ValueError, match="face 0 has vertex index 3, outside"):
         _core.vertex_normals(np.zeros((3, 3)), np.array([[0, 1, 3]], np.int32))
 
 

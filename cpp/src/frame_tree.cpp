@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -312,14 +311,14 @@ int32_t add_cluster(ObjectTree& tree, int32_t node, int64_t b, int64_t e) {
 }
 
 // Cluster c of an indexed tree holds the faces of buckets [lo, hi): where
-// they lie among few others in the mesh's order, it is drawn from there
-// (TriangleCluster::range_begin) instead of gathering its rows. A mesh in
+// they lie among few others in the mesh's order, it is set to be drawn from
+// there (TriangleCluster::range_begin) instead of by gathering its rows. A mesh in
 // spatial order (Mesh.prepare: the Morton order on the trees' grid) lists a
 // cell's faces together, interleaved with the few that straddle its border
 // and belong to a coarser node; those are skipped, at most kRangeSlack - 1
 // of the cluster's size.
 constexpr int64_t kRangeSlack = 2;
-void draw_from_mesh(ObjectTree& tree, int32_t c, const Buckets& buckets, size_t lo, size_t hi) {
+void set_mesh_range(ObjectTree& tree, int32_t c, const Buckets& buckets, size_t lo, size_t hi) {
   if (tree.order.empty()) return;  // its rows are runs of the mesh's arrays already
   TriangleCluster& cl = tree.clusters[size_t(c)];
   int64_t first, last;
@@ -436,12 +435,12 @@ class FrameOctree {
     if (e - b <= params_.leaf_size || level == depth_) {  // a leaf: the whole subtree
       b_.unite(size_t(index), size_t(end_index), lo, hi);
       set_bounds(tree_.nodes[size_t(i)], grid_, lo, hi);
-      draw_from_mesh(tree_, add_cluster(tree_, i, b, e), b_, size_t(index), size_t(end_index));
+      set_mesh_range(tree_, add_cluster(tree_, i, b, e), b_, size_t(index), size_t(end_index));
       return;
     }
     const int64_t own_end = b_.start[size_t(index) + 1];
     if (own_end > b)
-      draw_from_mesh(tree_, add_cluster(tree_, i, b, own_end), b_, size_t(index),
+      set_mesh_range(tree_, add_cluster(tree_, i, b, own_end), b_, size_t(index),
                      size_t(index) + 1);
     b_.unite(size_t(index), size_t(index) + 1, lo, hi);
     int64_t child_index[8];

@@ -415,7 +415,8 @@ namespace {
 // rows), so that they are not allocated and faulted in anew each time.
 struct FaceTable {
   // What a thread keeps after a pass: 4 MB of flat rows, 16 MB of
-  // interpolation rows, 16 MB of slot numbers and of the faces found.
+  // interpolation rows, 16 MB each of slot numbers, of the faces found and
+  // of exact steps, 512 KB of "seen" bits, and 64 Ki exact faces' FaceShades.
   static constexpr size_t kKeptRows = size_t(1) << 20;
   static constexpr size_t kKeptRowFloats = size_t(1) << 22;
   static constexpr size_t kKeptSlots = size_t(1) << 22;
@@ -445,7 +446,7 @@ struct FaceTable {
     }
     if (slot.size() > kKeptSlots) Buffer<int32_t>().swap(slot);
     if (found.capacity() > kKeptSlots) Buffer<int32_t>().swap(found);
-    if (seen.capacity() > kKeptSlots) std::vector<uint64_t>().swap(seen);
+    if (seen.capacity() > kKeptSlots / 64) std::vector<uint64_t>().swap(seen);
   }
   // Row of face f: f itself, or slot[f] when by_slot.
   bool by_slot = false;
@@ -517,7 +518,6 @@ void store_row(FaceTable& table, size_t r, const FaceShade& s, bool bary, bool m
   if (s.exact) table.add_exact(r, s);
 }
 
-#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
 // For the vector preparations: the faces of rows first + j, for the bits j
 // of `lanes`, left to the scalar way, from their lanes of the FaceShade
 // fields that way reads (fields: the barycentrics' 9 coefficients, the
@@ -534,7 +534,6 @@ void add_exact_lanes(FaceTable& table, size_t first, unsigned lanes, const doubl
     table.add_exact(first + size_t(j), e);
   }
 }
-#endif
 
 // The pixels of a pass's recorded steps (FaceTable::exact_steps: row y,
 // from pixel x, lane bits) shaded again the scalar pass's way.
@@ -802,7 +801,7 @@ unsigned prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __m
 }
 #endif
 
-#if defined(ZBUFFER_AVX2) && !defined(ZBUFFER_AVX512)
+#ifdef ZBUFFER_AVX2
 // prepare_faces8 for AVX2: the 4 faces f (lanes `live`, all bits set or
 // clear), in double, the same operations in the same order as
 // prepare_face; into rows first .. first + 3. Returns the lanes left for
@@ -1049,7 +1048,9 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
   const size_t n_pixels = size_t(in.width) * size_t(in.height);
   Buffer<int32_t>& list = table.found;
   std::vector<uint64_t>& seen = table.seen;
-  // (Interpolated shading prepares 4x more per face: finding the faces pays sooner.)
+  // (Interpolated shading prepares far more per face -- a row of 16 or 32
+  // floats and FaceShade::exact's checks -- so finding the faces pays
+  // sooner: from 1/64 of the pixels on; 1/8 was 2x slower on bunny_69k.)
   table.by_slot = n_faces > n_pixels / (bary || map ? 64 : 4);
   if (table.by_slot) {
     seen.assign((n_faces + 63) / 64, 0);
@@ -1079,11 +1080,9 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
   table.resize(count, bary, map);
   auto face_at = [&](size_t i) { return table.by_slot ? list[i] : int32_t(i); };
   size_t i = 0;
-#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
   // (int32 gather indices: 3 n_vertices and 3 n_faces must fit)
   constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
   const bool indexed = in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed;
-#endif
 #ifdef ZBUFFER_AVX512
   if (indexed) {
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);

@@ -1,6 +1,6 @@
 """Type stubs for zbuffer's compiled core (private: use the zbuffer package)."""
 
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -79,6 +79,9 @@ def first_use_order(
     faces: npt.NDArray[np.int32], n_vertices: int
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]: ...
 # (faces renumbered, vertex_order)
+def vertex_normals(
+    positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32]
+) -> npt.NDArray[np.float64]: ...
 def shade(
     triangle_id: npt.NDArray[np.int32],
     positions: npt.NDArray[np.float64],

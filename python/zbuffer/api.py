@@ -12,7 +12,7 @@ import numpy as np
 from . import _core
 from .camera import Camera
 from .mesh import Mesh, Visit
-from .options import DEFAULT_SIZE, prepare
+from .options import DEFAULT_SIZE, check_flag, prepare
 from .result import RenderResult
 from .shading import (DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, ShadingParams,
                       color_source)
@@ -125,9 +125,12 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     ------
     ValueError
         Unknown ``algo`` or ``shading``, bad image size, degenerate camera,
-        invalid mesh data (see :class:`Mesh`).
+        invalid mesh data (see :class:`Mesh`), ``out`` arrays of the wrong
+        shape or layout or sharing memory (or in use by another render),
+        ``record_culls`` with an algorithm without a Z-pyramid.
     TypeError
-        Arguments of the wrong type.
+        Arguments of the wrong type (``out`` arrays of the wrong dtype among
+        them).
     """
     start = time.perf_counter()
     check_algorithm(algo)
@@ -137,7 +140,7 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     depth, ids, image = output_arrays(out, width, height, mesh)
     with claimed((depth, ids, image)):
         planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
-                                   check_record_culls(record_culls), out_depth=depth, out_ids=ids)
+                                   check_flag("record_culls", record_culls), out_depth=depth, out_ids=ids)
         return finish(mesh, camera, mvp, params, algo, *planes, start=start, out_image=image)
 
 
@@ -244,13 +247,6 @@ def claimed(arrays):
         with _CLAIM_LOCK:
             for a in mine:
                 del _CLAIMED[next(k for k, b in enumerate(_CLAIMED) if b is a)]
-
-
-def check_record_culls(record_culls) -> bool:
-    """``record_culls`` as a bool (TypeError unless it is one)."""
-    if not isinstance(record_culls, (bool, np.bool_)):
-        raise TypeError(f"record_culls must be a bool, got {record_culls!r}")
-    return bool(record_culls)
 
 
 def check_algorithm(algo) -> None:

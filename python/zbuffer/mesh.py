@@ -206,6 +206,8 @@ class Mesh:
         self._visit = None  # Visit: faces in a cache-friendly order, their ids, cells
 
     def _set_polygons(self, polygons, n_vertices: int, n_faces: int) -> None:
+        # (The core checks the offsets and indices it is given the same way:
+        # src/bind_render.cpp, polygon_view.)
         try:
             sizes, indices = polygons
         except (TypeError, ValueError):

@@ -16,6 +16,8 @@ from typing import List, Tuple
 
 import numpy as np
 
+from .shading import power_scaled
+
 __all__ = ["read_obj", "triangulate_polygons", "ObjData"]
 
 
@@ -54,8 +56,9 @@ def read_obj(path: str) -> ObjData:
     Raises
     ------
     ValueError
-        A malformed ``v`` or ``f`` record, or an index outside the vertices,
-        naming the line.
+        A malformed ``v`` or ``f`` record (naming the line), a vertex
+        coordinate that is not a number, or an index outside the vertices
+        (naming the face).
     """
     with open(path, "rb") as fh:
         text = fh.read().decode("utf-8", errors="replace")
@@ -149,25 +152,13 @@ def read_obj(path: str) -> ObjData:
 
 # Triangulation
 
-def _newell_normal(p: np.ndarray) -> np.ndarray:
-    """(3,) normal of a polygon (corners (n, 3)), length = twice its area."""
-    q = np.roll(p, -1, axis=0)
-    return np.array([((p[:, 1] - q[:, 1]) * (p[:, 2] + q[:, 2])).sum(),
-                     ((p[:, 2] - q[:, 2]) * (p[:, 0] + q[:, 0])).sum(),
-                     ((p[:, 0] - q[:, 0]) * (p[:, 1] + q[:, 1])).sum()])
-
-
-def _power_scaled(p: np.ndarray) -> np.ndarray:
-    """Polygons' corners (P, n, 3), each polygon times the power of two that
-    brings its largest coordinate magnitude into [1, 2): exact, so every
-    test below decides as before, except where its products (up to the
-    fourth power of the coordinates) would underflow or overflow -- near
-    1e-80 or 1e77 a concave polygon passed for convex and became a fan, and
-    near 1e154 the ear clipping found no ear (a fuzzer's find)."""
-    m = np.abs(p).max(axis=(1, 2))
-    ok = (m > 0.0) & np.isfinite(m)
-    e = np.frexp(np.where(ok, m, 1.0))[1] - 1
-    return np.where(ok[:, None, None], np.ldexp(p, -e[:, None, None]), p)
+def _newell_normals(p: np.ndarray) -> np.ndarray:
+    """(..., 3) normals of polygons with corners (..., n, 3) (Newell's
+    method), of length twice their areas."""
+    q = np.roll(p, -1, axis=-2)
+    return np.stack([((p[..., 1] - q[..., 1]) * (p[..., 2] + q[..., 2])).sum(-1),
+                     ((p[..., 2] - q[..., 2]) * (p[..., 0] + q[..., 0])).sum(-1),
+                     ((p[..., 0] - q[..., 0]) * (p[..., 1] + q[..., 1])).sum(-1)], -1)
 
 
 def _ear_clip(p2: np.ndarray) -> List[Tuple[int, int, int]]:
@@ -263,11 +254,14 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
             owners.append(polys)
             continue
         # Convexity: every corner turns the same way as the polygon's normal.
-        p = _power_scaled(vertices[idx])                   # (P, n, 3)
+        # Each polygon is scaled by a power of two first (exact: the same
+        # decisions), so that no product below -- up to the fourth power of
+        # the coordinates -- underflows or overflows: near 1e-80 or 1e77 a
+        # concave polygon passed for convex and became a fan, and near 1e154
+        # the ear clipping found no ear (a fuzzer's find).
+        p = power_scaled(vertices[idx], axis=(1, 2))       # (P, n, 3)
         q = np.roll(p, -1, axis=1)
-        normal = np.stack([((p[..., 1] - q[..., 1]) * (p[..., 2] + q[..., 2])).sum(1),
-                           ((p[..., 2] - q[..., 2]) * (p[..., 0] + q[..., 0])).sum(1),
-                           ((p[..., 0] - q[..., 0]) * (p[..., 1] + q[..., 1])).sum(1)], -1)
+        normal = _newell_normals(p)
         turn = np.cross(p - np.roll(p, 1, axis=1), q - p)  # (P, n, 3)
         convex = (np.einsum("pnk,pk->pn", turn, normal) >= 0.0).all(axis=1)
         k = np.arange(1, n - 1)
@@ -278,7 +272,7 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
         for j in np.flatnonzero(~convex):
             corners = idx[j]
             pts = p[j]
-            nrm = _newell_normal(pts)
+            nrm = _newell_normals(pts)
             axis = int(np.argmax(np.abs(nrm)))
             # Project along the dominant axis onto a right-handed 2D frame
             # (y, z), (z, x) or (x, y), mirrored if the normal points the

@@ -10,11 +10,10 @@ from typing import Dict, Optional
 import numpy as np
 
 from . import _core
-from .api import (check_algorithm, check_record_culls, claimed, finish, output_arrays,
-                  render_visibility)
+from .api import check_algorithm, claimed, finish, output_arrays, render_visibility
 from .camera import Camera
 from .mesh import _INT32_MAX, as_mesh
-from .options import DEFAULT_SIZE, prepare
+from .options import DEFAULT_SIZE, check_flag, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE
 
@@ -168,15 +167,14 @@ class Scene:
         """
         start = time.perf_counter()
         check_algorithm(algo)
-        if not isinstance(temporal, (bool, np.bool_)):
-            raise TypeError(f"temporal must be a bool, got {temporal!r}")
+        temporal = check_flag("temporal", temporal)
         if temporal and algo not in TREE_ALGORITHMS:
             raise ValueError(f"temporal coherence needs a tree algorithm "
                              f"({', '.join(map(repr, TREE_ALGORITHMS))}), got {algo!r}")
         mesh, camera, mvp, width, height, params = prepare(
             self.mesh, camera, width, height, shading, light_dir, ambient, diffuse, color,
             background, cull_backfaces)
-        record_culls = check_record_culls(record_culls)
+        record_culls = check_flag("record_culls", record_culls)
         depth, ids, image = output_arrays(out, width, height, mesh)
         with claimed((depth, ids, image)):
             if algo not in TREE_ALGORITHMS:

@@ -120,14 +120,15 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
-def _power_scaled(v: np.ndarray) -> np.ndarray:
-    """Rows of v times the power of two that brings their largest magnitude
-    into [1, 2) (exact: the same directions), where that is positive and
-    finite."""
-    m = np.abs(v).max(axis=1)
+def power_scaled(a: np.ndarray, axis=-1) -> np.ndarray:
+    """``a`` times, for each slice along ``axis`` (an int or a tuple), the
+    power of two that brings the slice's largest magnitude into [1, 2)
+    (exact: the same directions), where that is positive and finite (the
+    core's power_scaled, shading.cpp)."""
+    m = np.abs(a).max(axis=axis, keepdims=True)
     ok = (m > 0.0) & np.isfinite(m)
     e = np.frexp(np.where(ok, m, 1.0))[1] - 1
-    return np.where(ok[:, None], np.ldexp(v, -e[:, None]), v)
+    return np.where(ok, np.ldexp(a, -e), a)
 
 
 def face_normal_directions(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
@@ -140,7 +141,7 @@ def face_normal_directions(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
     m = np.abs(ng).max(axis=1, initial=0.0)
     robust = ~((m >= 2.0**-400) & (m <= 2.0**400))
     if robust.any():
-        ng[robust] = _power_scaled(np.cross(_power_scaled(e1[robust]), _power_scaled(e2[robust])))
+        ng[robust] = power_scaled(np.cross(power_scaled(e1[robust]), power_scaled(e2[robust])))
     return ng
 
 

@@ -152,6 +152,9 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
         offscreen and only return the picture).
     levels : iterable of int, optional
         Which levels to show (default: all down to 4 x 4 cells or less).
+    window_size : (int, int), optional
+        Pixels of the window or screenshot (default: 360 wide per level shown,
+        at most 2400, by 380).
     highlight_culls : bool or int
         Outline in red, on every level shown, the cells that culled the most
         triangles (True: the top 5 of each level; an int: that many), and
@@ -378,6 +381,10 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
     screenshot : str or True, optional
         Write a PNG there instead of opening a window (True: render
         offscreen and only return the picture).
+    window_size : (int, int)
+        Pixels of the window or screenshot.
+    mesh_opacity : float
+        Opacity of the mesh drawn under the boxes (0: hidden, 1: opaque).
 
     Returns
     -------

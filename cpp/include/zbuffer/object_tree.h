@@ -128,8 +128,9 @@ class ClusterBuilder {
   // n over the build), so that the tree's arrays never move while clusters
   // are added; called once, before the first add_cluster.
   void reserve(int64_t references);
-  // Make node `node` own faces face[b .. e) (input indices); sets its
-  // cluster and bounds. Duplicate faces within one cluster are dropped.
+  // Make node `node` own faces face[0 .. n) (input indices); sets its
+  // cluster and bounds. In a shared tree (Greene's rule), duplicate faces
+  // within one cluster are dropped.
   void add_cluster(int32_t node, const int32_t* face, int64_t n);
   // Finish: cluster_of_id.
   void finish();
@@ -164,14 +165,15 @@ enum NodeFate : uint8_t {
 // the size of the mesh is cleared per frame.
 // Design decision: stamps (the number of the frame that last touched a face
 // or cluster) instead of flags. Good: a new frame costs one increment, not a
-// pass over every face. Bad: 4 bytes per face and per cluster.
+// pass over every face. Bad: 4 bytes per face (shared trees) and 12 per
+// cluster.
 struct TreeFrame {
   uint32_t frame = 0;
   std::vector<uint32_t> face_stamp;     // shared trees: frame a face was last drawn in
   std::vector<uint32_t> cluster_stamp;  // frame a cluster was last drawn in
   std::vector<uint32_t> visible_stamp;  // frame a cluster was last found visible
   std::vector<uint8_t> node_fate;       // NodeFate of each node in the last frame
-  std::vector<int32_t> visible_clusters;  // clusters with a pixel in the last frame
+  std::vector<int32_t> visible_clusters;  // clusters with a pixel on the last frame's sampled rows
   std::vector<uint32_t> reached_rank;   // the order the last traversal reached clusters in
   bool has_visible = false;             // visible_clusters belongs to the tree's last frame
   // An indexed tree over at least this many vertices has them transformed

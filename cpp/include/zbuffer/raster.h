@@ -274,8 +274,9 @@ void rasterize_span_scalar(const TriangleSetup& s, int y, int x0, int x1, float*
 void rasterize_span_covered(const TriangleSetup& s, int y, int x0, int x1, float* depth_row,
                             int32_t* id_row, RenderStats& stats);
 
-// Set up and rasterize a whole triangle (its box). Algorithms that draw many
-// triangles use a TriangleBatch (triangle_batch.h), which is faster.
+// Set up and rasterize a whole triangle (its box): the reference form the
+// tests hold the batched loops to. Algorithms draw through a TriangleBatch
+// (triangle_batch.h), which is faster.
 void rasterize_triangle(const ScreenTriangle& t, DepthTarget& target, RenderStats& stats);
 
 // "avx512", "avx2" or "scalar": which loops this build runs (simd.h).

@@ -14,7 +14,8 @@ class CullMap;  // zpyramid.h
 // Design decision: a non-owning view of (N, 3) float64 positions and (M, 3)
 // int32 faces. Good: numpy arrays pass through without copies and every
 // algorithm sees the same input. Bad: int32 caps meshes at 2^31 - 1 vertices,
-// and the caller must keep the arrays alive and valid (check_mesh does that).
+// and the caller must keep the arrays alive and valid (the bindings check
+// them: mesh_checks.h; src/render_common.cpp, mesh_view).
 //
 // face_ids, if set, gives the id written for each face: an algorithm may then
 // be handed the faces in another order (mesh_order.h) and still report the
