@@ -98,4 +98,5 @@ def shade(
     vertex_normals: Optional[npt.NDArray[np.float64]] = None,
     out: Optional[npt.NDArray[np.uint8]] = None,
     pixels_beyond_faces: bool = False,
+    ids_from_render: bool = False,
 ) -> npt.NDArray[np.uint8]: ...

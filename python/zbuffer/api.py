@@ -37,8 +37,10 @@ def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
           params: ShadingParams, out: Optional[np.ndarray] = None,
           polygons: bool = False) -> np.ndarray:
     """Run the compiled shading pass; (H, W, 3) uint8 (``out``, if given).
-    ``polygons``: the ids came from polygons drawn natively (each pixel
-    carries its polygon's first triangle, which it may lie outside)."""
+    ``triangle_id``: what a render of ``mesh`` has just written (not
+    checked again). ``polygons``: the ids came from polygons drawn natively
+    (each pixel carries its polygon's first triangle, which it may lie
+    outside)."""
     source, colors, uniform = color_source(mesh, params)
     vertices, faces, normals, vertex_colors = mesh.for_shading(
         normals=params.mode == "smooth", vertex_colors=source == "vertex")
@@ -50,6 +52,7 @@ def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
         background=params.background, uniform_color=uniform,
         color_source=source, colors=vertex_colors if source == "vertex" else colors,
         vertex_normals=normals, out=out, pixels_beyond_faces=polygons,
+        ids_from_render=True,
     )
 
 
