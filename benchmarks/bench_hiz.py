@@ -170,7 +170,8 @@ def orbit(mesh, algo, size, frames):
                  "ms_total": sum(times[t])}
            for key, t in (("without", False), ("with", True))}
     # (the first frame has no frame before it to draw first)
-    out["ratio_median"] = statistics.median(b / a for a, b in zip(times[False][1:], times[True][1:]))
+    out["ratio_median"] = statistics.median(
+        b / a for a, b in zip(times[False][1:], times[True][1:]))
     return out
 
 

@@ -143,7 +143,8 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     depth, ids, image = output_arrays(out, width, height, mesh)
     with claimed((depth, ids, image)):
         planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
-                                   check_flag("record_culls", record_culls), out_depth=depth, out_ids=ids)
+                                   check_flag("record_culls", record_culls),
+                                   out_depth=depth, out_ids=ids)
         return finish(mesh, camera, mvp, params, algo, *planes, start=start, out_image=image)
 
 

@@ -110,9 +110,10 @@ def _print_stats(stats: dict, out) -> None:
 
 def render_camera(args, mesh, width: int, height: int):
     """The camera ``zbuffer render`` uses: from --eye (looking at --target,
-    else the mesh's centre; clip planes --near and --far, else fitted), else framing the mesh from --view-dir -- for
-    the built-in scene with no view options, its own default view -- with
-    --up, --fov and --projection throughout."""
+    else the mesh's centre; clip planes --near and --far, else fitted), else
+    framing the mesh from --view-dir -- for the built-in scene with no view
+    options, its own default view -- with --up, --fov and --projection
+    throughout."""
     from .camera import Camera
     from .scenes import default_camera
 
