@@ -204,6 +204,15 @@ void bind_render(py::module_& m) {
       },
       "Names of the algorithms that draw polygon faces natively.");
   m.def(
+      "pyramid_algorithms",
+      [] {
+        py::list out;
+        for (const zbuffer::Algorithm& a : zbuffer::algorithms())
+          if (a.pyramid) out.append(a.name);
+        return out;
+      },
+      "Names of the algorithms with a Z-pyramid (record_culls works with them).");
+  m.def(
       "pyramid_levels",
       [](py::handle depth_obj) {
         int pitch = 0;

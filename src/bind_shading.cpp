@@ -20,7 +20,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
                            py::handle background_obj, py::handle uniform_color_obj,
                            const std::string& color_source, py::handle colors_obj,
                            py::handle normals_obj, py::handle out_obj,
-                           bool pixels_beyond_faces, bool ids_from_render) {
+                           bool pixels_beyond_faces, int64_t ids_below) {
   int pitch = 0;
   auto ids = require_rows<int32_t>(ids_obj, "triangle_id", {-1, -1}, pitch);
   auto positions = require_array<double>(positions_obj, "positions", {-1, 3});
@@ -37,10 +37,11 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   in.mesh = {positions.data(), positions.shape(0), faces.data(), faces.shape(0)};
 
   // Every id must name a face and every face index a vertex: the pass reads
-  // them without further checks. (Ids a render of these faces has just
-  // written are: the pass over them, ~0.1 ms at 1024 x 1024, is skipped.)
+  // them without further checks. (Ids a render has just written are below
+  // its triangles_in: if that is at most the faces here, the pass over
+  // them, ~0.1 ms at 1024 x 1024, is skipped.)
   bool bad = false;
-  if (!ids_from_render)
+  if (ids_below < 0 || ids_below > in.mesh.n_faces)
     zbuffer::for_each_run(size_t(in.width), size_t(in.height), in.id_pitch(),
                           [&](size_t at, size_t n) {
                             bad = bad || zbuffer::find_bad_triangle_id(ids.data() + at, int64_t(n),
@@ -124,16 +125,16 @@ void bind_shading(py::module_& m) {
         py::arg("diffuse"), py::arg("background"), py::arg("uniform_color"),
         py::arg("color_source") = "uniform", py::arg("colors") = py::none(),
         py::arg("vertex_normals") = py::none(), py::arg("out") = py::none(),
-        py::arg("pixels_beyond_faces") = false, py::arg("ids_from_render") = false,
+        py::arg("pixels_beyond_faces") = false, py::arg("ids_below") = -1,
         "Lambert-shade a visibility result (triangle_id (H, W) int32, C-contiguous or with\n"
         "padded rows); returns an (H, W, 3) uint8 image (out, if given: C-contiguous,\n"
         "writeable, sharing no memory with the inputs). With\n"
         "pixels_beyond_faces (polygons drawn natively: a pixel carries its polygon's\n"
         "first triangle, which it may lie outside), interpolated shading runs the\n"
-        "scalar pass, the one whose clamping holds for such pixels. ids_from_render:\n"
-        "triangle_id was just written by a render of these faces (every id -1 or a\n"
-        "face index) and is not checked again -- for zbuffer.render only: an id\n"
-        "outside the faces would then be read out of bounds.");
+        "scalar pass, the one whose clamping holds for such pixels. ids_below:\n"
+        "every id in triangle_id is -1 or below it (triangle_id was just written by\n"
+        "a render whose stats['triangles_in'] it is); when it is at most len(faces),\n"
+        "the ids are not checked again. -1: they are.");
 }
 
 }  // namespace zbuffer_py

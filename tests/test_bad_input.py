@@ -90,6 +90,13 @@ def test_compiled_core_checks_on_its_own():
         ids[4, 6] = bad
         with pytest.raises(ValueError, match="ids outside"):
             shade(ids)
+        # A render's triangles_in vouches for its ids only where it is at
+        # most the faces shaded (a Scene's tree over more faces than its
+        # mesh has now: checked after all).
+        with pytest.raises(ValueError, match="ids outside"):
+            _core.shade(ids, V, F.astype(np.int32), np.eye(4), np.zeros(4), np.zeros(3), 0.2,
+                        0.8, np.zeros(3, np.uint8), np.zeros(3, np.float32),
+                        ids_below=len(F) + 1)
     ids[4, 6] = 0
     assert shade(ids).shape == (5, 7, 3)
 
@@ -150,6 +157,12 @@ def test_bad_options(render):
         render((V, F), color=(300, 0, 0))
     with pytest.raises(TypeError, match="camera must be a zbuffer.Camera"):
         render((V, F), camera="front")
+    # Colours' alpha is dropped, but checked like the rest (as integers' is).
+    rgba = np.full((len(V), 4), 0.5)
+    zbuffer.Mesh(V, F, vertex_colors=rgba)  # fine
+    rgba[3, 3] = 7.0
+    with pytest.raises(ValueError, match=r"float vertex_colors must lie in \[0, 1\]"):
+        zbuffer.Mesh(V, F, vertex_colors=rgba)
     with pytest.raises(TypeError, match="cannot render a dict"):
         render({"vertices": V})
 

@@ -350,6 +350,26 @@ def test_polygon_input_is_checked():
         _core.render(v, f32, MVP, 8, 8, "scanline", False, None, offsets, idx.astype(np.int64))
 
 
+def test_merged_keeps_the_polygons(tmp_path):
+    # Two quads, the second repeating two of the first's positions as
+    # vertices of its own: merged shares them, and keeps the polygons (it
+    # dropped them: scanline then drew the triangulation).
+    path = tmp_path / "quads.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 1 0 0\nv 2 0 0\nv 2 1 0\nv 1 1 0\n"
+                    "f 1 2 3 4\nf 5 6 7 8\n")
+    mesh = zbuffer.load(path)
+    merged = mesh.merged()
+    assert len(merged.vertices) == 6 and merged.polygon_sizes is not None
+    np.testing.assert_array_equal(merged.face_polygon, mesh.face_polygon)
+    np.testing.assert_array_equal(merged.vertices[merged.polygon_indices],
+                                  mesh.vertices[mesh.polygon_indices])
+    for algo in ("scanline", "zbuffer"):
+        a = zbuffer.render(mesh, algo=algo, width=32, height=16, shading="none")
+        b = zbuffer.render(merged, algo=algo, width=32, height=16, shading="none")
+        np.testing.assert_array_equal(a.triangle_id, b.triangle_id)
+        np.testing.assert_array_equal(a.depth, b.depth)
+
+
 def test_polygon_sizes_that_would_wrap_are_refused():
     """Sizes whose int64 sums wrap around to the right totals (a fuzzer's
     find: they were accepted, and the scanline read far outside the

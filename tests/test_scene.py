@@ -221,11 +221,22 @@ def test_bad_arguments():
             zbuffer.Scene(mesh, leaf_size=leaf)
     with pytest.raises(TypeError, match="leaf_size must be an int"):
         zbuffer.Scene(mesh, leaf_size=2.5)
-    with pytest.raises(ValueError, match="max_depth must be in 1 .. 10"):
-        zbuffer.Scene(mesh, max_depth=11)
+    for depth in (0, 11):
+        with pytest.raises(ValueError, match="max_depth must be in 1 .. 10"):
+            zbuffer.Scene(mesh, max_depth=depth)
+    with pytest.raises(TypeError, match="max_depth must be an int"):
+        zbuffer.Scene(mesh, max_depth=True)
     with pytest.raises(ValueError, match="unknown octree_rule 'loose'"):
         zbuffer.Scene(mesh, octree_rule="loose")
     scene = zbuffer.Scene(mesh)
+    # A Scene's mesh and a Mesh's arrays are fixed (a tree over other faces
+    # than those shaded read out of bounds: a fuzzer's find).
+    with pytest.raises(AttributeError):
+        scene.mesh = zbuffer.Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    with pytest.raises(AttributeError):
+        mesh.faces = mesh.faces[:1]
+    with pytest.raises(AttributeError):
+        mesh.vertices = mesh.vertices * 2
     with pytest.raises(ValueError, match="unknown algorithm 'octree'"):
         scene.render(algo="octree")
     with pytest.raises(ValueError, match="temporal coherence needs a tree algorithm"):

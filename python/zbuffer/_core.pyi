@@ -53,6 +53,7 @@ def build_bvh(
 
 def algorithms() -> List[Tuple[str, str]]: ...
 def polygon_algorithms() -> List[str]: ...
+def pyramid_algorithms() -> List[str]: ...
 def render(
     positions: npt.NDArray[np.float64],
     faces: npt.NDArray[np.int32],
@@ -98,5 +99,5 @@ def shade(
     vertex_normals: Optional[npt.NDArray[np.float64]] = None,
     out: Optional[npt.NDArray[np.uint8]] = None,
     pixels_beyond_faces: bool = False,
-    ids_from_render: bool = False,
+    ids_below: int = -1,
 ) -> npt.NDArray[np.uint8]: ...

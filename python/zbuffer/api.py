@@ -35,12 +35,13 @@ def algorithms() -> List[str]:
 
 def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
           params: ShadingParams, out: Optional[np.ndarray] = None,
-          polygons: bool = False) -> np.ndarray:
+          polygons: bool = False, ids_below: int = -1) -> np.ndarray:
     """Run the compiled shading pass; (H, W, 3) uint8 (``out``, if given).
-    ``triangle_id``: what a render of ``mesh`` has just written (not
-    checked again). ``polygons``: the ids came from polygons drawn natively
-    (each pixel carries its polygon's first triangle, which it may lie
-    outside)."""
+    ``polygons``: the ids came from polygons drawn natively (each pixel
+    carries its polygon's first triangle, which it may lie outside).
+    ``ids_below``: the render's ``triangles_in``, every id being below it
+    (the ids are not checked again where that is at most the faces shaded).
+    """
     source, colors, uniform = color_source(mesh, params)
     vertices, faces, normals, vertex_colors = mesh.for_shading(
         normals=params.mode == "smooth", vertex_colors=source == "vertex")
@@ -52,7 +53,7 @@ def shade(mesh: Mesh, triangle_id: np.ndarray, camera: Camera, mvp: np.ndarray,
         background=params.background, uniform_color=uniform,
         color_source=source, colors=vertex_colors if source == "vertex" else colors,
         vertex_normals=normals, out=out, pixels_beyond_faces=polygons,
-        ids_from_render=True,
+        ids_below=ids_below,
     )
 
 
@@ -271,7 +272,7 @@ def finish(mesh: Mesh, camera: Camera, mvp: np.ndarray, params: ShadingParams, a
     if params.mode != "none":
         t0 = time.perf_counter()
         image = shade(mesh, triangle_id, camera, mvp, params, out=out_image,
-                      polygons=draws_polygons(algo, mesh))
+                      polygons=draws_polygons(algo, mesh), ids_below=stats["triangles_in"])
         shade_ms = (time.perf_counter() - t0) * 1e3
     stats["shade_ms"] = shade_ms
     stats["total_ms"] = (time.perf_counter() - start) * 1e3

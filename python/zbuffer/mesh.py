@@ -40,10 +40,9 @@ def _as_colors(colors, n: int, what: str) -> Optional[np.ndarray]:
         return np.ascontiguousarray(c[:, :3], dtype=np.float32) / np.float32(255.0)
     if not np.issubdtype(c.dtype, np.floating):
         raise TypeError(f"{what} must be integers (0-255) or floats (0-1), got dtype {c.dtype}")
-    c = np.ascontiguousarray(c[:, :3], dtype=np.float32)
     if not np.all(np.isfinite(c)) or c.min(initial=0.0) < 0.0 or c.max(initial=0.0) > 1.0:
-        raise ValueError(f"float {what} must lie in [0, 1]")
-    return c
+        raise ValueError(f"float {what} must lie in [0, 1]")  # (alpha too, as for integers)
+    return np.ascontiguousarray(c[:, :3], dtype=np.float32)
 
 
 class Visit(NamedTuple):
@@ -188,8 +187,8 @@ class Mesh:
 
         if vertex_colors is not None and face_colors is not None:
             raise ValueError("give vertex_colors or face_colors, not both")
-        self.vertices = _readonly(v)
-        self.faces = _readonly(f)
+        self._vertices = _readonly(v)
+        self._faces = _readonly(f)
         self.vertex_colors = _as_colors(vertex_colors, n, "vertex_colors")
         self.face_colors = _as_colors(face_colors, f.shape[0], "face_colors")
         self.name = name
@@ -240,6 +239,20 @@ class Mesh:
         self.polygon_sizes = _readonly(sizes)
         self.polygon_indices = _readonly(np.array(indices, dtype=np.int32, order="C", copy=True))
         self.polygon_offsets = _readonly(offsets)
+
+    # The positions and faces are fixed for a Mesh's life (caches, prepared
+    # orders and Scenes' trees are made from them): read-only arrays, and
+    # attributes that cannot be set anew (a Scene's tree over other faces
+    # than the ones shaded read out of bounds; a fuzzer's find).
+    @property
+    def vertices(self) -> np.ndarray:
+        """(N, 3) float64 positions, read-only."""
+        return self._vertices
+
+    @property
+    def faces(self) -> np.ndarray:
+        """(M, 3) int32 vertex indices, read-only."""
+        return self._faces
 
     def __repr__(self) -> str:
         name = f" {self.name!r}" if self.name else ""
@@ -414,7 +427,9 @@ class Mesh:
 
     def merged(self) -> "Mesh":
         """The same mesh with vertices of identical position (and colour)
-        shared. Faces keep their order, so triangle ids are unchanged."""
+        shared. Faces keep their order, so triangle ids are unchanged, and
+        polygon faces (``polygon_sizes``, ``polygon_indices``,
+        ``face_polygon``) are kept, renumbered."""
         if len(self.vertices) == 0:
             return self
         key = self.vertices
@@ -424,10 +439,14 @@ class Mesh:
         if len(unique) == len(key):
             return self
         inverse = inverse.reshape(-1)
+        polygons = None
+        if self.polygon_sizes is not None:
+            polygons = (self.polygon_sizes, inverse[self.polygon_indices].astype(np.int32))
         return Mesh(
             self.vertices[first], inverse[self.faces].astype(np.int32),
             vertex_colors=None if self.vertex_colors is None else self.vertex_colors[first],
-            face_colors=self.face_colors, name=self.name,
+            face_colors=self.face_colors, name=self.name, face_polygon=self.face_polygon,
+            polygons=polygons,
         )
 
 

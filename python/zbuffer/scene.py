@@ -12,7 +12,7 @@ import numpy as np
 from . import _core
 from .api import check_algorithm, claimed, finish, output_arrays, render_visibility
 from .camera import Camera
-from .mesh import _INT32_MAX, as_mesh
+from .mesh import _INT32_MAX, Mesh, as_mesh
 from .options import DEFAULT_SIZE, check_flag, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE
@@ -77,19 +77,26 @@ class Scene:
 
     def __init__(self, mesh, *, leaf_size: Optional[int] = None,
                  max_depth: Optional[int] = None, octree_rule: str = "smallest"):
-        self.mesh = as_mesh(mesh)
+        self._mesh = as_mesh(mesh)
         self.leaf_size = None if leaf_size is None else _positive_int("leaf_size", leaf_size)
-        self.max_depth = _positive_int(
-            "max_depth", _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None else max_depth)
-        if self.max_depth > _core.MAX_OCTREE_DEPTH:
-            raise ValueError(
-                f"max_depth must be in 1 .. {_core.MAX_OCTREE_DEPTH}, got {self.max_depth}")
+        depth = _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None else max_depth
+        if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)):
+            raise TypeError(f"max_depth must be an int, got {depth!r}")
+        if not 1 <= depth <= _core.MAX_OCTREE_DEPTH:
+            raise ValueError(f"max_depth must be in 1 .. {_core.MAX_OCTREE_DEPTH}, got {depth}")
+        self.max_depth = int(depth)
         if octree_rule not in OCTREE_RULES:
             raise ValueError(f"unknown octree_rule {octree_rule!r}; valid rules are "
                              f"{', '.join(map(repr, OCTREE_RULES))}")
         self.octree_rule = octree_rule
         self._trees: Dict[str, object] = {}
         self._lock = threading.Lock()
+
+    @property
+    def mesh(self) -> Mesh:
+        """The mesh this Scene draws, for its whole life (its trees hold
+        copies of it): for another mesh, make another Scene."""
+        return self._mesh
 
     def __repr__(self) -> str:
         built = ", ".join(sorted(self._trees)) or "nothing"
@@ -112,6 +119,7 @@ class Scene:
                 leaf = self.leaf_size or _core.DEFAULT_BVH_LEAF_SIZE
                 tree = _core.build_bvh(self.mesh.vertices, self.mesh.faces, leaf)
             self._trees[algo] = tree
+
             return tree.build_ms
 
     def tree_info(self, algo: str = "hiz_octree") -> dict:

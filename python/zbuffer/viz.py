@@ -17,6 +17,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Union
 
 import numpy as np
 
+from . import _core
 from .result import RenderResult
 
 __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms",
@@ -133,7 +134,10 @@ def show_result(result: RenderResult, screenshot: Union[str, bool, None] = None,
 def _levels(source) -> List[np.ndarray]:
     if isinstance(source, RenderResult):
         return source.pyramid()
-    return [np.asarray(level) for level in source]
+    levels = [np.asarray(level) for level in source]
+    if not levels:
+        raise ValueError("no pyramid levels to show")
+    return levels
 
 
 def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: Union[str, bool, None] = None,
@@ -286,8 +290,13 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
     names = list(algos) if algos is not None else algorithms()
     if not names:
         raise ValueError("algos: give at least one algorithm to compare")
+    # (record_culls: for the algorithms with a Z-pyramid; the others have none to record)
+    record = render_options.pop("record_culls", False)
+    with_pyramid = set(_core.pyramid_algorithms())
     results = {name: render(mesh, algo=name, camera=camera, width=width, height=height,
-                            **render_options) for name in names}
+                            record_culls=record if name in with_pyramid else False,
+                            **render_options)
+               for name in names}
     first = results[names[0]]
     plotter = _plotter(pv, (2, len(names)), (400 * len(names), 720), screenshot)
     for k, name in enumerate(names):

@@ -63,6 +63,8 @@ def test_views_refuse_what_they_cannot_show(result):
             viz.show_pyramid(result, screenshot=True, levels=bad)
     with pytest.raises(ValueError, match="at least one algorithm"):
         viz.compare_algorithms(scenes.default_scene(), algos=[], screenshot=True)
+    with pytest.raises(ValueError, match="no pyramid levels to show"):
+        viz.show_pyramid_stack([], screenshot=True)
 
 
 def test_pyramid_view_outlines_the_cells_that_culled_most(tmp_path):
@@ -81,9 +83,12 @@ def test_pyramid_view_outlines_the_cells_that_culled_most(tmp_path):
 
 
 def test_compare_algorithms_shows_zero_differences(tmp_path):
+    # (record_culls goes to the algorithms with a Z-pyramid only)
     results = viz.compare_algorithms(scenes.default_scene(), width=96, height=72,
-                                     screenshot=str(tmp_path / "cmp.png"))
+                                     screenshot=str(tmp_path / "cmp.png"), record_culls=True)
     assert list(results) == zbuffer.algorithms()
+    assert {name for name, res in results.items() if res.culls is not None} == \
+        {"hiz", "hiz_octree", "hiz_bvh"}
     first = next(iter(results.values()))
     for res in results.values():
         np.testing.assert_array_equal(res.depth, first.depth)
