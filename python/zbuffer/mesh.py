@@ -451,8 +451,9 @@ class Mesh:
 
 
 def load(path, merge_vertices: bool = True) -> Mesh:
-    """Read a mesh file: OBJ with zbuffer's own reader, any other format
-    trimesh reads (PLY, STL, OFF, glTF, ...) through trimesh.
+    """Read a mesh file: OBJ and ASCII OFF with zbuffer's own readers, any
+    other format trimesh reads (PLY, STL, glTF, binary OFF, ...) through
+    trimesh.
 
     Parameters
     ----------
@@ -466,12 +467,12 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     Returns
     -------
     Mesh
-        OBJ polygons are kept as written (``polygon_sizes``,
+        OBJ and OFF polygons are kept as written (``polygon_sizes``,
         ``polygon_indices``: the scanline algorithm draws them natively) and
         triangulated exactly for the other algorithms (fans for convex
         polygons, ear clipping for concave ones); ``face_polygon`` maps
-        triangles to them; trimesh fan-triangulates other formats' polygons; scenes are
-        concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
+        triangles to them; trimesh fan-triangulates other formats' polygons
+        (PLY's among them: not kept); scenes are concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
         rendering.
 
     Raises
@@ -490,7 +491,15 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     if not os.path.isfile(path):
         raise ValueError(f"{path!r} is not a mesh file (a directory or device)")
     if path.lower().endswith(".obj"):
-        return _load_obj(path).prepare()
+        from .obj import read_obj
+
+        return _load_polygons(path, read_obj).prepare()
+    if path.lower().endswith(".off"):
+        from .off import is_binary_off, read_off
+
+        if not is_binary_off(path):  # (binary OFF: trimesh's)
+            mesh = _load_polygons(path, read_off)
+            return (mesh.merged() if merge_vertices else mesh).prepare()
     import trimesh  # (only here: importing it takes about 0.3 s)
 
     try:
@@ -512,19 +521,25 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     return mesh.prepare()
 
 
-def _load_obj(path: str) -> Mesh:
-    from .obj import read_obj, triangulate_polygons
+def _load_polygons(path: str, read) -> Mesh:
+    """A mesh from a file of polygon faces read by ``read`` (obj.read_obj,
+    off.read_off): the polygons triangulated exactly, and kept as written
+    when any has more than 3 corners; colours per polygon become colours per
+    triangle."""
+    from .obj import triangulate_polygons
 
     try:
-        data = read_obj(path)
+        data = read(path)
     except ValueError as err:
         raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
-    if len(data.vertices) == 0 and not _is_obj_without_geometry(path):
+    if (len(data.vertices) == 0 and path.lower().endswith(".obj")
+            and not _is_obj_without_geometry(path)):
         raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
                          "non-empty file")
     faces, owner = triangulate_polygons(data.vertices, data.polygon_sizes, data.polygon_indices)
     polygons = bool(len(data.polygon_sizes)) and bool((data.polygon_sizes > 3).any())
     return Mesh(data.vertices, faces, vertex_colors=data.vertex_colors,
+                face_colors=None if data.face_colors is None else data.face_colors[owner],
                 name=os.path.basename(path), face_polygon=owner if polygons else None,
                 polygons=(data.polygon_sizes, data.polygon_indices) if polygons else None)
 

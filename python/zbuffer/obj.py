@@ -33,13 +33,17 @@ class ObjData:
         Vertex indices of all faces' corners, concatenated, 0-based.
     vertex_colors : (N, 3) float64 or None
         From ``v x y z r g b`` lines, when every vertex has them.
+    face_colors : (P, 3) float64 or None
+        One per face (OFF files: off.read_off); OBJ faces have none.
     """
 
-    def __init__(self, vertices, polygon_sizes, polygon_indices, vertex_colors):
+    def __init__(self, vertices, polygon_sizes, polygon_indices, vertex_colors,
+                 face_colors=None):
         self.vertices = vertices
         self.polygon_sizes = polygon_sizes
         self.polygon_indices = polygon_indices
         self.vertex_colors = vertex_colors
+        self.face_colors = face_colors
 
 
 def read_obj(path: str) -> ObjData:

@@ -1,0 +1,102 @@
+"""The OFF reader (zbuffer/off.py): polygon faces kept as written, colours,
+and malformed files refused with the line named."""
+
+import numpy as np
+import pytest
+
+import zbuffer
+from helpers import MODELS
+from zbuffer.off import read_off
+
+# A concave hexagon (an L) and a triangle, with face colours.
+CONCAVE = """OFF
+# an L and a triangle
+7 2 0
+0 0 0
+2 0 0
+2 1 0
+1 1 0
+1 2 0
+0 2 0   # the last corner of the L
+3 3 1
+6  0 1 2 3 4 5  255 0 0
+3  0 1 6  0 128 255
+"""
+
+
+def write(tmp_path, text, name="m.off"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_concave_polygons_are_kept_and_triangulated_exactly(tmp_path):
+    mesh = zbuffer.load(write(tmp_path, CONCAVE), merge_vertices=False)
+    assert mesh.polygon_sizes.tolist() == [6, 3]
+    assert mesh.polygon_indices.tolist() == [0, 1, 2, 3, 4, 5, 0, 1, 6]
+    assert mesh.face_polygon.tolist() == [0, 0, 0, 0, 1]
+    # The L's triangles cover its area (3), where a fan from corner 0 would
+    # cover the notch too (4).
+    tri = mesh.vertices[mesh.faces[:4]]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    assert area.sum() == pytest.approx(3.0)
+    np.testing.assert_allclose(mesh.face_colors, [[1, 0, 0]] * 4 + [[0, 128 / 255, 1]],
+                               rtol=1e-6)
+    # The same as the OBJ reader makes of the same polygons.
+    obj = "".join(f"v {x} {y} {z}\n" for x, y, z in mesh.vertices) + \
+        "f 1 2 3 4 5 6\nf 1 2 7\n"
+    same = zbuffer.load(write(tmp_path, obj, "m.obj"))
+    np.testing.assert_array_equal(same.faces, mesh.faces)
+    # Scanline (the polygons as written) and the others (the triangles)
+    # cover the same pixels.
+    cam = zbuffer.Camera.look_at((1, 1, 4), (1, 1, 0))
+    scan = zbuffer.render(mesh, algo="scanline", camera=cam, width=48, height=48, shading="none")
+    plain = zbuffer.render(mesh, algo="zbuffer", camera=cam, width=48, height=48, shading="none")
+    np.testing.assert_array_equal(scan.mask, plain.mask)
+    ref = zbuffer.reference.render(mesh, camera=cam, width=48, height=48, shading="none",
+                                   polygons=True)
+    np.testing.assert_array_equal(scan.triangle_id, ref.triangle_id)
+    np.testing.assert_array_equal(scan.depth, ref.depth)
+
+
+def test_header_variants_colours_and_comments(tmp_path):
+    # Counts on the header's line, COFF vertex colours (floats), NOFF
+    # normals (skipped), comments anywhere, faces without colours.
+    data = read_off(write(tmp_path, "COFF 3 1 0\n0 0 0 1 0 0 1\n1 0 0 0 1 0 1\n"
+                                    "0 1 0 0 0 1.0 1\n3 0 1 2\n"))
+    np.testing.assert_array_equal(data.vertex_colors, np.eye(3))
+    assert data.face_colors is None
+    data = read_off(write(tmp_path, "NOFF\n# counts next\n3 1 3\n0 0 0 0 0 1\n1 0 0 0 0 1\n"
+                                    "0 1 0 0 0 1 # a normal\n3 0 1 2 0.5 0.5 0.5 1.0\n"))
+    np.testing.assert_array_equal(data.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    np.testing.assert_array_equal(data.face_colors, [[0.5, 0.5, 0.5]])
+    assert data.vertex_colors is None
+
+
+@pytest.mark.parametrize("text, message", [
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n3 0 1 2\n", "counts 3 vertices and 1 faces"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "line 6: face index outside"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "line 6: bad face record"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1\n3 0 1 2\n", "line 5: a vertex needs 3 numbers"),
+    ("OFF\n3 1 0\n0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n", "non-numeric coordinate"),
+    ("OFF\n3 1 0\n0 0 0\n1 1_0 0\n0 1 0\n3 0 1 2\n", "line 4: a number may hold only ASCII"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n", "line 7: more records"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 300 0 0\n", "face colours must lie in 0-255"),
+    ("OFF\nthree 1 0\n", "line 2: expected the vertex, face and edge counts"),
+])
+def test_malformed_files_name_the_problem(tmp_path, text, message):
+    with pytest.raises(ValueError, match="could not read a mesh from") as err:
+        zbuffer.load(write(tmp_path, text))
+    assert message in str(err.value)
+
+
+@pytest.mark.skipif(not (MODELS / "bunny_7k.off").is_file(), reason="shared models not present")
+def test_a_triangle_mesh_reads_as_trimesh_reads_it():
+    import trimesh
+
+    path = MODELS / "bunny_7k.off"
+    mesh = zbuffer.load(path, merge_vertices=False)
+    tm = trimesh.load(path, force="mesh", process=False)
+    np.testing.assert_array_equal(mesh.vertices, tm.vertices)
+    np.testing.assert_array_equal(mesh.faces, tm.faces)
+    assert mesh.polygon_sizes is None
