@@ -453,7 +453,8 @@ class Mesh:
 def load(path, merge_vertices: bool = True) -> Mesh:
     """Read a mesh file: OBJ and ASCII OFF with zbuffer's own readers, any
     other format trimesh reads (PLY, STL, glTF, binary OFF, ...) through
-    trimesh.
+    trimesh -- but PLY files with polygons of more than 3 corners with
+    zbuffer's own PLY reader.
 
     Parameters
     ----------
@@ -467,12 +468,12 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     Returns
     -------
     Mesh
-        OBJ and OFF polygons are kept as written (``polygon_sizes``,
+        OBJ, OFF and PLY polygons are kept as written (``polygon_sizes``,
         ``polygon_indices``: the scanline algorithm draws them natively) and
         triangulated exactly for the other algorithms (fans for convex
         polygons, ear clipping for concave ones); ``face_polygon`` maps
-        triangles to them; trimesh fan-triangulates other formats' polygons
-        (PLY's among them: not kept); scenes are concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
+        triangles to them; trimesh fan-triangulates other formats' polygons;
+        scenes are concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
         rendering.
 
     Raises
@@ -503,9 +504,15 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     import trimesh  # (only here: importing it takes about 0.3 s)
 
     try:
-        tm = trimesh.load(path, force="mesh", process=False)
+        tm, failure = trimesh.load(path, force="mesh", process=False), None
     except Exception as err:  # trimesh raises many types for bad files
-        raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
+        tm, failure = None, err
+    if path.lower().endswith(".ply"):
+        polygons = _ply_polygons(path, tm)
+        if polygons is not None:
+            return (polygons.merged() if merge_vertices else polygons).prepare()
+    if failure is not None:
+        raise ValueError(f"could not read a mesh from {path!r}: {failure}") from failure
     _check_ascii_ply_records(path)
     if not isinstance(tm, trimesh.Trimesh):
         raise ValueError(f"{path!r} holds no triangle mesh (got {type(tm).__name__})")
@@ -519,6 +526,29 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     if merge_vertices:
         mesh = mesh.merged()
     return mesh.prepare()
+
+
+def _ply_polygons(path: str, tm) -> Optional[Mesh]:
+    """The mesh of a PLY file with polygons of more than 3 corners, read by
+    zbuffer's own reader (ply.py) and kept as written, else None. Only
+    looked for where trimesh (``tm``, None if it failed) made more
+    triangles than the file has faces -- it fans polygons -- or failed (as
+    it does on polygons with face colours)."""
+    from .ply import read_ply
+
+    with open(path, "rb") as fh:
+        header = _ply_header(fh)
+    faces = [int(e[1]) for e in (header[1] if header else [])
+             if e[:1] == [b"face"] and len(e) == 2 and e[1].isdigit()]
+    if tm is not None and (not faces or faces[0] >= len(getattr(tm, "faces", ()))):
+        return None
+    try:
+        data = read_ply(path)
+    except ValueError:
+        return None  # (trimesh's reading, or its failure, stands)
+    if not len(data.polygon_sizes) or data.polygon_sizes.max() <= 3:
+        return None
+    return _load_polygons(path, lambda _: data)
 
 
 def _load_polygons(path: str, read) -> Mesh:

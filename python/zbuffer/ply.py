@@ -1,0 +1,251 @@
+"""A reader for PLY files with polygon faces, which it keeps as written.
+
+trimesh fan-triangulates a PLY file's polygons (a concave polygon's fan
+covers area outside it), and fails on polygons with face colours.
+:func:`zbuffer.load` reads a PLY file with this reader first, and where it
+finds polygons of more than 3 corners keeps them (like the OBJ and OFF
+readers); files of triangles, and those this reader does not know, go on
+to trimesh as before.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import Tuple
+
+import numpy as np
+
+from .obj import ObjData
+
+__all__ = ["read_ply"]
+
+_TYPES = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h", "int16": "h",
+          "ushort": "H", "uint16": "H", "int": "i", "int32": "i", "uint": "I", "uint32": "I",
+          "float": "f", "float32": "f", "double": "d", "float64": "d"}
+_INDEX_NAMES = ("vertex_indices", "vertex_index")
+
+
+def _header(fh) -> Tuple[str, list]:
+    """(format, [(element, count, [(name, type, count_type or None)])]) of
+    the header at the start of ``fh``, which is left just past it."""
+    if fh.readline().strip().removeprefix(b"\xef\xbb\xbf") != b"ply":
+        raise ValueError("not a PLY file")
+    fmt, elements = None, []
+    for raw in fh:
+        words = raw.decode("ascii", "replace").split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "format" and len(words) >= 2:
+            fmt = words[1]
+        elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
+            elements.append((words[1], int(words[2]), []))
+        elif words[0] == "property" and elements:
+            if words[1] == "list" and len(words) == 5 and words[2] in _TYPES \
+                    and words[3] in _TYPES:
+                elements[-1][2].append((words[4], _TYPES[words[3]], _TYPES[words[2]]))
+            elif len(words) == 3 and words[1] in _TYPES:
+                elements[-1][2].append((words[2], _TYPES[words[1]], None))
+            else:
+                raise ValueError(f"unreadable PLY property line {raw.strip()!r}")
+        elif words[0] == "end_header":
+            if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                raise ValueError(f"unknown PLY format {fmt!r}")
+            return fmt, elements
+        else:
+            raise ValueError(f"unreadable PLY header line {raw.strip()!r}")
+    raise ValueError("the PLY header does not end")
+
+
+def _fixed(props) -> bool:
+    return all(p[2] is None for p in props)
+
+
+def _records_binary(body: bytes, offset: int, order: str, count: int, props):
+    """``count`` records of an element at ``offset``: (scalar values as a
+    (count, scalars) float64 array, list values per list property (count
+    lists), the offset after them)."""
+    if _fixed(props):
+        dtype = np.dtype([(f"p{k}", order + kind) for k, (_, kind, _) in enumerate(props)])
+        end = offset + count * dtype.itemsize
+        if end > len(body):
+            raise ValueError("the file holds fewer records than its header declares")
+        table = np.frombuffer(body, dtype=dtype, count=count, offset=offset)
+        scalars = np.stack([table[f"p{k}"].astype(np.float64) for k in range(len(props))], 1) \
+            if props else np.zeros((count, 0))
+        return scalars, {}, end
+    uniform = _uniform_binary(body, offset, order, count, props)
+    if uniform is not None:
+        return uniform
+    scalars = np.zeros((count, sum(p[2] is None for p in props)))
+    lists = {k: [] for k, p in enumerate(props) if p[2] is not None}
+    try:
+        for r in range(count):
+            column = 0
+            for k, (_, kind, count_kind) in enumerate(props):
+                if count_kind is None:
+                    (scalars[r, column],) = struct.unpack_from(order + kind, body, offset)
+                    offset += struct.calcsize(kind)
+                    column += 1
+                else:
+                    (n,) = struct.unpack_from(order + count_kind, body, offset)
+                    offset += struct.calcsize(count_kind)
+                    lists[k].append(struct.unpack_from(f"{order}{n}{kind}", body, offset))
+                    offset += n * struct.calcsize(kind)
+    except struct.error:
+        raise ValueError("the file holds fewer records than its header declares") from None
+    return scalars, lists, offset
+
+
+def _uniform_binary(body: bytes, offset: int, order: str, count: int, props):
+    """_records_binary's result where every list of the element has as many
+    items as in its first record (a mesh of triangles: most files), read
+    as fixed-size records at once; None otherwise."""
+    fields, at = [], offset
+    for k, (_, kind, count_kind) in enumerate(props):
+        if count_kind is None:
+            fields.append((f"s{k}", order + kind))
+            at += struct.calcsize(kind)
+            continue
+        if at + struct.calcsize(count_kind) > len(body):
+            return None
+        (n,) = struct.unpack_from(order + count_kind, body, at)
+        fields += [(f"n{k}", order + count_kind), (f"l{k}", order + kind, (n,))]
+        at += struct.calcsize(count_kind) + n * struct.calcsize(kind)
+    dtype = np.dtype(fields)
+    if count == 0 or offset + count * dtype.itemsize > len(body):
+        return None
+    table = np.frombuffer(body, dtype=dtype, count=count, offset=offset)
+    lists = {}
+    for k, p in enumerate(props):
+        if p[2] is not None:
+            if (table[f"n{k}"] != dtype[f"l{k}"].shape[0]).any():
+                return None
+            lists[k] = table[f"l{k}"].reshape(count, -1)
+    columns = [table[f"s{k}"].astype(np.float64) for k, p in enumerate(props) if p[2] is None]
+    scalars = np.stack(columns, 1) if columns else np.zeros((count, 0))
+    return scalars, lists, offset + count * dtype.itemsize
+
+
+def _records_ascii(lines, count: int, props):
+    """As _records_binary, from the next ``count`` lines of ASCII records."""
+    rows = [next(lines, None) for _ in range(count)]
+    if any(r is None for r in rows):
+        raise ValueError("the file holds fewer records than its header declares")
+    try:  # every record as long as the first (a mesh of triangles): all at once
+        table = np.array([r.split() for r in rows], dtype=np.float64)
+    except ValueError:
+        table = None
+    if table is not None and table.ndim == 2 and count:
+        scalars, lists, at = [], {}, 0
+        for k, (_, kind, count_kind) in enumerate(props):
+            if count_kind is None:
+                scalars.append(table[:, at])
+                at += 1
+                continue
+            n = int(table[0, at]) if at < table.shape[1] else -1
+            if n < 0 or at + 1 + n > table.shape[1] or (table[:, at] != n).any():
+                break
+            lists[k] = table[:, at + 1:at + 1 + n] if kind in "fd" else \
+                table[:, at + 1:at + 1 + n].astype(np.int64)
+            at += 1 + n
+        else:
+            if at == table.shape[1]:
+                return (np.stack(scalars, 1) if scalars else np.zeros((count, 0))), lists
+    lines = iter(rows)
+    scalars = np.zeros((count, sum(p[2] is None for p in props)))
+    lists = {k: [] for k, p in enumerate(props) if p[2] is not None}
+    for r in range(count):
+        line = next(lines, None)
+        if line is None:
+            raise ValueError("the file holds fewer records than its header declares")
+        tokens, at, column = line.split(), 0, 0
+        try:
+            for k, (_, kind, count_kind) in enumerate(props):
+                if count_kind is None:
+                    scalars[r, column] = float(tokens[at])
+                    at, column = at + 1, column + 1
+                else:
+                    n = int(tokens[at])
+                    values = tokens[at + 1:at + 1 + n]
+                    if len(values) != n:
+                        raise IndexError
+                    lists[k].append(tuple(float(x) if kind in "fd" else int(x) for x in values))
+                    at += 1 + n
+        except (IndexError, ValueError):
+            raise ValueError(f"malformed PLY record {line.strip()!r}") from None
+    return scalars, lists
+
+
+def _colours(scalars, names, kinds, what: str):
+    """(n, 3) RGB in [0, 1] from red, green and blue properties (integers
+    0-255, floats 0-1), or None without them."""
+    if not all(c in names for c in ("red", "green", "blue")):
+        return None
+    at = [names.index(c) for c in ("red", "green", "blue")]
+    rgb = scalars[:, at]
+    if kinds[at[0]] not in "fd":
+        rgb = rgb / 255.0
+    if rgb.size and (not np.all(np.isfinite(rgb)) or rgb.min() < 0.0 or rgb.max() > 1.0):
+        raise ValueError(f"PLY {what} colours must lie in 0-255 (integers) or [0, 1] (floats)")
+    return rgb
+
+
+def read_ply(path: str) -> ObjData:
+    """A PLY file's vertices (x, y, z; red, green, blue when present) and
+    the polygons of its ``face`` element as written (with red, green, blue
+    when present), skipping every other property and element.
+
+    Raises
+    ------
+    ValueError
+        A header this reader does not know, no vertex element with x, y and
+        z, no face element with a ``vertex_indices`` list, records that run
+        out or do not parse, indices outside the vertices.
+    """
+    with open(path, "rb") as fh:
+        fmt, elements = _header(fh)
+        body = fh.read()
+    names = [e[0] for e in elements]
+    if "vertex" not in names or "face" not in names:
+        raise ValueError("no vertex or no face element")
+    lines = iter(line for line in body.decode("ascii", "replace").splitlines() if line.strip()) \
+        if fmt == "ascii" else None
+    order = "<" if fmt == "binary_little_endian" else ">"
+    offset, found = 0, {}
+    for name, count, props in elements:
+        if name in found:
+            raise ValueError(f"two {name} elements")
+        if lines is not None:
+            scalars, lists = _records_ascii(lines, count, props)
+        else:
+            scalars, lists, offset = _records_binary(body, offset, order, count, props)
+        if name in ("vertex", "face"):
+            found[name] = (scalars, lists, props)
+        if len(found) == 2:
+            break
+    scalars, _, props = found["vertex"]
+    scalar_names = [p[0] for p in props if p[2] is None]
+    scalar_kinds = [p[1] for p in props if p[2] is None]
+    if not all(c in scalar_names for c in "xyz"):
+        raise ValueError("the vertex element has no x, y and z")
+    vertices = scalars[:, [scalar_names.index(c) for c in "xyz"]]
+    vertex_colours = _colours(scalars, scalar_names, scalar_kinds, "vertex")
+    scalars, lists, props = found["face"]
+    at = next((k for k, p in enumerate(props) if p[0] in _INDEX_NAMES and p[2] is not None), None)
+    if at is None:
+        raise ValueError("the face element has no vertex_indices list")
+    faces = lists[at]
+    if isinstance(faces, np.ndarray):  # (all faces the same size)
+        sizes = np.full(len(faces), faces.shape[1] if faces.ndim == 2 else 0, dtype=np.int64)
+        indices = faces.astype(np.int64).reshape(-1)
+    else:
+        sizes = np.array([len(f) for f in faces], dtype=np.int64)
+        indices = np.array([i for f in faces for i in f], dtype=np.int64)
+    if indices.size and (indices.min() < 0 or indices.max() >= len(vertices)):
+        raise ValueError(f"a face index lies outside [0, {len(vertices)})")
+    if sizes.size and sizes.min() < 3:
+        raise ValueError("a face has fewer than 3 corners")
+    scalar_names = [p[0] for p in props if p[2] is None]
+    scalar_kinds = [p[1] for p in props if p[2] is None]
+    return ObjData(vertices, sizes, indices, vertex_colours,
+                   _colours(scalars, scalar_names, scalar_kinds, "face"))

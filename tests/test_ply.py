@@ -1,0 +1,88 @@
+"""PLY files with polygon faces (zbuffer/ply.py): kept as written, where
+trimesh fans them (and fails on them with face colours)."""
+
+import struct
+
+import numpy as np
+import pytest
+
+import zbuffer
+from helpers import MODELS
+
+# A concave hexagon (an L) and a triangle, coloured per face.
+VERTICES = [(0, 0, 0), (2, 0, 0), (2, 1, 0), (1, 1, 0), (1, 2, 0), (0, 2, 0), (3, 3, 1)]
+FACES = [([0, 1, 2, 3, 4, 5], (255, 0, 0)), ([0, 1, 6], (0, 128, 255))]
+
+
+def header(fmt, face_props="property uchar red\nproperty uchar green\nproperty uchar blue\n"):
+    return (f"ply\nformat {fmt} 1.0\ncomment an L and a triangle\nelement vertex 7\n"
+            "property float x\nproperty float y\nproperty float z\nelement face 2\n"
+            f"property list uchar int vertex_indices\n{face_props}end_header\n").encode()
+
+
+def ascii_ply():
+    return header("ascii") + "".join(f"{x} {y} {z}\n" for x, y, z in VERTICES).encode() + \
+        "".join(f"{len(f)} {' '.join(map(str, f))} {r} {g} {b}\n"
+                for f, (r, g, b) in FACES).encode()
+
+
+def binary_ply(order):
+    fmt = "binary_little_endian" if order == "<" else "binary_big_endian"
+    return header(fmt) + b"".join(struct.pack(order + "3f", *v) for v in VERTICES) + \
+        b"".join(struct.pack(f"{order}B{len(f)}i3B", len(f), *f, *c) for f, c in FACES)
+
+
+@pytest.mark.parametrize("kind", ["ascii", "<", ">"])
+def test_polygons_are_kept_and_triangulated_exactly(tmp_path, kind):
+    path = tmp_path / "l.ply"
+    path.write_bytes(ascii_ply() if kind == "ascii" else binary_ply(kind))
+    mesh = zbuffer.load(path, merge_vertices=False)
+    assert mesh.polygon_sizes.tolist() == [6, 3]
+    assert mesh.face_polygon.tolist() == [0, 0, 0, 0, 1]
+    tri = mesh.vertices[mesh.faces[:4]]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    assert area.sum() == pytest.approx(3.0)  # the L's area (a fan would cover 4)
+    np.testing.assert_allclose(mesh.face_colors, [[1, 0, 0]] * 4 + [[0, 128 / 255, 1]],
+                               rtol=1e-6)
+    obj = tmp_path / "l.obj"
+    obj.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in VERTICES) + "f 1 2 3 4 5 6\nf 1 2 7\n")
+    np.testing.assert_array_equal(zbuffer.load(obj).faces, mesh.faces)
+    cam = zbuffer.Camera.look_at((1, 1, 4), (1, 1, 0))
+    scan = zbuffer.render(mesh, algo="scanline", camera=cam, width=48, height=48, shading="none")
+    ref = zbuffer.reference.render(mesh, camera=cam, width=48, height=48, shading="none",
+                                   polygons=True)
+    np.testing.assert_array_equal(scan.triangle_id, ref.triangle_id)
+    plain = zbuffer.render(mesh, algo="zbuffer", camera=cam, width=48, height=48, shading="none")
+    np.testing.assert_array_equal(scan.mask, plain.mask)
+
+
+def test_other_properties_are_skipped(tmp_path):
+    # A list before the indices, float vertex colours, a face property
+    # after them, and an element between the vertices and the faces.
+    text = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+            "property double z\nproperty float red\nproperty float green\nproperty float blue\n"
+            "element material 1\nproperty int id\n"
+            "element face 1\nproperty list uchar float texcoord\n"
+            "property list uchar int vertex_indices\nproperty int flags\nend_header\n"
+            "0 0 0 1 0 0\n1 0 0 0 1 0\n1 1 0 0 0 1\n0 1 0 1 1 1\n7\n"
+            "8 0 0 1 0 1 1 0 1 4 0 1 2 3 5\n")
+    path = tmp_path / "quad.ply"
+    path.write_text(text)
+    mesh = zbuffer.load(path, merge_vertices=False)
+    assert mesh.polygon_sizes.tolist() == [4]
+    assert mesh.faces.tolist() == [[0, 1, 2], [0, 2, 3]]
+    np.testing.assert_allclose(mesh.vertex_colors, [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]])
+
+
+def test_bad_polygon_files_are_refused(tmp_path):
+    path = tmp_path / "bad.ply"
+    data = ascii_ply().replace(b"6 0 1 2 3 4 5", b"6 0 1 2 3 4 9")
+    path.write_bytes(data)
+    with pytest.raises(ValueError, match="could not read a mesh from"):
+        zbuffer.load(path)
+
+
+@pytest.mark.skipif(not (MODELS / "bunny_16k.ply").is_file(), reason="shared models not present")
+def test_triangle_files_are_read_by_trimesh_as_before():
+    mesh = zbuffer.load(MODELS / "bunny_16k.ply", merge_vertices=False)
+    assert mesh.polygon_sizes is None and len(mesh.faces) == 16301
