@@ -1,11 +1,11 @@
 """A reader for PLY files with polygon faces, which it keeps as written.
 
 trimesh fan-triangulates a PLY file's polygons (a concave polygon's fan
-covers area outside it), and fails on polygons with face colours.
-:func:`zbuffer.load` reads a PLY file with this reader first, and where it
-finds polygons of more than 3 corners keeps them (like the OBJ and OFF
-readers); files of triangles, and those this reader does not know, go on
-to trimesh as before.
+covers area outside it), and fails on polygons with face colours. Where
+trimesh made more triangles than a file has faces, or failed,
+:func:`zbuffer.load` reads the file with this reader, and where it finds
+polygons of more than 3 corners keeps them (like the OBJ and OFF readers);
+trimesh's reading (or its failure) stands otherwise.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def _header(fh) -> Tuple[str, list]:
             fmt = words[1]
         elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
             elements.append((words[1], int(words[2]), []))
-        elif words[0] == "property" and elements:
+        elif words[0] == "property" and elements and len(words) >= 3:
             if words[1] == "list" and len(words) == 5 and words[2] in _TYPES \
                     and words[3] in _TYPES:
                 elements[-1][2].append((words[4], _TYPES[words[3]], _TYPES[words[2]]))
@@ -202,6 +202,14 @@ def read_ply(path: str) -> ObjData:
         z, no face element with a ``vertex_indices`` list, records that run
         out or do not parse, indices outside the vertices.
     """
+    try:
+        return _read_ply(path)
+    except (IndexError, KeyError, struct.error) as err:  # (malformed in a way not foreseen)
+        raise ValueError(f"malformed PLY file: {err!r}") from None
+
+
+def _read_ply(path: str) -> ObjData:
+    """read_ply's work."""
     with open(path, "rb") as fh:
         fmt, elements = _header(fh)
         body = fh.read()
