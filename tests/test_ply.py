@@ -75,11 +75,19 @@ def test_other_properties_are_skipped(tmp_path):
 
 
 def test_bad_polygon_files_are_refused(tmp_path):
+    from zbuffer.ply import read_ply
+
     path = tmp_path / "bad.ply"
     data = ascii_ply().replace(b"6 0 1 2 3 4 5", b"6 0 1 2 3 4 9")
     path.write_bytes(data)
     with pytest.raises(ValueError, match="could not read a mesh from"):
         zbuffer.load(path)
+    path.write_bytes(ascii_ply().replace(b"6 0 1 2 3 4 5", b"6 0 1 2.5 3 4 5"))
+    with pytest.raises(ValueError, match="malformed PLY record '6 0 1 2.5 3 4 5"):
+        read_ply(path)
+    path.write_bytes(binary_ply("<")[:-5])
+    with pytest.raises(ValueError, match="fewer records than its header declares"):
+        read_ply(path)
 
 
 @pytest.mark.skipif(not (MODELS / "bunny_16k.ply").is_file(), reason="shared models not present")

@@ -145,8 +145,12 @@ def _records_ascii(lines, count: int, props):
             n = int(table[0, at]) if at < table.shape[1] else -1
             if n < 0 or at + 1 + n > table.shape[1] or (table[:, at] != n).any():
                 break
-            lists[k] = table[:, at + 1:at + 1 + n] if kind in "fd" else \
-                table[:, at + 1:at + 1 + n].astype(np.int64)
+            values = table[:, at + 1:at + 1 + n]
+            if kind not in "fd":
+                if (values != np.round(values)).any():
+                    break  # (the record by record reading says which record)
+                values = values.astype(np.int64)
+            lists[k] = values
             at += 1 + n
         else:
             if at == table.shape[1]:
