@@ -59,6 +59,14 @@ def test_concave_polygons_are_kept_and_triangulated_exactly(tmp_path):
     np.testing.assert_array_equal(scan.depth, ref.depth)
 
 
+def test_vertex_and_face_colours_together_keep_the_vertices(tmp_path):
+    mesh = zbuffer.load(write(tmp_path, "COFF\n4 1 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n"
+                                        "1 1 0 0 0 255\n0 1 0 9 9 9\n4 0 1 2 3 10 20 30\n"),
+                        merge_vertices=False)
+    assert mesh.face_colors is None and mesh.polygon_sizes.tolist() == [4]
+    np.testing.assert_allclose(mesh.vertex_colors[:3], np.eye(3))
+
+
 def test_header_variants_colours_and_comments(tmp_path):
     # Counts on the header's line, COFF vertex colours (floats), NOFF
     # normals (skipped), comments anywhere, faces without colours.
@@ -83,6 +91,8 @@ def test_header_variants_colours_and_comments(tmp_path):
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n", "line 7: more records"),
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 300 0 0\n", "face colours must lie in 0-255"),
     ("OFF\nthree 1 0\n", "line 2: expected the vertex, face and edge counts"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 garbage\n", "line 6: after a face's indices"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 1 2\n", "line 6: after a face's indices"),
 ])
 def test_malformed_files_name_the_problem(tmp_path, text, message):
     with pytest.raises(ValueError, match="could not read a mesh from") as err:

@@ -90,7 +90,63 @@ def test_bad_polygon_files_are_refused(tmp_path):
         read_ply(path)
 
 
+def test_vertex_and_face_colours_together_keep_the_vertices(tmp_path):
+    text = ascii_ply().decode().replace(
+        "property float z\n", "property float z\nproperty uchar red\nproperty uchar green\n"
+        "property uchar blue\n").replace("0 0 0\n", "0 0 0 10 20 30\n", 1)
+    lines = text.split("end_header\n")
+    body = lines[1].splitlines()
+    body = [line if line.count(" ") == 5 else line + " 255 255 255" for line in body[:7]] + body[7:]
+    path = tmp_path / "both.ply"
+    path.write_text(lines[0] + "end_header\n" + "\n".join(body) + "\n")
+    mesh = zbuffer.load(path, merge_vertices=False)
+    assert mesh.face_colors is None
+    np.testing.assert_allclose(mesh.vertex_colors[0], [10 / 255, 20 / 255, 30 / 255], rtol=1e-6)
+
+
+@pytest.mark.parametrize("change, message", [
+    # A face of no corners and one of two: trimesh dropped them, and fanned the quad.
+    ((b"3 0 1 6 0 128 255", b"0"), "malformed PLY record '0'"),
+    ((b"3 0 1 6", b"2 0 1"), "face has fewer than 3 corners"),
+    ((b"element face 2", b"element face -2"), "element count must be a whole number"),
+    ((b"element face 2", b"element face 4000000000"), "fewer records than its header declares"),
+    ((b"element face 2", b"element face 1"), "more records than its header declares"),
+    ((b"0 128 255", b"0 300 255"), "face colours must lie in 0-255"),
+])
+def test_malformed_files_are_refused_plainly(tmp_path, change, message):
+    path = tmp_path / "bad.ply"
+    data = ascii_ply()
+    assert change[0] in data
+    path.write_bytes(data.replace(*change))
+    with pytest.raises(ValueError, match="could not read a mesh from") as err:
+        zbuffer.load(path)
+    assert message in str(err.value)
+
+
+def test_binary_data_beyond_the_counts_is_refused(tmp_path):
+    path = tmp_path / "more.ply"
+    path.write_bytes(binary_ply("<").replace(b"element face 2", b"element face 1"))
+    with pytest.raises(ValueError, match="more records than its header declares"):
+        zbuffer.load(path)
+    path.write_bytes(binary_ply("<") + b"\n")  # (a line end after the data: fine)
+    assert len(zbuffer.load(path).faces) == 5
+
+
+def test_huge_counts_are_refused_before_anything_of_their_size(tmp_path):
+    # (The records the counts promise would take tens of GB.)
+    path = tmp_path / "huge.ply"
+    for order in "<>":
+        path.write_bytes(binary_ply(order).replace(b"element face 2", b"element face 4000000000"))
+        with pytest.raises(ValueError, match="fewer records than its header declares"):
+            zbuffer.load(path)
+
+
 @pytest.mark.skipif(not (MODELS / "bunny_16k.ply").is_file(), reason="shared models not present")
-def test_triangle_files_are_read_by_trimesh_as_before():
+def test_a_triangle_file_reads_as_trimesh_reads_it():
+    import trimesh
+
     mesh = zbuffer.load(MODELS / "bunny_16k.ply", merge_vertices=False)
-    assert mesh.polygon_sizes is None and len(mesh.faces) == 16301
+    tm = trimesh.load(MODELS / "bunny_16k.ply", force="mesh", process=False)
+    assert mesh.polygon_sizes is None
+    np.testing.assert_array_equal(mesh.faces, tm.faces)
+    np.testing.assert_array_equal(mesh.vertices, tm.vertices)

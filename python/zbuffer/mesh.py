@@ -451,10 +451,9 @@ class Mesh:
 
 
 def load(path, merge_vertices: bool = True) -> Mesh:
-    """Read a mesh file: OBJ and ASCII OFF with zbuffer's own readers, any
-    other format trimesh reads (PLY, STL, glTF, binary OFF, ...) through
-    trimesh -- but PLY files with polygons of more than 3 corners with
-    zbuffer's own PLY reader.
+    """Read a mesh file: OBJ, ASCII OFF and PLY with zbuffer's own readers
+    (PLY files it does not know: through trimesh), any other format trimesh
+    reads (STL, glTF, binary OFF, ...) through trimesh.
 
     Parameters
     ----------
@@ -501,18 +500,26 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         if not is_binary_off(path):  # (binary OFF: trimesh's)
             mesh = _load_polygons(path, read_off)
             return (mesh.merged() if merge_vertices else mesh).prepare()
+    unsupported = None  # (why zbuffer's PLY reader left a .ply file to trimesh)
+    if path.lower().endswith(".ply"):
+        from .ply import UnsupportedPly, read_ply
+
+        try:
+            data = read_ply(path)
+        except UnsupportedPly as err:
+            unsupported = err
+        except ValueError as err:
+            raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
+        else:
+            mesh = _load_polygons(path, lambda _: data)
+            return (mesh.merged() if merge_vertices else mesh).prepare()
     import trimesh  # (only here: importing it takes about 0.3 s)
 
     try:
-        tm, failure = trimesh.load(path, force="mesh", process=False), None
+        tm = trimesh.load(path, force="mesh", process=False)
     except Exception as err:  # trimesh raises many types for bad files
-        tm, failure = None, err
-    if path.lower().endswith(".ply"):
-        polygons = _ply_polygons(path, tm)
-        if polygons is not None:
-            return (polygons.merged() if merge_vertices else polygons).prepare()
-    if failure is not None:
-        raise ValueError(f"could not read a mesh from {path!r}: {failure}") from failure
+        reason = unsupported or err  # (zbuffer's reader says it more plainly)
+        raise ValueError(f"could not read a mesh from {path!r}: {reason}") from err
     _check_ascii_ply_records(path)
     if not isinstance(tm, trimesh.Trimesh):
         raise ValueError(f"{path!r} holds no triangle mesh (got {type(tm).__name__})")
@@ -526,29 +533,6 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     if merge_vertices:
         mesh = mesh.merged()
     return mesh.prepare()
-
-
-def _ply_polygons(path: str, tm) -> Optional[Mesh]:
-    """The mesh of a PLY file with polygons of more than 3 corners, read by
-    zbuffer's own reader (ply.py) and kept as written, else None. Only
-    looked for where trimesh (``tm``, None if it failed) made more
-    triangles than the file has faces -- it fans polygons -- or failed (as
-    it does on polygons with face colours)."""
-    from .ply import read_ply
-
-    with open(path, "rb") as fh:
-        header = _ply_header(fh)
-    faces = [int(e[1]) for e in (header[1] if header else [])
-             if e[:1] == [b"face"] and len(e) == 2 and e[1].isdigit()]
-    if tm is not None and (not faces or faces[0] >= len(getattr(tm, "faces", ()))):
-        return None
-    try:
-        data = read_ply(path)
-    except ValueError:
-        return None  # (trimesh's reading, or its failure, stands)
-    if not len(data.polygon_sizes) or data.polygon_sizes.max() <= 3:
-        return None
-    return _load_polygons(path, lambda _: data)
 
 
 def _load_polygons(path: str, read) -> Mesh:
@@ -568,10 +552,16 @@ def _load_polygons(path: str, read) -> Mesh:
                          "non-empty file")
     faces, owner = triangulate_polygons(data.vertices, data.polygon_sizes, data.polygon_indices)
     polygons = bool(len(data.polygon_sizes)) and bool((data.polygon_sizes > 3).any())
-    return Mesh(data.vertices, faces, vertex_colors=data.vertex_colors,
-                face_colors=None if data.face_colors is None else data.face_colors[owner],
-                name=os.path.basename(path), face_polygon=owner if polygons else None,
-                polygons=(data.polygon_sizes, data.polygon_indices) if polygons else None)
+    # (A mesh has vertex or face colours: given both, the vertices' are kept.)
+    face_colors = None if data.face_colors is None or data.vertex_colors is not None \
+        else data.face_colors[owner]
+    try:
+        return Mesh(data.vertices, faces, vertex_colors=data.vertex_colors,
+                    face_colors=face_colors, name=os.path.basename(path),
+                    face_polygon=owner if polygons else None,
+                    polygons=(data.polygon_sizes, data.polygon_indices) if polygons else None)
+    except ValueError as err:
+        raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
 
 
 def _declares_no_faces(path: str) -> bool:

@@ -246,6 +246,8 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
     """
     sizes = np.asarray(sizes, dtype=np.int64)
     indices = np.asarray(indices, dtype=np.int64)
+    if len(sizes) and (sizes == 3).all():  # triangles only (most meshes): as they are
+        return indices.reshape(-1, 3), np.arange(len(sizes), dtype=np.int64)
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]) if len(sizes) else sizes
     faces: List[np.ndarray] = []
     owners: List[np.ndarray] = []

@@ -137,6 +137,10 @@ def read_off(path: str) -> ObjData:
                              "number of corners, at least 3, then their indices)") from None
         if min(index) < 0 or max(index) >= n_vertices:
             raise ValueError(f"line {number}: face index outside [0, {n_vertices})")
+        colour = tokens[1 + n:]
+        if len(colour) not in (0, 1, 3, 4) or not all(_is_number(x) for x in colour):
+            raise ValueError(f"line {number}: after a face's indices, a colour: a colour map "
+                             f"index, or 3 or 4 numbers; got {' '.join(colour)!r}")
         sizes.append(n)
         corners.extend(index)
         face_colour_rows.append(tokens[1 + n:])

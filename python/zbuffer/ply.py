@@ -1,11 +1,12 @@
-"""A reader for PLY files with polygon faces, which it keeps as written.
+"""A reader for PLY files (ASCII and binary) that keeps polygon faces as
+written.
 
 trimesh fan-triangulates a PLY file's polygons (a concave polygon's fan
-covers area outside it), and fails on polygons with face colours. Where
-trimesh made more triangles than a file has faces, or failed,
-:func:`zbuffer.load` reads the file with this reader, and where it finds
-polygons of more than 3 corners keeps them (like the OBJ and OFF readers);
-trimesh's reading (or its failure) stands otherwise.
+covers area outside it), fails on polygons with face colours, and reads
+some malformed files without a word (faces dropped, colours wrapped).
+:func:`zbuffer.load` reads PLY files with this reader, and leaves to trimesh
+only those it does not know (:class:`UnsupportedPly`: other formats,
+property types, faces not given as a vertex_indices list, point clouds).
 """
 
 from __future__ import annotations
@@ -17,7 +18,12 @@ import numpy as np
 
 from .obj import ObjData
 
-__all__ = ["read_ply"]
+__all__ = ["read_ply", "UnsupportedPly"]
+
+
+class UnsupportedPly(ValueError):
+    """A PLY file this reader does not read (not PLY, another format or
+    property type, no faces as a vertex_indices list): trimesh's to try."""
 
 _TYPES = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h", "int16": "h",
           "ushort": "H", "uint16": "H", "int": "i", "int32": "i", "uint": "I", "uint32": "I",
@@ -29,7 +35,7 @@ def _header(fh) -> Tuple[str, list]:
     """(format, [(element, count, [(name, type, count_type or None)])]) of
     the header at the start of ``fh``, which is left just past it."""
     if fh.readline().strip().removeprefix(b"\xef\xbb\xbf") != b"ply":
-        raise ValueError("not a PLY file")
+        raise UnsupportedPly("not a PLY file")
     fmt, elements = None, []
     for raw in fh:
         words = raw.decode("ascii", "replace").split()
@@ -37,7 +43,9 @@ def _header(fh) -> Tuple[str, list]:
             continue
         if words[0] == "format" and len(words) >= 2:
             fmt = words[1]
-        elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
+        elif words[0] == "element" and len(words) == 3:
+            if not words[2].isdigit():
+                raise ValueError(f"an element count must be a whole number, got {raw.strip()!r}")
             elements.append((words[1], int(words[2]), []))
         elif words[0] == "property" and elements and len(words) >= 3:
             if words[1] == "list" and len(words) == 5 and words[2] in _TYPES \
@@ -46,14 +54,14 @@ def _header(fh) -> Tuple[str, list]:
             elif len(words) == 3 and words[1] in _TYPES:
                 elements[-1][2].append((words[2], _TYPES[words[1]], None))
             else:
-                raise ValueError(f"unreadable PLY property line {raw.strip()!r}")
+                raise UnsupportedPly(f"unreadable PLY property line {raw.strip()!r}")
         elif words[0] == "end_header":
             if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
-                raise ValueError(f"unknown PLY format {fmt!r}")
+                raise UnsupportedPly(f"unknown PLY format {fmt!r}")
             return fmt, elements
         else:
-            raise ValueError(f"unreadable PLY header line {raw.strip()!r}")
-    raise ValueError("the PLY header does not end")
+            raise UnsupportedPly(f"unreadable PLY header line {raw.strip()!r}")
+    raise UnsupportedPly("the PLY header does not end")
 
 
 def _fixed(props) -> bool:
@@ -64,6 +72,9 @@ def _records_binary(body: bytes, offset: int, order: str, count: int, props):
     """``count`` records of an element at ``offset``: (scalar values as a
     (count, scalars) float64 array, list values per list property (count
     lists), the offset after them)."""
+    least = sum(struct.calcsize(p[2] or p[1]) for p in props)  # (bytes of a record, lists empty)
+    if count * least > len(body) - offset:  # (before anything of the count's size is made)
+        raise ValueError("the file holds fewer records than its header declares")
     if _fixed(props):
         dtype = np.dtype([(f"p{k}", order + kind) for k, (_, kind, _) in enumerate(props)])
         end = offset + count * dtype.itemsize
@@ -109,8 +120,10 @@ def _uniform_binary(body: bytes, offset: int, order: str, count: int, props):
         if at + struct.calcsize(count_kind) > len(body):
             return None
         (n,) = struct.unpack_from(order + count_kind, body, at)
-        fields += [(f"n{k}", order + count_kind), (f"l{k}", order + kind, (n,))]
         at += struct.calcsize(count_kind) + n * struct.calcsize(kind)
+        if n < 0 or at > len(body):
+            return None  # (the record by record reading says what is wrong)
+        fields += [(f"n{k}", order + count_kind), (f"l{k}", order + kind, (n,))]
     dtype = np.dtype(fields)
     if count == 0 or offset + count * dtype.itemsize > len(body):
         return None
@@ -126,11 +139,25 @@ def _uniform_binary(body: bytes, offset: int, order: str, count: int, props):
     return scalars, lists, offset + count * dtype.itemsize
 
 
+def _as_declared(scalars: np.ndarray, props) -> np.ndarray:
+    """ASCII scalars as their declared types hold them (a ``float``
+    property's text rounded to float32, as binary files and trimesh have
+    it)."""
+    kinds = [p[1] for p in props if p[2] is None]
+    for c, kind in enumerate(kinds):
+        if kind == "f":
+            scalars[:, c] = scalars[:, c].astype(np.float32)
+    return scalars
+
+
 def _records_ascii(lines, count: int, props):
     """As _records_binary, from the next ``count`` lines of ASCII records."""
-    rows = [next(lines, None) for _ in range(count)]
-    if any(r is None for r in rows):
-        raise ValueError("the file holds fewer records than its header declares")
+    rows = []
+    for _ in range(count):  # (a line a record: stops where they run out, whatever the count)
+        line = next(lines, None)
+        if line is None:
+            raise ValueError("the file holds fewer records than its header declares")
+        rows.append(line)
     try:  # every record as long as the first (a mesh of triangles): all at once
         table = np.array([r.split() for r in rows], dtype=np.float64)
     except ValueError:
@@ -154,7 +181,8 @@ def _records_ascii(lines, count: int, props):
             at += 1 + n
         else:
             if at == table.shape[1]:
-                return (np.stack(scalars, 1) if scalars else np.zeros((count, 0))), lists
+                scalars = np.stack(scalars, 1) if scalars else np.zeros((count, 0))
+                return _as_declared(scalars, props), lists
     lines = iter(rows)
     scalars = np.zeros((count, sum(p[2] is None for p in props)))
     lists = {k: [] for k, p in enumerate(props) if p[2] is not None}
@@ -177,7 +205,7 @@ def _records_ascii(lines, count: int, props):
                     at += 1 + n
         except (IndexError, ValueError):
             raise ValueError(f"malformed PLY record {line.strip()!r}") from None
-    return scalars, lists
+    return _as_declared(scalars, props), lists
 
 
 def _colours(scalars, names, kinds, what: str):
@@ -201,10 +229,15 @@ def read_ply(path: str) -> ObjData:
 
     Raises
     ------
+    UnsupportedPly
+        A header this reader does not know: not PLY, another format or
+        property type, no vertex element with x, y and z, no face element
+        with a ``vertex_indices`` list.
     ValueError
-        A header this reader does not know, no vertex element with x, y and
-        z, no face element with a ``vertex_indices`` list, records that run
-        out or do not parse, indices outside the vertices.
+        Malformed: an element count that is not a whole number, records that
+        run out, do not parse or outnumber the header's counts (ASCII),
+        indices outside the vertices, faces of fewer than 3 corners, colours
+        out of range.
     """
     try:
         return _read_ply(path)
@@ -219,7 +252,7 @@ def _read_ply(path: str) -> ObjData:
         body = fh.read()
     names = [e[0] for e in elements]
     if "vertex" not in names or "face" not in names:
-        raise ValueError("no vertex or no face element")
+        raise UnsupportedPly("no vertex or no face element")
     lines = iter(line for line in body.decode("ascii", "replace").splitlines() if line.strip()) \
         if fmt == "ascii" else None
     order = "<" if fmt == "binary_little_endian" else ">"
@@ -233,19 +266,20 @@ def _read_ply(path: str) -> ObjData:
             scalars, lists, offset = _records_binary(body, offset, order, count, props)
         if name in ("vertex", "face"):
             found[name] = (scalars, lists, props)
-        if len(found) == 2:
-            break
+    if (next(lines, None) is not None if lines is not None
+            else body[offset:].strip(b" \t\r\n\0")):  # (white space after the data: fine)
+        raise ValueError("the file holds more records than its header declares")
     scalars, _, props = found["vertex"]
     scalar_names = [p[0] for p in props if p[2] is None]
     scalar_kinds = [p[1] for p in props if p[2] is None]
     if not all(c in scalar_names for c in "xyz"):
-        raise ValueError("the vertex element has no x, y and z")
+        raise UnsupportedPly("the vertex element has no x, y and z")
     vertices = scalars[:, [scalar_names.index(c) for c in "xyz"]]
     vertex_colours = _colours(scalars, scalar_names, scalar_kinds, "vertex")
     scalars, lists, props = found["face"]
     at = next((k for k, p in enumerate(props) if p[0] in _INDEX_NAMES and p[2] is not None), None)
     if at is None:
-        raise ValueError("the face element has no vertex_indices list")
+        raise UnsupportedPly("the face element has no vertex_indices list")
     faces = lists[at]
     if isinstance(faces, np.ndarray):  # (all faces the same size)
         sizes = np.full(len(faces), faces.shape[1] if faces.ndim == 2 else 0, dtype=np.int64)
