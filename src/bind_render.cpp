@@ -162,6 +162,14 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   return render_result(planes.depth, planes.ids, stats, culls.get());
 }
 
+// Names of the registered algorithms with `flag` set.
+py::list algorithms_with(bool zbuffer::Algorithm::*flag) {
+  py::list out;
+  for (const zbuffer::Algorithm& a : zbuffer::algorithms())
+    if (a.*flag) out.append(a.name);
+  return out;
+}
+
 }  // namespace
 
 void bind_render(py::module_& m) {
@@ -195,22 +203,10 @@ void bind_render(py::module_& m) {
         "them instead of new arrays; new ones have padded rows at widths that are multiples\n"
         "of 512 from 1024 up.");
   m.def(
-      "polygon_algorithms",
-      [] {
-        py::list out;
-        for (const zbuffer::Algorithm& a : zbuffer::algorithms())
-          if (a.polygons) out.append(a.name);
-        return out;
-      },
+      "polygon_algorithms", [] { return algorithms_with(&zbuffer::Algorithm::polygons); },
       "Names of the algorithms that draw polygon faces natively.");
   m.def(
-      "pyramid_algorithms",
-      [] {
-        py::list out;
-        for (const zbuffer::Algorithm& a : zbuffer::algorithms())
-          if (a.pyramid) out.append(a.name);
-        return out;
-      },
+      "pyramid_algorithms", [] { return algorithms_with(&zbuffer::Algorithm::pyramid); },
       "Names of the algorithms with a Z-pyramid (record_culls works with them).");
   m.def(
       "pyramid_levels",

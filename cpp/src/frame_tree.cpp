@@ -85,10 +85,9 @@ struct Buckets {
       }
     }
     for (int a = 0; a < 3; ++a) {
-      _mm512_storeu_si512(lane_lo_[a], _mm512_mask_min_epu32(_mm512_loadu_si512(lane_lo_[a]), in_run,
-                                                             _mm512_loadu_si512(lane_lo_[a]), lo[a]));
-      _mm512_storeu_si512(lane_hi_[a], _mm512_mask_max_epu32(_mm512_loadu_si512(lane_hi_[a]), in_run,
-                                                             _mm512_loadu_si512(lane_hi_[a]), hi[a]));
+      const __m512i run_lo = _mm512_loadu_si512(lane_lo_[a]), run_hi = _mm512_loadu_si512(lane_hi_[a]);
+      _mm512_storeu_si512(lane_lo_[a], _mm512_mask_min_epu32(run_lo, in_run, run_lo, lo[a]));
+      _mm512_storeu_si512(lane_hi_[a], _mm512_mask_max_epu32(run_hi, in_run, run_hi, hi[a]));
     }
     run_count_ += __builtin_popcount(in_run);
     run_last_ = f + 31 - __builtin_clz(in_run);

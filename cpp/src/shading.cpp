@@ -1079,6 +1079,14 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
   table.exact.clear();
   table.resize(count, bary, map);
   auto face_at = [&](size_t i) { return table.by_slot ? list[i] : int32_t(i); };
+  // Rows first + j, for the bits j of `lanes`, prepared again the scalar
+  // way (the vector preparations leave faces of extreme scale to it).
+  auto prepare_again = [&](size_t first, unsigned lanes) {
+    for (; lanes; lanes &= lanes - 1) {
+      const size_t r = first + size_t(__builtin_ctz(lanes));
+      store_row(table, r, prepare_face(in, face_at(r), bary || map, map), bary, map);
+    }
+  };
   size_t i = 0;
   // (int32 gather indices: 3 n_vertices and 3 n_faces must fit)
   constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
@@ -1105,10 +1113,7 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      for (unsigned redo = prepare_faces8(in, table, f, live, bary, map, i); redo; redo &= redo - 1) {
-        const size_t r = i + size_t(__builtin_ctz(redo));
-        store_row(table, r, prepare_face(in, face_at(r), bary || map, map), bary, map);
-      }
+      prepare_again(i, prepare_faces8(in, table, f, live, bary, map, i));
     }
   }
 #elif defined(ZBUFFER_AVX2)
@@ -1131,10 +1136,7 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      for (unsigned redo = prepare_faces4(in, table, f, live, bary, map, i); redo; redo &= redo - 1) {
-        const size_t r = i + size_t(__builtin_ctz(redo));
-        store_row(table, r, prepare_face(in, face_at(r), bary || map, map), bary, map);
-      }
+      prepare_again(i, prepare_faces4(in, table, f, live, bary, map, i));
     }
   }
 #endif

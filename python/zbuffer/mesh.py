@@ -490,29 +490,25 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         raise FileNotFoundError(f"no such mesh file: {path!r}")
     if not os.path.isfile(path):
         raise ValueError(f"{path!r} is not a mesh file (a directory or device)")
-    if path.lower().endswith(".obj"):
+    if path.lower().endswith(".obj"):  # (its v records stay the vertices: not merged)
         from .obj import read_obj
 
-        return _load_polygons(path, read_obj).prepare()
+        return _polygon_mesh(path, _parse(path, read_obj)).prepare()
     if path.lower().endswith(".off"):
         from .off import is_binary_off, read_off
 
         if not is_binary_off(path):  # (binary OFF: trimesh's)
-            mesh = _load_polygons(path, read_off)
-            return (mesh.merged() if merge_vertices else mesh).prepare()
+            return _merged(_polygon_mesh(path, _parse(path, read_off)), merge_vertices).prepare()
     unsupported = None  # (why zbuffer's PLY reader left a .ply file to trimesh)
     if path.lower().endswith(".ply"):
         from .ply import UnsupportedPly, read_ply
 
         try:
-            data = read_ply(path)
+            data = _parse(path, read_ply)
         except UnsupportedPly as err:
             unsupported = err
-        except ValueError as err:
-            raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
         else:
-            mesh = _load_polygons(path, lambda _: data)
-            return (mesh.merged() if merge_vertices else mesh).prepare()
+            return _merged(_polygon_mesh(path, data), merge_vertices).prepare()
     import trimesh  # (only here: importing it takes about 0.3 s)
 
     try:
@@ -529,23 +525,33 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         # whose own header or records say it has no faces.
         raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
                          "non-empty file (malformed or unsupported content)")
-    mesh = Mesh.from_trimesh(tm, name=os.path.basename(path))
-    if merge_vertices:
-        mesh = mesh.merged()
-    return mesh.prepare()
+    return _merged(Mesh.from_trimesh(tm, name=os.path.basename(path)), merge_vertices).prepare()
 
 
-def _load_polygons(path: str, read) -> Mesh:
-    """A mesh from a file of polygon faces read by ``read`` (obj.read_obj,
-    off.read_off): the polygons triangulated exactly, and kept as written
-    when any has more than 3 corners; colours per polygon become colours per
-    triangle."""
-    from .obj import triangulate_polygons
+def _merged(mesh: Mesh, merge: bool) -> Mesh:
+    return mesh.merged() if merge else mesh
+
+
+def _parse(path: str, read):
+    """``read(path)`` (obj.read_obj, off.read_off, ply.read_ply), its
+    ValueError naming the file -- but a PLY file the reader does not know
+    (ply.UnsupportedPly) as it is, for trimesh to try."""
+    from .ply import UnsupportedPly
 
     try:
-        data = read(path)
+        return read(path)
+    except UnsupportedPly:
+        raise
     except ValueError as err:
         raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
+
+
+def _polygon_mesh(path: str, data) -> Mesh:
+    """The mesh of the polygon faces a reader found in ``path`` (obj.ObjData):
+    the polygons triangulated exactly, and kept as written when any has more
+    than 3 corners; colours per polygon become colours per triangle."""
+    from .obj import triangulate_polygons
+
     if (len(data.vertices) == 0 and path.lower().endswith(".obj")
             and not _is_obj_without_geometry(path)):
         raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "

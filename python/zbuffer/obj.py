@@ -18,7 +18,7 @@ import numpy as np
 
 from .shading import power_scaled
 
-__all__ = ["read_obj", "triangulate_polygons", "ObjData"]
+__all__ = ["read_obj", "triangulate_polygons", "unit_rgb", "ObjData"]
 
 
 class ObjData:
@@ -44,6 +44,17 @@ class ObjData:
         self.polygon_indices = polygon_indices
         self.vertex_colors = vertex_colors
         self.face_colors = face_colors
+
+
+def unit_rgb(rgb: np.ndarray, integers: bool, what: str) -> np.ndarray:
+    """Colours read from a file as RGB in [0, 1]: divided by 255 where the
+    file gave integers; ValueError outside 0-255 (integers) or [0, 1]
+    (floats). (The OFF and PLY readers'.)"""
+    if integers:
+        rgb = rgb / 255.0
+    if rgb.size and (not np.all(np.isfinite(rgb)) or rgb.min() < 0.0 or rgb.max() > 1.0):
+        raise ValueError(f"{what} colours must lie in 0-255 (integers) or [0, 1] (floats)")
+    return rgb
 
 
 def read_obj(path: str) -> ObjData:

@@ -13,7 +13,7 @@ from typing import List, Optional
 
 import numpy as np
 
-from .obj import ObjData
+from .obj import ObjData, unit_rgb
 
 __all__ = ["read_off"]
 
@@ -37,11 +37,7 @@ def _colors(rows: List[List[str]], what: str, line_numbers: List[int]) -> Option
         raise ValueError(f"line {line_numbers[k]}: {what} colour is not numbers: "
                          f"{' '.join(rows[k])!r}") from None
     floats = any(any(c in x for c in ".eE") for r in rows for x in r)
-    if not floats:
-        values = values / 255.0
-    if not np.all(np.isfinite(values)) or values.min() < 0.0 or values.max() > 1.0:
-        raise ValueError(f"{what} colours must lie in 0-255 (integers) or [0, 1] (floats)")
-    return values
+    return unit_rgb(values, not floats, what)
 
 
 def _is_number(text: str) -> bool:

@@ -16,7 +16,7 @@ from typing import Tuple
 
 import numpy as np
 
-from .obj import ObjData
+from .obj import ObjData, unit_rgb
 
 __all__ = ["read_ply", "UnsupportedPly"]
 
@@ -214,12 +214,7 @@ def _colours(scalars, names, kinds, what: str):
     if not all(c in names for c in ("red", "green", "blue")):
         return None
     at = [names.index(c) for c in ("red", "green", "blue")]
-    rgb = scalars[:, at]
-    if kinds[at[0]] not in "fd":
-        rgb = rgb / 255.0
-    if rgb.size and (not np.all(np.isfinite(rgb)) or rgb.min() < 0.0 or rgb.max() > 1.0):
-        raise ValueError(f"PLY {what} colours must lie in 0-255 (integers) or [0, 1] (floats)")
-    return rgb
+    return unit_rgb(scalars[:, at], kinds[at[0]] not in "fd", f"PLY {what}")
 
 
 def read_ply(path: str) -> ObjData:
