@@ -21,37 +21,28 @@ class BvhBuilder {
       : mesh_(mesh), params_(params), tree_(tree), clusters_(mesh, tree) {}
 
   void build() {
-    make_codes();
-    radix_sort(codes_, faces_, 30);
-    clusters_.reserve(int64_t(codes_.size()));
+    // Centroids on the vertex grid (cubic cells, so that the nodes of a long
+    // scene are not stretched along it: a node long in the viewing direction
+    // has its nearest depth far in front of most of its triangles, and culls
+    // late), sorted along the Z-order curve.
+    thread_local VertexGrid grid;
+    grid.build(mesh_);
+    thread_local std::vector<uint64_t> words;
+    sorted_centroid_codes(grid, mesh_, words);
+    const size_t n = words.size();
+    codes_.resize(n);
+    faces_.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      codes_[i] = uint32_t(words[i] >> 32);
+      faces_[i] = int32_t(uint32_t(words[i]));
+    }
+    clusters_.reserve(int64_t(n));
     tree_.nodes.emplace_back();
-    build_node(0, 0, int64_t(codes_.size()), 0);
+    build_node(0, 0, int64_t(n), 0);
     clusters_.finish();
   }
 
  private:
-  void make_codes() {
-    const int64_t n = mesh_.n_faces;
-    // Centroids on the vertex grid (cubic cells, so that the nodes of a long
-    // scene are not stretched along it: a node long in the viewing direction
-    // has its nearest depth far in front of most of its triangles, and culls
-    // late).
-    thread_local VertexGrid grid;
-    grid.build(mesh_);
-    codes_.resize(size_t(n));
-    faces_.resize(size_t(n));
-    for (int64_t f = 0; f < n; ++f) {
-      const int32_t* idx = mesh_.faces + 3 * f;
-      const uint32_t c0 = grid.cell[size_t(idx[0])], c1 = grid.cell[size_t(idx[1])],
-                     c2 = grid.cell[size_t(idx[2])];
-      uint32_t q[3];
-      for (int a = 0; a < 3; ++a)
-        q[a] = (VertexGrid::axis(c0, a) + VertexGrid::axis(c1, a) + VertexGrid::axis(c2, a)) / 3;
-      codes_[size_t(f)] = morton_30(q[0], q[1], q[2]);
-      faces_[size_t(f)] = int32_t(f);
-    }
-  }
-
   // Node `index` holds the sorted faces [b, e).
   void build_node(int32_t index, int64_t b, int64_t e, int depth) {
     tree_.nodes[size_t(index)].depth = depth;

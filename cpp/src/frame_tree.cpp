@@ -252,49 +252,6 @@ Buckets& buckets() {
   return b;
 }
 
-// The face's box on the vertex grid.
-inline void face_cells(const VertexGrid& grid, const int32_t* idx, uint32_t* lo, uint32_t* hi) {
-  const uint32_t c0 = grid.cell[size_t(idx[0])], c1 = grid.cell[size_t(idx[1])],
-                 c2 = grid.cell[size_t(idx[2])];
-  for (int a = 0; a < 3; ++a) {
-    const uint32_t v0 = VertexGrid::axis(c0, a), v1 = VertexGrid::axis(c1, a),
-                   v2 = VertexGrid::axis(c2, a);
-    lo[a] = std::min({v0, v1, v2});
-    hi[a] = std::max({v0, v1, v2});
-  }
-}
-
-#ifdef ZBUFFER_AVX512
-// The grid cells of 16 faces' corners (c[j]: corner j), and each face's box
-// lo .. hi per axis, as face_cells computes it.
-inline void face_cells16(const VertexGrid& grid, const int32_t* faces, __m512i* c, __m512i* lo,
-                         __m512i* hi) {
-  __m512i idx[3];
-  simd::deinterleave16(faces, 16, idx);
-  for (int j = 0; j < 3; ++j) c[j] = _mm512_i32gather_epi32(idx[j], grid.cell.data(), 4);
-  const __m512i mask = _mm512_set1_epi32(int(VertexGrid::kMask));
-  for (int a = 0; a < 3; ++a) {
-    const int shift = VertexGrid::kBits * a;
-    __m512i v[3];
-    for (int j = 0; j < 3; ++j) v[j] = _mm512_and_si512(_mm512_srli_epi32(c[j], unsigned(shift)), mask);
-    lo[a] = _mm512_min_epu32(_mm512_min_epu32(v[0], v[1]), v[2]);
-    hi[a] = _mm512_max_epu32(_mm512_max_epu32(v[0], v[1]), v[2]);
-  }
-}
-
-// spread_bits_10 on 16 lanes.
-inline __m512i spread_bits_10_16(__m512i v) {
-  auto step = [](__m512i x, unsigned s, int m) {
-    return _mm512_and_si512(_mm512_or_si512(x, _mm512_slli_epi32(x, s)), _mm512_set1_epi32(m));
-  };
-  v = _mm512_and_si512(v, _mm512_set1_epi32(0x3FF));
-  v = step(v, 16, 0x030000FF);
-  v = step(v, 8, 0x0300F00F);
-  v = step(v, 4, 0x030C30C3);
-  return step(v, 2, 0x09249249);
-}
-#endif
-
 void set_bounds(TreeNode& node, const VertexGrid& grid, const uint32_t* lo, const uint32_t* hi) {
   for (int a = 0; a < 3; ++a) {
     node.lo[a] = grid.world_lo(lo[a], a);
@@ -343,34 +300,25 @@ class FrameOctree {
  public:
   FrameOctree(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree,
               const VertexGrid& grid)
-      : mesh_(mesh), params_(params), tree_(tree), grid_(grid), b_(buckets()) {
-    depth_ = std::min(frame_tree_depth(mesh.n_faces, params.leaf_size), params.max_depth);
-    // size_[l]: nodes of a complete subtree rooted at level l.
-    for (int l = depth_; l >= 0; --l) size_[l] = l == depth_ ? 1 : 1 + 8 * size_[l + 1];
-  }
+      : mesh_(mesh), params_(params), tree_(tree), grid_(grid), b_(buckets()),
+        cells_(std::min(frame_tree_depth(mesh.n_faces, params.leaf_size), params.max_depth)) {}
 
   void build(bool vector) {
-    const int coarsen = VertexGrid::kBits - depth_;
-    b_.reset(size_t(size_[0]), size_t(mesh_.n_faces), tree_.face_bucket);
+    b_.reset(size_t(cells_.subtree(0)), size_t(mesh_.n_faces), tree_.face_bucket);
     int64_t f = 0;
 #ifdef ZBUFFER_AVX512
     if (vector)
       for (; f + 16 <= mesh_.n_faces; f += 16) {
         __m512i c[3], lo[3], hi[3];
         face_cells16(grid_, mesh_.faces + 3 * f, c, lo, hi);
-        b_.add16(f, bucket16(lo, hi), lo, hi);
+        b_.add16(f, cells_.smallest16(lo, hi), lo, hi);
       }
 #endif
     (void)vector;
     for (; f < mesh_.n_faces; ++f) {
       uint32_t lo[3], hi[3];
       face_cells(grid_, mesh_.faces + 3 * f, lo, hi);
-      // The smallest enclosing cell at depth <= T (octree.h, the simpler rule).
-      const uint32_t x = lo[0] >> coarsen, y = lo[1] >> coarsen, z = lo[2] >> coarsen;
-      const uint32_t differ = (x ^ (hi[0] >> coarsen)) | (y ^ (hi[1] >> coarsen)) |
-                              (z ^ (hi[2] >> coarsen));
-      const int s = differ ? 32 - __builtin_clz(differ) : 0;
-      b_.add(f, int32_t(preorder(x >> s, y >> s, z >> s, depth_ - s)), lo, hi);
+      b_.add(f, int32_t(cells_.smallest(lo, hi)), lo, hi);
     }
     b_.scatter(mesh_, tree_, vector);
     tree_.nodes.emplace_back();
@@ -378,60 +326,14 @@ class FrameOctree {
   }
 
  private:
-  // The pre-order number, in the complete octree of depth T, of the cell
-  // (x, y, z) at `level`: sum over its octal digits d_l (l = 1 .. level,
-  // from the top) of 1 + d_l size_[l], where size_[l] = (8^(T-l+1) - 1) / 7.
-  // With m the cell's Morton code, sum d_l 8^(T-l+1) = 8^(T-level+1) m, so
-  // the sum is level + (8^(T-level+1) m - digit_sum(m)) / 7, exactly.
-  int64_t preorder(uint32_t x, uint32_t y, uint32_t z, int level) const {
-    const uint64_t m = morton_30(x, y, z);
-    const int64_t digit_sum = __builtin_popcountll(m & 0x249249249249ull) +
-                              2 * __builtin_popcountll(m & 0x492492492492ull) +
-                              4 * __builtin_popcountll(m & 0x924924924924ull);
-    return level + (int64_t(m << (3 * (depth_ - level + 1))) - digit_sum) / 7;
-  }
-
-#ifdef ZBUFFER_AVX512
-  // The buckets of 16 faces with grid boxes lo .. hi: build()'s rule and
-  // preorder(), computed digit by digit. The cell at `level` enclosing a box
-  // has the octal digits d_1 .. d_level of its depth-T cell (x, y, z), digit
-  // l being bit T - l of x, y and z; its pre-order number is the sum over
-  // l <= level of 1 + d_l size_[l].
-  __m512i bucket16(const __m512i* lo, const __m512i* hi) const {
-    const unsigned coarsen = unsigned(VertexGrid::kBits - depth_);
-    __m512i cell[3], differ = _mm512_setzero_si512();
-    for (int a = 0; a < 3; ++a) {
-      cell[a] = _mm512_srli_epi32(lo[a], coarsen);
-      differ = _mm512_or_si512(differ, _mm512_xor_si512(cell[a], _mm512_srli_epi32(hi[a], coarsen)));
-    }
-    // Levels up from depth T: the bit length of `differ` (< 2^T).
-    __m512i up = _mm512_setzero_si512();
-    const __m512i one = _mm512_set1_epi32(1);
-    for (int k = 0; k < depth_; ++k)
-      up = _mm512_mask_add_epi32(up, _mm512_cmpge_epu32_mask(differ, _mm512_set1_epi32(1 << k)), up, one);
-    const __m512i level = _mm512_sub_epi32(_mm512_set1_epi32(depth_), up);
-    __m512i index = level;
-    for (int l = 1; l <= depth_; ++l) {
-      const unsigned bit = unsigned(depth_ - l);
-      __m512i digit = _mm512_setzero_si512();
-      for (int a = 0; a < 3; ++a)
-        digit = _mm512_or_si512(digit, _mm512_slli_epi32(_mm512_and_si512(_mm512_srli_epi32(cell[a], bit), one), unsigned(a)));
-      const __mmask16 in = _mm512_cmple_epi32_mask(_mm512_set1_epi32(l), level);
-      index = _mm512_mask_add_epi32(index, in, index,
-                                    _mm512_mullo_epi32(digit, _mm512_set1_epi32(int32_t(size_[l]))));
-    }
-    return index;
-  }
-#endif
-
   // Node `i` of the tree is bucket `index` at `level`.
   void build_node(int32_t i, int64_t index, int level) {
-    const int64_t end_index = index + size_[level];
+    const int64_t end_index = index + cells_.subtree(level);
     const int64_t b = b_.start[size_t(index)], e = b_.start[size_t(end_index)];
     tree_.nodes[size_t(i)].depth = level;
     tree_.nodes[size_t(i)].n_triangles = e - b;
     uint32_t lo[3] = {VertexGrid::kMask, VertexGrid::kMask, VertexGrid::kMask}, hi[3] = {0, 0, 0};
-    if (e - b <= params_.leaf_size || level == depth_) {  // a leaf: the whole subtree
+    if (e - b <= params_.leaf_size || level == cells_.depth()) {  // a leaf: the whole subtree
       b_.unite(size_t(index), size_t(end_index), lo, hi);
       set_bounds(tree_.nodes[size_t(i)], grid_, lo, hi);
       set_mesh_range(tree_, add_cluster(tree_, i, b, e), b_, size_t(index), size_t(end_index));
@@ -445,8 +347,8 @@ class FrameOctree {
     int64_t child_index[8];
     int n = 0;
     for (int c = 0; c < 8; ++c) {
-      const int64_t k = index + 1 + c * size_[level + 1];
-      if (b_.start[size_t(k + size_[level + 1])] > b_.start[size_t(k)]) child_index[n++] = k;
+      const int64_t k = index + 1 + c * cells_.subtree(level + 1);
+      if (b_.start[size_t(k + cells_.subtree(level + 1))] > b_.start[size_t(k)]) child_index[n++] = k;
     }
     const int32_t first = add_children(tree_, i, n);
     for (int k = 0; k < n; ++k) build_node(first + k, child_index[k], level + 1);
@@ -459,8 +361,7 @@ class FrameOctree {
   ObjectTree& tree_;
   const VertexGrid& grid_;
   Buckets& b_;
-  int depth_ = 1;
-  int64_t size_[kMaxFrameDepth + 1] = {};
+  OctreeCells cells_;  // depth T
 };
 
 // BVH
@@ -477,21 +378,10 @@ class FrameBvh {
     int64_t f = 0;
 #ifdef ZBUFFER_AVX512
     if (vector) {
-      // VertexGrid::centroid_code (the sum of three 10-bit values is under
-      // 2^17, where s * 43691 >> 17 is s / 3 exactly), its top bits.
-      const __m512i third = _mm512_set1_epi32(43691), mask = _mm512_set1_epi32(int(VertexGrid::kMask));
       for (; f + 16 <= mesh_.n_faces; f += 16) {
         __m512i c[3], lo[3], hi[3];
         face_cells16(grid_, mesh_.faces + 3 * f, c, lo, hi);
-        __m512i code = _mm512_setzero_si512();
-        for (int a = 0; a < 3; ++a) {
-          const unsigned shift = unsigned(VertexGrid::kBits * a);
-          __m512i sum = _mm512_setzero_si512();
-          for (int j = 0; j < 3; ++j)
-            sum = _mm512_add_epi32(sum, _mm512_and_si512(_mm512_srli_epi32(c[j], shift), mask));
-          const __m512i q = _mm512_srli_epi32(_mm512_mullo_epi32(sum, third), 17);
-          code = _mm512_or_si512(code, _mm512_slli_epi32(spread_bits_10_16(q), unsigned(a)));
-        }
+        const __m512i code = centroid_codes16(c);
         b_.add16(f, _mm512_srli_epi32(code, unsigned(30 - bits_)), lo, hi);
       }
     }

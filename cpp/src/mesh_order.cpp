@@ -22,14 +22,13 @@ void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& c
   // VertexGrid::centroid_code).
   VertexGrid grid;
   grid.build(mesh);
+  std::vector<uint64_t> words;
+  sorted_centroid_codes(grid, mesh, words);  // stable: ties keep the input order
   std::vector<uint32_t> key(static_cast<size_t>(n));
-  std::vector<int32_t> faces(static_cast<size_t>(n));
   for (int64_t f = 0; f < n; ++f) {
-    key[size_t(f)] = grid.centroid_code(mesh.faces + 3 * f);
-    faces[size_t(f)] = int32_t(f);
+    key[size_t(f)] = uint32_t(words[size_t(f)] >> 32);
+    order[f] = int32_t(uint32_t(words[size_t(f)]));
   }
-  radix_sort(key, faces, 30);  // stable: ties keep the input order
-  std::copy(faces.begin(), faces.end(), order);
 
   // Runs of equal top 3 * kCellLevels key bits; a cell's centre from its
   // coordinates on the grid (each coarse cell is 2^(10 - kCellLevels) grid

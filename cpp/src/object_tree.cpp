@@ -47,17 +47,22 @@ void ObjectTree::clear() {
 
 namespace {
 constexpr int64_t kFetchAhead = 8;
-std::vector<int32_t>& scratch(int k) {
-  thread_local std::vector<int32_t> v[3];
-  return v[k];
+std::vector<uint64_t>& vertex_scratch() {
+  thread_local std::vector<uint64_t> v;
+  return v;
 }
+std::vector<int32_t>& face_scratch() {
+  thread_local std::vector<int32_t> v;
+  return v;
+}
+// A vertex's slot: the last cluster that used it (high half; all ones:
+// none) and its index among that cluster's vertices.
+constexpr uint64_t kNoSlot = ~uint64_t(0);
 }  // namespace
 
 ClusterBuilder::ClusterBuilder(const MeshView& mesh, ObjectTree& tree)
-    : mesh_(mesh), tree_(tree), vertex_mark_(scratch(0)), vertex_local_(scratch(1)),
-      face_mark_(scratch(2)) {
-  vertex_mark_.assign(size_t(mesh.n_vertices), -1);
-  vertex_local_.resize(size_t(mesh.n_vertices));
+    : mesh_(mesh), tree_(tree), vertex_slot_(vertex_scratch()), face_mark_(face_scratch()) {
+  vertex_slot_.assign(size_t(mesh.n_vertices), kNoSlot);
   tree_.n_input_faces = mesh.n_faces;
   if (tree_.shared) face_mark_.assign(size_t(mesh.n_faces), -1);
 }
@@ -70,7 +75,7 @@ void ClusterBuilder::reserve(int64_t references) {
   const size_t n = size_t(references);
   reserve_huge(tree_.faces, 3 * n);
   reserve_huge(tree_.ids, n);
-  reserve_huge(tree_.positions, 9 * n);
+  reserve_huge(tree_.positions, 9 * n + 1);  // (+1: add_cluster's slack)
   if (tree_.shared) reserve_huge(tree_.source, n);
 }
 
@@ -85,20 +90,24 @@ void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
   const size_t f0 = tree_.ids.size(), p0 = tree_.positions.size();
   tree_.ids.resize(f0 + size_t(n));
   tree_.faces.resize(3 * (f0 + size_t(n)));
-  tree_.positions.resize(p0 + 9 * size_t(n));
+  tree_.positions.resize(p0 + 9 * size_t(n) + 1);
   if (tree_.shared) tree_.source.resize(f0 + size_t(n));
   int32_t* out_ids = tree_.ids.data() + f0;
   int32_t* out_faces = tree_.faces.data() + 3 * f0;
   int32_t* out_source = tree_.shared ? tree_.source.data() + f0 : nullptr;
   double* out_positions = tree_.positions.data() + p0;
-  int32_t* const mark = vertex_mark_.data();
-  int32_t* const local_of = vertex_local_.data();
+  uint64_t* const slot = vertex_slot_.data();
   int32_t* const face_mark = face_mark_.data();
   double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
                   std::numeric_limits<double>::infinity()};
   double hi[3] = {-lo[0], -lo[1], -lo[2]};
   const int32_t* const mesh_faces = mesh_.faces;
   const double* const mesh_positions = mesh_.positions;
+  const uint32_t cluster_mark = uint32_t(c);
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+  const __m256i xyz_lanes = _mm256_set_epi64x(0, -1, -1, -1);
+  __m256d lo4 = _mm256_set1_pd(lo[0]), hi4 = _mm256_set1_pd(hi[0]);
+#endif
   int32_t local = 0;
   int64_t kept = 0;
   for (int64_t r = 0; r < n; ++r) {
@@ -108,7 +117,7 @@ void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
     if (r + kFetchAhead < n) {
       const int32_t* ahead = mesh_faces + 3 * int64_t(face[r + kFetchAhead]);
       for (int k = 0; k < 3; ++k) {
-        prefetch(mark + ahead[k]);
+        prefetch(slot + ahead[k]);
         prefetch(mesh_positions + 3 * int64_t(ahead[k]));
       }
     }
@@ -117,25 +126,49 @@ void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
       face_mark[f] = c;
       out_source[kept] = f;
     }
+    // A vertex's first use in this cluster copies it to the next local
+    // index. Without branches: each corner is copied to that index and
+    // bounded, and the index moves on only at a first use (a vertex is used
+    // by about six faces, so a branch on it mispredicted a third of the time).
     const int32_t* idx = mesh_faces + 3 * int64_t(f);
     for (int k = 0; k < 3; ++k) {
       const int32_t v = idx[k];
-      if (mark[v] != c) {  // first use of v in this cluster: copy it
-        mark[v] = c;
-        local_of[v] = local;
-        const double* p = mesh_positions + 3 * int64_t(v);
-        for (int a = 0; a < 3; ++a) {
-          out_positions[3 * int64_t(local) + a] = p[a];
-          lo[a] = std::min(lo[a], p[a]);
-          hi[a] = std::max(hi[a], p[a]);
-        }
-        ++local;
+      const uint64_t was = slot[v];
+      const bool first = uint32_t(was >> 32) != cluster_mark;
+      const int32_t at = first ? local : int32_t(uint32_t(was));
+      slot[v] = uint64_t(cluster_mark) << 32 | uint32_t(at);
+      const double* p = mesh_positions + 3 * int64_t(v);
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+      // (x, y, z, 0); min and max keep the bound where p is NaN, as
+      // std::min and std::max do below.
+      // (Stored whole: the fourth lane lands where the next copy goes, or
+      // in the double of slack past the room for 3 n vertices.)
+      const __m256d xyz = _mm256_maskload_pd(p, xyz_lanes);
+      _mm256_storeu_pd(out_positions + 3 * int64_t(local), xyz);
+      lo4 = _mm256_min_pd(xyz, lo4);
+      hi4 = _mm256_max_pd(xyz, hi4);
+#else
+      for (int a = 0; a < 3; ++a) {
+        out_positions[3 * int64_t(local) + a] = p[a];
+        lo[a] = std::min(lo[a], p[a]);
+        hi[a] = std::max(hi[a], p[a]);
       }
-      out_faces[3 * kept + k] = local_of[v];
+#endif
+      local += first;
+      out_faces[3 * kept + k] = at;
     }
     out_ids[kept] = mesh_.id(f);
     ++kept;
   }
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+  alignas(32) double lo_out[4], hi_out[4];
+  _mm256_store_pd(lo_out, lo4);
+  _mm256_store_pd(hi_out, hi4);
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = lo_out[a];
+    hi[a] = hi_out[a];
+  }
+#endif
   tree_.ids.resize(f0 + size_t(kept));
   tree_.faces.resize(3 * (f0 + size_t(kept)));
   tree_.positions.resize(p0 + 3 * size_t(local));

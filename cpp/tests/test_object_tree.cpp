@@ -119,6 +119,99 @@ void test_structures() {
   }
 }
 
+// The radix sort orders words by the bits asked for alone, stably (ties,
+// and words equal in those bits, keep their order), and keeps them whole;
+// the sorted centroid codes (16 faces at a time in AVX-512 builds) are the
+// faces' VertexGrid::centroid_code, stably sorted; Morton codes by bit
+// deposit equal those by spreading bits.
+void test_radix_sort_and_morton_codes() {
+  Lcg next{5};
+  for (int bits : {1, 7, 22, 30, 31}) {
+    for (size_t n : {size_t(0), size_t(1), size_t(2), size_t(1000), size_t(70000)}) {
+      std::vector<uint64_t> words(n);
+      for (size_t i = 0; i < n; ++i) {
+        words[i] = next.bits();
+        if (i % 3 == 0 && i > 0) words[i] = words[i - 1] ^ (uint64_t(1) << 63) ^ 1;  // ties
+      }
+      const uint64_t mask = ((uint64_t(1) << bits) - 1) << 32;
+      std::vector<uint64_t> want = words;
+      std::stable_sort(want.begin(), want.end(),
+                       [mask](uint64_t a, uint64_t b) { return (a & mask) < (b & mask); });
+      radix_sort_bits(words, 32, bits);
+      CHECK(words == want);
+    }
+  }
+  for (int faces : {5, 16, 1000, 1037}) {
+    const Soup soup = random_soup(uint64_t(faces), faces);
+    const MeshView mesh = soup.view();
+    VertexGrid grid;
+    grid.build(mesh);
+    std::vector<uint64_t> words, want;
+    sorted_centroid_codes(grid, mesh, words);
+    for (int64_t f = 0; f < mesh.n_faces; ++f)
+      want.push_back(uint64_t(grid.centroid_code(mesh.faces + 3 * f)) << 32 | uint64_t(f));
+    std::stable_sort(want.begin(), want.end(), [](uint64_t a, uint64_t b) { return a >> 32 < b >> 32; });
+    CHECK(words == want);
+  }
+  auto spread = [](uint32_t x, uint32_t y, uint32_t z) {
+    return spread_bits_10(x) | (spread_bits_10(y) << 1) | (spread_bits_10(z) << 2);
+  };
+  for (uint32_t v : {0u, 1u, 511u, 512u, 1023u})
+    CHECK(morton_30(v, 0, 0) == spread(v, 0, 0) && morton_30(0, v, 0) == spread(0, v, 0) &&
+          morton_30(0, 0, v) == spread(0, 0, v) && morton_30(v, v, v) == spread(v, v, v));
+  for (int t = 0; t < 10000; ++t) {
+    const uint32_t x = uint32_t(next(0, 1023)), y = uint32_t(next(0, 1023)), z = uint32_t(next(0, 1023));
+    CHECK(morton_30(x, y, z) == spread(x, y, z));
+  }
+}
+
+// The octree's clusters (smallest enclosing cell) hold the faces in the
+// order of their cells' keys -- the Morton code of the cell's first finest
+// cell, then its level, ties in face order -- recomputed here as the build
+// defines them and sorted by std::stable_sort: the build sorts codes and
+// levels apart, and must come to the same order where a coarse cell's faces
+// tie in code with the finest cell it starts at.
+void test_octree_reference_order() {
+  for (int scene = 0; scene < 3; ++scene) {
+    const Soup soup = scene < 2 ? random_soup(31 + scene, 3000) : wavy_sheet(40);
+    const MeshView mesh = soup.view();
+    for (int depth : {4, 10}) {
+      OctreeParams p;
+      p.max_depth = depth;
+      p.leaf_size = 16;
+      const ObjectTree tree = build_octree(mesh, p);
+      VertexGrid grid;
+      grid.build(mesh);
+      const int coarsen = VertexGrid::kBits - depth;
+      std::vector<std::pair<uint64_t, int32_t>> want;
+      bool mixed = false;  // a tie in code between levels: the case this test is about
+      for (int64_t f = 0; f < mesh.n_faces; ++f) {
+        uint32_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = ~0u;
+          hi[a] = 0;
+          for (int k = 0; k < 3; ++k) {
+            const uint32_t c = VertexGrid::axis(grid.cell[size_t(soup.faces[3 * size_t(f) + k])], a) >> coarsen;
+            lo[a] = std::min(lo[a], c);
+            hi[a] = std::max(hi[a], c);
+          }
+        }
+        int s = 0;
+        while ((lo[0] >> s) != (hi[0] >> s) || (lo[1] >> s) != (hi[1] >> s) || (lo[2] >> s) != (hi[2] >> s)) ++s;
+        const uint64_t code = morton_30(lo[0] >> s << s, lo[1] >> s << s, lo[2] >> s << s);
+        want.emplace_back(code << 5 | uint64_t(depth - s), int32_t(f));
+      }
+      std::stable_sort(want.begin(), want.end(),
+                       [](const auto& a, const auto& b) { return a.first < b.first; });
+      for (size_t i = 1; i < want.size(); ++i)
+        mixed |= want[i].first >> 5 == want[i - 1].first >> 5 && want[i].first != want[i - 1].first;
+      if (scene == 0 && depth == 10) CHECK(mixed);
+      CHECK(tree.ids.size() == want.size());
+      for (size_t i = 0; i < want.size() && i < tree.ids.size(); ++i) CHECK(tree.ids[i] == want[i].second);
+    }
+  }
+}
+
 void test_greene_draws_each_face_once() {
   // Tiny triangles facing the camera, most of them visible: every face
   // reached is handed on exactly once, although Greene's rule puts many of
@@ -456,6 +549,8 @@ int main() {
   test_vertex_grid_rebuilt_equals_fresh();
   test_frame_tree_vector_pass_equals_scalar();
   test_structures();
+  test_radix_sort_and_morton_codes();
+  test_octree_reference_order();
   test_frame_trees();
   test_greene_draws_each_face_once();
   return check_report("test_object_tree");

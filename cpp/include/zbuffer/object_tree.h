@@ -140,8 +140,7 @@ class ClusterBuilder {
   ObjectTree& tree_;
   // Per input vertex and (shared trees) per input face: scratch kept per
   // thread from build to build.
-  std::vector<int32_t>& vertex_mark_;
-  std::vector<int32_t>& vertex_local_;
+  std::vector<uint64_t>& vertex_slot_;  // the last cluster to use it, its index there
   std::vector<int32_t>& face_mark_;
 };
 

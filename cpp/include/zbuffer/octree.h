@@ -36,13 +36,13 @@ struct OctreeParams {
   OctreeRule rule = OctreeRule::kSmallest;
 };
 
-constexpr int kMaxOctreeDepth = 10;  // cells are addressed by 30-bit Morton codes
+constexpr int kMaxOctreeDepth = 10;  // cells are numbered below 2^31 (1024 a side)
 
 // Design decision: the octree is built from a sort, not by inserting
-// triangles one by one. Each triangle reference gets a key -- the Morton code
-// of its cell padded to the finest level, then the cell's level -- and one
-// radix sort puts every node's own references first and its subtree right
-// after them; the nodes are then read off the sorted keys. Node bounds are
+// triangles one by one. Each triangle reference gets a key -- the number of
+// its cell in the pre-order of the complete octree of depth max_depth -- and
+// one radix sort puts every node's own references first and its subtree
+// right after them; the nodes are then read off the sorted keys. Node bounds are
 // the bounds of the node's triangles, not its cube, so a node that holds one
 // small triangle in a large cell culls like the triangle. Good: linear-time
 // build (no pointer chasing, no per-node allocation), tight bounds. Bad: a
