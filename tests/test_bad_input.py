@@ -348,8 +348,22 @@ def test_odd_inputs_get_clear_messages(tmp_path):
     with pytest.raises(TypeError, match="width and height must be integers"):
         cam = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0))
         cam.resolve(zbuffer.Mesh(TRI, [[0, 1, 2]])).mvp(True, 1)
-    with pytest.raises(ValueError, match="ambient must be a finite number"):
-        zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, ambient=True)
+    for shading in ("none", "flat"):  # checked whether or not the frame is shaded
+        for value in (True, "0.2", None, np.array(0.2), np.array([0.2, 0.3])):
+            with pytest.raises(TypeError, match="ambient must be a number"):
+                zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, shading=shading, ambient=value)
+            with pytest.raises(TypeError, match="diffuse must be a number"):
+                zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, shading=shading, diffuse=value)
+        with pytest.raises(ValueError, match="diffuse must be a finite number >= 0"):
+            zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, shading=shading, diffuse=-0.5)
+    cam = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0))
+    with pytest.raises(ValueError, match="width / height is too large"):
+        cam.mvp(10**400, 1)
+    for fov in (5e-324, 10**400, 180, 0, -1):  # (5e-324 degrees: 0 in radians)
+        with pytest.raises(ValueError, match="fov_y must be in"):
+            zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0), fov_y=fov)
+        with pytest.raises(ValueError, match="fov_y must be in"):
+            zbuffer.Camera.fit(TRI, fov_y=fov)
     with pytest.raises(ValueError, match="faces must be a rectangular array"):
         zbuffer.Mesh(TRI, [[0, 1, 2], [0, 1]])
     with pytest.raises(ValueError, match="is not a mesh file"):

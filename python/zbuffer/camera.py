@@ -56,8 +56,13 @@ def _fov(value) -> float:
     non-number, ValueError out of range."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise TypeError(f"fov_y must be a number of degrees, got {value!r}")
-    fov = float(value)
-    if not 0.0 < fov < 180.0:
+    try:
+        fov = float(value)
+    except OverflowError:  # a Python int beyond float range
+        fov = math.inf
+    # (Positive but so small that its half in radians is 0: a projection
+    # dividing by its tangent would divide by zero.)
+    if not 0.0 < fov < 180.0 or math.radians(fov) / 2.0 == 0.0:
         raise ValueError(f"fov_y must be in (0, 180) degrees, got {value!r}")
     return fov
 
@@ -359,9 +364,12 @@ class Camera:
             raise ValueError(f"width and height must be positive, got {key[0]}x{key[1]}")
         m = self._mvp_cache.get(key)
         if m is None:
+            try:
+                aspect = key[0] / key[1]
+            except OverflowError:  # Python ints whose ratio is beyond float range
+                raise ValueError(f"width / height is too large: {key[0]}x{key[1]}") from None
             with np.errstate(all="ignore"):  # absurd parameters: caught as non-finite
-                m = np.ascontiguousarray(
-                    self.projection_matrix(key[0] / key[1]) @ self.view_matrix())
+                m = np.ascontiguousarray(self.projection_matrix(aspect) @ self.view_matrix())
             m.flags.writeable = False
             if len(self._mvp_cache) > 64:
                 self._mvp_cache.clear()

@@ -62,10 +62,20 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
         raise ValueError(
             f"unknown shading {shading!r}; valid values are {', '.join(map(repr, SHADINGS))}"
         )
+    for name, value in (("ambient", ambient), ("diffuse", diffuse)):
+        if isinstance(value, (bool, np.bool_)) or \
+                not isinstance(value, (int, float, np.floating, np.integer)):
+            raise TypeError(f"{name} must be a number, got {value!r}")
+        try:
+            x = float(value)
+        except OverflowError:  # a Python int beyond float range
+            x = math.inf
+        if not (math.isfinite(x) and x >= 0.0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     if shading == "none" and light_dir is None and color is None \
-            and ambient == DEFAULT_AMBIENT and diffuse == DEFAULT_DIFFUSE \
+            and float(ambient) == DEFAULT_AMBIENT and float(diffuse) == DEFAULT_DIFFUSE \
             and background is DEFAULT_BACKGROUND:
-        return _NO_SHADING  # visibility only, default options: nothing to check
+        return _NO_SHADING  # visibility only, default options: nothing else to check
     if light_dir is None:
         light = camera.forward()
     else:
@@ -80,16 +90,6 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
         light, norm = _unit(light)
         if norm == 0.0:
             raise ValueError("light_dir must not be the zero vector")
-    for name, value in (("ambient", ambient), ("diffuse", diffuse)):
-        x = math.nan  # (not a number: refused below)
-        if not isinstance(value, (bool, np.bool_)) and \
-                isinstance(value, (int, float, np.floating, np.integer)):
-            try:
-                x = float(value)
-            except OverflowError:  # a Python int beyond float range
-                x = math.inf
-        if not (math.isfinite(x) and x >= 0.0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     bg = _rgb_float(background, "background")
     return ShadingParams(
         mode=shading,
