@@ -6,6 +6,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <algorithm>
 #include <limits>
 #include <string>
 #include <utility>
@@ -116,15 +117,44 @@ struct NamedArray {
   const char* name;
 };
 
+// Whether two 2-D arrays whose rows are runs of adjacent elements the same
+// number of bytes apart (`pitch`) have a byte in common, exactly: row i of
+// a covers [a + i pitch, a + i pitch + wa), row j of b [b + j pitch,
+// b + j pitch + wb), so they meet where -wb < (b - a) + k pitch < wa for
+// some k = j - i, -(rows of a - 1) <= k <= rows of b - 1. (The left and
+// right halves of one wider array do not.)
+inline bool rows_meet(const py::array& a, const py::array& b) {
+  const auto row_bytes = [](const py::array& x) { return x.shape(1) * x.itemsize(); };
+  const py::ssize_t pitch = a.strides(0), wa = row_bytes(a), wb = row_bytes(b);
+  const py::ssize_t d = static_cast<const char*>(b.data()) - static_cast<const char*>(a.data());
+  // The k with d + k pitch > -wb, then the least of them must be < wa - d.
+  auto floor_div = [](py::ssize_t n, py::ssize_t m) { return n / m - (n % m != 0 && n < 0); };
+  py::ssize_t k = floor_div(-wb - d, pitch) + 1;  // the least k above (-wb - d) / pitch
+  k = std::max<py::ssize_t>(k, -(a.shape(0) - 1));
+  return k <= b.shape(0) - 1 && d + k * pitch < wa;
+}
+
+// Whether arrays a and b may have a byte in common: exactly for 2-D arrays
+// of contiguous rows the same positive pitch apart (the planes), else by
+// their byte ranges.
+inline bool may_meet(const py::array& a, const py::array& b) {
+  const bool rows = a.ndim() == 2 && b.ndim() == 2 && a.strides(0) == b.strides(0) &&
+                    a.strides(0) > 0 && a.strides(1) == a.itemsize() &&
+                    b.strides(1) == b.itemsize() && a.strides(0) >= a.shape(1) * a.itemsize() &&
+                    b.strides(0) >= b.shape(1) * b.itemsize();
+  if (rows) return rows_meet(a, b);
+  const auto [lo, hi] = byte_range(a);
+  const auto [o_lo, o_hi] = byte_range(b);
+  return lo < o_hi && o_lo < hi;
+}
+
 // ValueError if the memory of `out` (an array the core writes) overlaps
 // that of any of `others` (arrays the same call reads or writes): the core
 // would read what it has just written. Empty arrays overlap nothing.
 inline void require_apart(const NamedArray& out, const std::vector<NamedArray>& others) {
-  const auto [lo, hi] = byte_range(out.array);
   for (const NamedArray& other : others) {
     if (!other.array || other.array.nbytes() == 0 || out.array.nbytes() == 0) continue;
-    const auto [o_lo, o_hi] = byte_range(other.array);
-    if (lo < o_hi && o_lo < hi)
+    if (may_meet(out.array, other.array))
       throw py::value_error(std::string(out.name) + " shares memory with " + other.name +
                             ": pass arrays of their own to render into");
   }

@@ -288,6 +288,53 @@ def test_arrays_sharing_memory_with_the_mesh_object_are_refused():
     assert (colours == 0.5).all()
 
 
+def test_interleaved_views_of_one_array_are_not_sharing_memory():
+    # The left and right halves of one wider array have no element in
+    # common (docs/api.md: views big[:, :W] of wider arrays): taken as
+    # depth and ids of one render, or by two renders at once (a fuzzer's
+    # find: both were refused as "sharing memory").
+    mesh, cam = mesh_and_camera()
+    fresh = zbuffer.render(mesh, camera=cam, width=W, height=H, shading="none")
+    big = np.full((H, 2 * W), 0.5, np.float32)
+    depth, ids = big[:, :W], big[:, W:].view(np.int32)
+    res = zbuffer.render(mesh, camera=cam, width=W, height=H, shading="none", out=(depth, ids))
+    np.testing.assert_array_equal(res.depth, fresh.depth)
+    np.testing.assert_array_equal(res.triangle_id, fresh.triangle_id)
+    assert res.depth.base is not None and np.shares_memory(res.depth, big)
+    other = np.empty((H, 2 * W), np.int32)
+    with zbuffer.api.claimed((big[:, :W], other[:, :W], None)):  # another render's halves
+        again = zbuffer.render(mesh, camera=cam, width=W, height=H, shading="none",
+                               out=(big[:, W:], other[:, W:]))
+        np.testing.assert_array_equal(again.depth, fresh.depth)
+        with pytest.raises(ValueError, match="another render is writing into these arrays"):
+            zbuffer.render(mesh, camera=cam, width=W, height=H, shading="none",
+                           out=(big[:, 1:W + 1], other[:, W:]))
+    # The core's own check (the binding's), exact for planes with padded
+    # rows: apart where no row of one meets a row of the other, whatever
+    # their byte ranges.
+    v = np.array([[0.0, 0, -2], [1, 0, -2], [0, 1, -2]])
+    f = np.array([[0, 1, 2]], np.int32)
+    mvp = np.eye(4)
+    wide = np.zeros((H + 2, 3 * W), np.float32)
+    # Rows W wide, 3 W apart, from element `at` of `wide`'s memory on.
+    rows_from = lambda at: np.lib.stride_tricks.as_strided(  # noqa: E731
+        wide.reshape(-1)[at:], (H, W), wide.strides)
+    for depth, ids, apart in [
+            (wide[:H, :W], wide[:H, W:2 * W], True),                # side by side
+            (wide[:H, W:2 * W], wide[1:H + 1, :W], True),           # a row down, to the left
+            (wide[:H, :W], wide[:H, W - 1:2 * W - 1], False),       # one column in common
+            (wide[1:H + 1, :W], wide[:H, 2 * W:], True),            # row r's end, row r+1's start
+            (wide[1:H + 1, :W], rows_from(2 * W + 1), False),       # ... one element past it
+            (rows_from(2 * W + 1), wide[1:H + 1, :W], False)]:      # the same, the other way
+        ids = ids.view(np.int32)
+        assert np.shares_memory(depth, ids) == (not apart)
+        if apart:
+            _core.render(v, f, mvp, W, H, out_depth=depth, out_ids=ids)
+        else:
+            with pytest.raises(ValueError, match="out_depth shares memory with out_ids"):
+                _core.render(v, f, mvp, W, H, out_depth=depth, out_ids=ids)
+
+
 def test_arrays_another_render_is_writing_into_are_refused():
     # Two renders into one set of arrays at once: the second's shading would
     # read ids the first is writing (another mesh's, perhaps beyond its own

@@ -219,12 +219,25 @@ def output_arrays(out, width: int, height: int, mesh: Mesh) -> tuple:
     present = [(name, a) for (name, _, _), a in zip(_OUTPUTS, arrays) if a is not None]
     for i, (name, a) in enumerate(present):
         for other, b in present[i + 1:]:
-            if np.may_share_memory(a, b):
+            if _share_memory(a, b):
                 raise ValueError(f"out: {name} and {other} share memory")
         for other, b in mesh.arrays():
-            if np.may_share_memory(a, b):
+            if _share_memory(a, b):
                 raise ValueError(f"out: {name} shares memory with the mesh's {other}")
     return arrays
+
+
+_TooHardError = getattr(getattr(np, "exceptions", np), "TooHardError")
+
+
+def _share_memory(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether a and b have an element in common: views that only interleave
+    (the left and right halves of one wider array) do not. Where numpy
+    cannot tell within a bounded effort, they are taken to share."""
+    try:
+        return bool(np.shares_memory(a, b, max_work=100_000))
+    except _TooHardError:
+        return True
 
 
 # The caller's arrays that renders are writing into now (out=), so that a
@@ -242,7 +255,7 @@ def claimed(arrays):
     mine = [a for a in arrays if a is not None]
     with _CLAIM_LOCK:
         for a in mine:
-            if any(np.may_share_memory(a, b) for b in _CLAIMED):
+            if any(_share_memory(a, b) for b in _CLAIMED):
                 raise ValueError("out: another render is writing into these arrays now; "
                                  "renders that run at the same time need arrays of their own")
         _CLAIMED.extend(mine)
