@@ -356,6 +356,17 @@ def test_odd_inputs_get_clear_messages(tmp_path):
                 zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, shading=shading, diffuse=value)
         with pytest.raises(ValueError, match="diffuse must be a finite number >= 0"):
             zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, shading=shading, diffuse=-0.5)
+    for light in ((True, False, True), [1, 2, "3"], "abc"):  # bools and strings are not numbers
+        with pytest.raises(TypeError, match="light_dir must be 3 numbers"):
+            zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, light_dir=light)
+    with pytest.raises(TypeError, match="eye must be 3 numbers, got 5"):
+        zbuffer.Camera.look_at(5)
+    with pytest.raises(TypeError, match="up must be 3 numbers"):
+        zbuffer.Camera.look_at((0, 0, 3), up=(True, False, False))
+    for name in ("aspect", "margin"):
+        for value in ("1", np.array(1.5), True):
+            with pytest.raises(TypeError, match=f"{name} must be a number"):
+                zbuffer.Camera.fit(TRI, **{name: value})
     cam = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0))
     with pytest.raises(ValueError, match="width / height is too large"):
         cam.mvp(10**400, 1)

@@ -25,13 +25,23 @@ PROJECTIONS = ("perspective", "orthographic")
 MIN_NEAR = 1e-290
 
 
-def _vec3(value, name: str) -> np.ndarray:
+def _reals(value, name: str, what: str) -> np.ndarray:
+    """``value`` as a float64 array: TypeError (``name must be what``) unless
+    it is made of real numbers -- not bools, not strings; ValueError for a
+    Python int beyond float range."""
     try:
-        v = np.asarray(value, dtype=np.float64)
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "iufO":  # (bools, strings, ...)
+            raise TypeError
+        return np.asarray(raw, dtype=np.float64)
     except OverflowError:  # a Python int beyond float range
         raise ValueError(f"{name} must be finite, got {value!r}") from None
     except (TypeError, ValueError):
-        raise TypeError(f"{name} must be 3 numbers, got {value!r}") from None
+        raise TypeError(f"{name} must be {what}, got {value!r}") from None
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    v = _reals(value, name, "3 numbers")
     if v.shape != (3,):
         raise ValueError(f"{name} must be 3 numbers, got shape {v.shape}")
     if not np.all(np.isfinite(v)):
@@ -67,10 +77,19 @@ def _fov(value) -> float:
     return fov
 
 
+def _tuple3(value, name: str) -> tuple:
+    """``tuple(value)``, or TypeError naming ``name`` where it is not a sequence."""
+    try:
+        return tuple(value)
+    except TypeError:
+        raise TypeError(f"{name} must be 3 numbers, got {value!r}") from None
+
+
 def _positive(value, name: str, allow_none: bool = False) -> Optional[float]:
     if value is None and allow_none:
         return None
-    if isinstance(value, (bool, np.bool_)):
+    if isinstance(value, (bool, np.bool_)) or \
+            not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name} must be a number, got {value!r}")
     try:
         x = float(value)
@@ -208,8 +227,8 @@ class Camera:
             ``near <= 0`` with perspective, ``near >= far``, or a bad ``fov_y``.
         """
         return cls(
-            eye=tuple(eye), target=tuple(target), up=tuple(up), projection=projection,
-            fov_y=fov_y, ortho_height=ortho_height, near=near, far=far,
+            eye=_tuple3(eye, "eye"), target=_tuple3(target, "target"), up=_tuple3(up, "up"),
+            projection=projection, fov_y=fov_y, ortho_height=ortho_height, near=near, far=far,
         )
 
     @classmethod

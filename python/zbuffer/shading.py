@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from .camera import _unit
+from .camera import _reals, _unit
 
 __all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy"]
 
@@ -80,11 +80,9 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
         light = camera.forward()
     else:
         try:
-            light = np.asarray(light_dir, dtype=np.float64)
-        except OverflowError:  # a Python int beyond float range
+            light = _reals(light_dir, "light_dir", "3 numbers")
+        except ValueError:  # a Python int beyond float range
             raise ValueError(f"light_dir must be 3 finite numbers, got {light_dir!r}") from None
-        except (TypeError, ValueError):
-            raise TypeError(f"light_dir must be 3 numbers, got {light_dir!r}") from None
         if light.shape != (3,) or not np.all(np.isfinite(light)):
             raise ValueError(f"light_dir must be 3 finite numbers, got {light_dir!r}")
         light, norm = _unit(light)
