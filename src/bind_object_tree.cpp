@@ -75,7 +75,14 @@ py::tuple render(Tree& self, py::handle mvp_obj, int width, int height, bool cul
 }
 
 py::dict nodes(Tree& self) {
-  std::lock_guard<std::mutex> lock(self.mutex);
+  // Waiting for another thread's render of this tree without the GIL, so
+  // that other Python threads run meanwhile (that render takes the GIL back
+  // only after it lets go of the tree).
+  std::unique_lock<std::mutex> lock(self.mutex, std::defer_lock);
+  {
+    py::gil_scoped_release release;
+    lock.lock();
+  }
   const auto& nodes = self.tree.nodes;
   const py::ssize_t n = py::ssize_t(nodes.size());
   py::array_t<double> lo({n, py::ssize_t(3)}), hi({n, py::ssize_t(3)});
