@@ -361,8 +361,12 @@ def test_odd_inputs_get_clear_messages(tmp_path):
             zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, light_dir=light)
     with pytest.raises(TypeError, match="eye must be 3 numbers, got 5"):
         zbuffer.Camera.look_at(5)
-    with pytest.raises(TypeError, match="up must be 3 numbers"):
-        zbuffer.Camera.look_at((0, 0, 3), up=(True, False, False))
+    for up in ((True, False, False), (0, True, 0), [0.5, np.True_, 0]):  # numpy: (0, 1, 0)
+        with pytest.raises(TypeError, match="up must be 3 numbers"):
+            zbuffer.Camera.look_at((0, 0, 3), up=up)
+    for fit in (dict(aspect=5e-324), dict(fov_y=5.7e-322, aspect=0.1)):  # the angle underflows
+        with pytest.raises(ValueError, match="the narrower field of view is 0"):
+            zbuffer.Camera.fit(TRI, **fit)
     for name in ("aspect", "margin"):
         for value in ("1", np.array(1.5), True):
             with pytest.raises(TypeError, match=f"{name} must be a number"):

@@ -22,13 +22,9 @@ void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& c
   // VertexGrid::centroid_code).
   VertexGrid grid;
   grid.build(mesh);
-  std::vector<uint64_t> words;
+  std::vector<uint64_t> words;  // code << 32 | face
   sorted_centroid_codes(grid, mesh, words);  // stable: ties keep the input order
-  std::vector<uint32_t> key(static_cast<size_t>(n));
-  for (int64_t f = 0; f < n; ++f) {
-    key[size_t(f)] = uint32_t(words[size_t(f)] >> 32);
-    order[f] = int32_t(uint32_t(words[size_t(f)]));
-  }
+  for (int64_t f = 0; f < n; ++f) order[f] = int32_t(uint32_t(words[size_t(f)]));
 
   // Runs of equal top 3 * kCellLevels key bits; a cell's centre from its
   // coordinates on the grid (each coarse cell is 2^(10 - kCellLevels) grid
@@ -36,8 +32,8 @@ void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& c
   constexpr int kShift = 3 * (VertexGrid::kBits - kCellLevels);
   const double side = grid.cell_size * double(1 << (VertexGrid::kBits - kCellLevels));
   for (int64_t f = 0; f < n; ++f) {
-    const uint32_t cell = key[size_t(f)] >> kShift;
-    if (f + 1 < n && key[size_t(f) + 1] >> kShift == cell) continue;
+    const uint32_t cell = uint32_t(words[size_t(f)] >> (32 + kShift));
+    if (f + 1 < n && words[size_t(f) + 1] >> (32 + kShift) == cell) continue;
     cell_start.push_back(int32_t(f + 1));
     for (int a = 0; a < 3; ++a) {
       uint32_t c = 0;  // every third bit of the code, from bit a

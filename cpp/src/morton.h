@@ -4,17 +4,17 @@
 #pragma once
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
 
-#include "setup16.h"  // deinterleave16
 #include "simd.h"
 #include "zbuffer/types.h"
 
-#ifdef __BMI2__
-#include <immintrin.h>
+#ifdef ZBUFFER_AVX512
+#include "setup16.h"  // deinterleave16 (simd.h has included immintrin.h)
 #endif
 
 namespace zbuffer {
@@ -30,10 +30,11 @@ inline uint32_t spread_bits_10(uint32_t v) {
 }
 
 // The 30-bit Morton code of a cell of a 1024^3 grid: x in bits 0, 3, 6 ...
-// (by bit deposits where the CPU has them: a tree's build computes one or
-// more per face).
+// (by bit deposits in AVX-512 builds: a tree's build computes one or more
+// per face. Not in AVX2 builds, which run on AMD's Zen 1 and 2 too, where
+// pdep is microcoded, tens to hundreds of cycles).
 inline uint32_t morton_30(uint32_t x, uint32_t y, uint32_t z) {
-#ifdef __BMI2__
+#if defined(__BMI2__) && defined(ZBUFFER_AVX512)
   return _pdep_u32(x, 0x09249249u) | _pdep_u32(y, 0x12492492u) | _pdep_u32(z, 0x24924924u);
 #else
   return spread_bits_10(x) | (spread_bits_10(y) << 1) | (spread_bits_10(z) << 2);
@@ -321,8 +322,8 @@ inline __m512i spread_bits_10_16(__m512i v) {
 }
 
 // VertexGrid::centroid_code of 16 faces whose corners' cells are c (as
-// face_cells16 gives them): the sum of three 10-bit values is under 2^17,
-// where s * 43691 >> 17 is s / 3 exactly.
+// face_cells16 gives them): the sum s of three 10-bit values is at most
+// 3069, where s * 43691 (under 2^32) >> 17 is s / 3 exactly.
 inline __m512i centroid_codes16(const __m512i* c) {
   const __m512i third = _mm512_set1_epi32(43691), mask = _mm512_set1_epi32(int(VertexGrid::kMask));
   __m512i code = _mm512_setzero_si512();
@@ -356,6 +357,7 @@ class OctreeCells {
  public:
   static constexpr int kMaxDepth = 10;
   explicit OctreeCells(int depth) : depth_(depth) {
+    assert(depth >= 1 && depth <= kMaxDepth);
     for (int l = depth_; l >= 0; --l) size_[l] = l == depth_ ? 1 : 1 + 8 * size_[l + 1];
   }
   int depth() const { return depth_; }
@@ -378,14 +380,13 @@ class OctreeCells {
   }
 
   // The number of the smallest cell enclosing the grid box lo .. hi (at
-  // depth <= D; octree.h, the simpler rule), and its level.
-  int64_t smallest(const uint32_t* lo, const uint32_t* hi, int* level = nullptr) const {
+  // depth <= D; octree.h, the simpler rule).
+  int64_t smallest(const uint32_t* lo, const uint32_t* hi) const {
     const int coarsen = VertexGrid::kBits - depth_;
     const uint32_t x = lo[0] >> coarsen, y = lo[1] >> coarsen, z = lo[2] >> coarsen;
     const uint32_t differ = (x ^ (hi[0] >> coarsen)) | (y ^ (hi[1] >> coarsen)) |
                             (z ^ (hi[2] >> coarsen));
     const int s = differ ? 32 - __builtin_clz(differ) : 0;  // levels up from D
-    if (level) *level = depth_ - s;
     return number(x >> s, y >> s, z >> s, depth_ - s);
   }
 

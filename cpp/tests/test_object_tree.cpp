@@ -166,11 +166,11 @@ void test_radix_sort_and_morton_codes() {
 }
 
 // The octree's clusters (smallest enclosing cell) hold the faces in the
-// order of their cells' keys -- the Morton code of the cell's first finest
-// cell, then its level, ties in face order -- recomputed here as the build
-// defines them and sorted by std::stable_sort: the build sorts codes and
-// levels apart, and must come to the same order where a coarse cell's faces
-// tie in code with the finest cell it starts at.
+// order of (the Morton code of their cell's first finest cell, its level),
+// ties in face order -- pre-order, computed here that other way and sorted
+// by std::stable_sort: the build's pre-order cell numbers must come to the
+// same order, also where a coarse cell's faces tie in code with the finest
+// cell it starts at.
 void test_octree_reference_order() {
   for (int scene = 0; scene < 3; ++scene) {
     const Soup soup = scene < 2 ? random_soup(31 + scene, 3000) : wavy_sheet(40);

@@ -25,13 +25,34 @@ PROJECTIONS = ("perspective", "orthographic")
 MIN_NEAR = 1e-290
 
 
+def _number(value, name: str) -> float:
+    """``value``, a real number (Python's or numpy's, not a bool), as a float:
+    TypeError otherwise; a Python int beyond float range is inf (callers
+    that want finite numbers refuse it with their ValueError)."""
+    if isinstance(value, (bool, np.bool_)) or \
+            not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:  # a Python int beyond float range
+        return math.inf
+
+
+def _has_bool(value) -> bool:
+    """Whether ``value`` is a bool or a (nested) list or tuple holding one."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    return isinstance(value, (list, tuple)) and any(_has_bool(x) for x in value)
+
+
 def _reals(value, name: str, what: str) -> np.ndarray:
     """``value`` as a float64 array: TypeError (``name must be what``) unless
-    it is made of real numbers -- not bools, not strings; ValueError for a
-    Python int beyond float range."""
+    it is made of real numbers -- no bools (also among numbers: numpy would
+    take (0, True, 0) as integers), no strings; ValueError for a Python int
+    beyond float range."""
     try:
         raw = np.asarray(value)
-        if raw.dtype.kind not in "iufO":  # (bools, strings, ...)
+        if raw.dtype.kind not in "iufO" or _has_bool(value):  # (bools, strings, ...)
             raise TypeError
         return np.asarray(raw, dtype=np.float64)
     except OverflowError:  # a Python int beyond float range
@@ -64,12 +85,7 @@ def _unit(v: np.ndarray) -> Tuple[np.ndarray, float]:
 def _fov(value) -> float:
     """A vertical field of view in degrees, in (0, 180): TypeError for a
     non-number, ValueError out of range."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise TypeError(f"fov_y must be a number of degrees, got {value!r}")
-    try:
-        fov = float(value)
-    except OverflowError:  # a Python int beyond float range
-        fov = math.inf
+    fov = _number(value, "fov_y")
     # (Positive but so small that its half in radians is 0: a projection
     # dividing by its tangent would divide by zero.)
     if not 0.0 < fov < 180.0 or math.radians(fov) / 2.0 == 0.0:
@@ -88,15 +104,7 @@ def _tuple3(value, name: str) -> tuple:
 def _positive(value, name: str, allow_none: bool = False) -> Optional[float]:
     if value is None and allow_none:
         return None
-    if isinstance(value, (bool, np.bool_)) or \
-            not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number, got {value!r}")
-    try:
-        x = float(value)
-    except OverflowError:  # a Python int beyond float range
-        x = math.inf
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a number, got {value!r}") from None
+    x = _number(value, name)
     if not math.isfinite(x) or x <= 0.0:
         raise ValueError(f"{name} must be positive and finite, got {value!r}")
     return x
@@ -165,16 +173,7 @@ class Camera:
         )
         near, far = self.near, self.far
         for name, value in (("near", near), ("far", far)):
-            if value is None:
-                continue
-            if isinstance(value, bool) or not isinstance(
-                    value, (int, float, np.floating, np.integer)):
-                raise TypeError(f"{name} must be a number, got {value!r}")
-            try:
-                finite = math.isfinite(float(value))
-            except OverflowError:  # a Python int beyond float range
-                finite = False
-            if not finite:
+            if value is not None and not math.isfinite(_number(value, name)):
                 raise ValueError(f"{name} must be a finite number, got {value!r}")
         near = None if near is None else float(near)
         far = None if far is None else float(far)
@@ -274,6 +273,8 @@ class Camera:
                        projection=projection, fov_y=fov_y, ortho_height=height)
         half = math.radians(float(fov_y)) / 2.0
         half_narrow = math.atan(math.tan(half) * min(1.0, aspect))
+        if half_narrow == 0.0:  # (aspect or fov_y so small that the angle underflows)
+            raise ValueError(f"the narrower field of view is 0: fov_y={fov_y!r}, aspect={aspect!r}")
         dist = r / math.sin(half_narrow)
         eye = center + d * dist
         return cls(eye=tuple(eye), target=tuple(center), up=tuple(up),

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from .camera import _reals, _unit
+from .camera import _number, _reals, _unit
 
 __all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy"]
 
@@ -63,13 +63,7 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
             f"unknown shading {shading!r}; valid values are {', '.join(map(repr, SHADINGS))}"
         )
     for name, value in (("ambient", ambient), ("diffuse", diffuse)):
-        if isinstance(value, (bool, np.bool_)) or \
-                not isinstance(value, (int, float, np.floating, np.integer)):
-            raise TypeError(f"{name} must be a number, got {value!r}")
-        try:
-            x = float(value)
-        except OverflowError:  # a Python int beyond float range
-            x = math.inf
+        x = _number(value, name)
         if not (math.isfinite(x) and x >= 0.0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     if shading == "none" and light_dir is None and color is None \
