@@ -27,18 +27,12 @@ class BvhBuilder {
     // late), sorted along the Z-order curve.
     thread_local VertexGrid grid;
     grid.build(mesh_);
-    thread_local std::vector<uint64_t> words;
+    std::vector<uint64_t>& words = thread_scratch<uint64_t>();
     sorted_centroid_codes(grid, mesh_, words);
-    const size_t n = words.size();
-    codes_.resize(n);
-    faces_.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      codes_[i] = uint32_t(words[i] >> 32);
-      faces_[i] = int32_t(uint32_t(words[i]));
-    }
-    clusters_.reserve(int64_t(n));
+    unpack_words(words, codes_, faces_);
+    clusters_.reserve(int64_t(codes_.size()));
     tree_.nodes.emplace_back();
-    build_node(0, 0, int64_t(n), 0);
+    build_node(0, 0, int64_t(codes_.size()), 0);
     clusters_.finish();
   }
 
@@ -71,17 +65,8 @@ class BvhBuilder {
   const BvhParams& params_;
   ObjectTree& tree_;
   ClusterBuilder clusters_;
-  // Scratch, kept per thread from build to build (no page faults anew).
-  std::vector<uint32_t>& codes_ = scratch_codes();
-  std::vector<int32_t>& faces_ = scratch_faces();
-  static std::vector<uint32_t>& scratch_codes() {
-    thread_local std::vector<uint32_t> v;
-    return v;
-  }
-  static std::vector<int32_t>& scratch_faces() {
-    thread_local std::vector<int32_t> v;
-    return v;
-  }
+  std::vector<uint32_t>& codes_ = thread_scratch<uint32_t>();  // sorted centroid codes
+  std::vector<int32_t>& faces_ = thread_scratch<int32_t>();    // and their faces
 };
 
 }  // namespace

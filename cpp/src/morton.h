@@ -87,6 +87,28 @@ inline void radix_sort_bits(std::vector<uint64_t>& words, int low, int bits) {
   }
 }
 
+// A vector of this thread's, kept from build to build so that the next
+// build does not fault its pages in again (the trees' sort keys and faces:
+// one tree is built at a time on a thread, so the octree and the BVH share
+// them).
+template <class T>
+std::vector<T>& thread_scratch() {
+  thread_local std::vector<T> v;
+  return v;
+}
+
+// The keys (high halves) and faces (low halves) of sorted words.
+inline void unpack_words(const std::vector<uint64_t>& words, std::vector<uint32_t>& keys,
+                         std::vector<int32_t>& faces) {
+  const size_t n = words.size();
+  keys.resize(n);
+  faces.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    keys[i] = uint32_t(words[i] >> 32);
+    faces[i] = int32_t(uint32_t(words[i]));
+  }
+}
+
 // Every vertex of a mesh quantized to a grid of 1024^3 cubic cells over the
 // vertices' bounding cube: cell x | y << 10 | z << 20 per vertex.
 // Design decision: quantize each vertex once rather than each corner of

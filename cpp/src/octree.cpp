@@ -46,16 +46,10 @@ class OctreeBuilder {
   void build() {
     make_keys();
     radix_sort_bits(words_, 32, cells_.bits());
-    const size_t m = words_.size();
-    keys_.resize(m);
-    faces_.resize(m);
-    for (size_t r = 0; r < m; ++r) {
-      keys_[r] = uint32_t(words_[r] >> 32);
-      faces_[r] = int32_t(uint32_t(words_[r]));
-    }
-    clusters_.reserve(int64_t(m));
+    unpack_words(words_, keys_, faces_);
+    clusters_.reserve(int64_t(keys_.size()));
     tree_.nodes.emplace_back();
-    build_node(0, 0, int64_t(m), 0, 0);
+    build_node(0, 0, int64_t(keys_.size()), 0, 0);
     clusters_.finish();
   }
 
@@ -182,16 +176,10 @@ class OctreeBuilder {
   ObjectTree& tree_;
   ClusterBuilder clusters_;
   const OctreeCells cells_;
-  // Scratch, kept per thread from build to build (no page faults anew).
-  std::vector<uint64_t>& words_ = scratch<uint64_t>();  // cell number << 32 | face, sorted
-  std::vector<uint32_t>& keys_ = scratch<uint32_t>();   // then each reference's cell number
-  std::vector<int32_t>& faces_ = scratch<int32_t>();    // and its face
+  std::vector<uint64_t>& words_ = thread_scratch<uint64_t>();  // cell number << 32 | face, sorted
+  std::vector<uint32_t>& keys_ = thread_scratch<uint32_t>();   // then each reference's cell number
+  std::vector<int32_t>& faces_ = thread_scratch<int32_t>();    // and its face
   std::vector<int32_t> mark_;  // Greene's rule: per face, the last node that counted it
-  template <class T>
-  static std::vector<T>& scratch() {
-    thread_local std::vector<T> v;
-    return v;
-  }
 };
 
 }  // namespace
