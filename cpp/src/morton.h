@@ -443,17 +443,31 @@ class OctreeCells {
   }
 #endif
 
+  // As face_words' keys: the number of each face's smallest enclosing cell.
+  uint32_t one(const VertexGrid& grid, const int32_t* idx) const {
+    uint32_t lo[3], hi[3];
+    face_cells(grid, idx, lo, hi);
+    return uint32_t(smallest(lo, hi));
+  }
+#ifdef ZBUFFER_AVX512
+  __m512i sixteen(const __m512i*, const __m512i* lo, const __m512i* hi) const {
+    return smallest16(lo, hi);
+  }
+#endif
+
  private:
   int depth_;
   int64_t size_[kMaxDepth + 1] = {};
 };
 
 
-// Words (centroid code << 32 | face) of the mesh's faces, sorted by code
-// (stably: ties in face order) -- the order of the BVH and of the visiting
-// order (mesh_order.cpp). 16 faces per instruction in AVX-512 builds.
-inline void sorted_centroid_codes(const VertexGrid& grid, const MeshView& mesh,
-                                  std::vector<uint64_t>& words) {
+// words[f] = key << 32 | f for every face f of the mesh, `keys` giving a
+// face's key from its vertex indices (keys.one(grid, idx)) and, in AVX-512
+// builds, 16 faces' keys from their corners' cells and boxes
+// (keys.sixteen(c, lo, hi), as face_cells16 gives them).
+template <class Keys>
+void face_words(const VertexGrid& grid, const MeshView& mesh, const Keys& keys,
+                std::vector<uint64_t>& words) {
   const int64_t n = mesh.n_faces;
   words.resize(size_t(n));
   int64_t f = 0;
@@ -462,11 +476,29 @@ inline void sorted_centroid_codes(const VertexGrid& grid, const MeshView& mesh,
   for (; f + 16 <= n; f += 16) {
     __m512i c[3], lo[3], hi[3];
     face_cells16(grid, mesh.faces + 3 * f, c, lo, hi);
-    store_words16(&words[size_t(f)], centroid_codes16(c),
+    store_words16(&words[size_t(f)], keys.sixteen(c, lo, hi),
                   _mm512_add_epi32(_mm512_set1_epi32(int32_t(f)), lanes));
   }
 #endif
-  for (; f < n; ++f) words[size_t(f)] = uint64_t(grid.centroid_code(mesh.faces + 3 * f)) << 32 | uint32_t(f);
+  for (; f < n; ++f) words[size_t(f)] = uint64_t(keys.one(grid, mesh.faces + 3 * f)) << 32 | uint32_t(f);
+}
+
+// face_words' keys: the centroid's Morton code (VertexGrid::centroid_code).
+struct CentroidKeys {
+  uint32_t one(const VertexGrid& grid, const int32_t* idx) const { return grid.centroid_code(idx); }
+#ifdef ZBUFFER_AVX512
+  __m512i sixteen(const __m512i* c, const __m512i*, const __m512i*) const {
+    return centroid_codes16(c);
+  }
+#endif
+};
+
+// Words (centroid code << 32 | face) of the mesh's faces, sorted by code
+// (stably: ties in face order) -- the order of the BVH and of the visiting
+// order (mesh_order.cpp).
+inline void sorted_centroid_codes(const VertexGrid& grid, const MeshView& mesh,
+                                  std::vector<uint64_t>& words) {
+  face_words(grid, mesh, CentroidKeys(), words);
   radix_sort_bits(words, 32, 3 * VertexGrid::kBits);
 }
 

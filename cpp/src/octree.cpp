@@ -63,22 +63,7 @@ class OctreeBuilder {
     words_.clear();
     if (params_.rule == OctreeRule::kSmallest) {
       // One reference per face: its smallest enclosing cell.
-      words_.resize(size_t(n));
-      int64_t f = 0;
-#ifdef ZBUFFER_AVX512
-      const __m512i lanes = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
-      for (; f + 16 <= n; f += 16) {
-        __m512i c[3], lo[3], hi[3];
-        face_cells16(grid, mesh_.faces + 3 * f, c, lo, hi);
-        const __m512i number = cells_.smallest16(lo, hi);
-        store_words16(&words_[size_t(f)], number, _mm512_add_epi32(_mm512_set1_epi32(int32_t(f)), lanes));
-      }
-#endif
-      for (; f < n; ++f) {
-        uint32_t lo[3], hi[3];
-        face_cells(grid, mesh_.faces + 3 * f, lo, hi);
-        words_[size_t(f)] = uint64_t(cells_.smallest(lo, hi)) << 32 | uint32_t(f);
-      }
+      face_words(grid, mesh_, cells_, words_);
       return;
     }
     // Greene's rule: the deepest level where the box spans at most two
