@@ -28,11 +28,13 @@ NODE_FATES = ("not reached", "outside", "hidden", "visited", "drawn")
 OCTREE_RULES = ("smallest", "greene")
 
 
-def _positive_int(name: str, value) -> int:
+def _int_in(name: str, value, largest: int) -> int:
+    """``value`` as an int in 1 .. ``largest`` (TypeError for a non-int or
+    a bool, ValueError outside the range)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an int, got {value!r}")
-    if not 1 <= value <= _INT32_MAX:
-        raise ValueError(f"{name} must be in [1, {_INT32_MAX}], got {value}")
+    if not 1 <= value <= largest:
+        raise ValueError(f"{name} must be in 1 .. {largest}, got {value}")
     return int(value)
 
 
@@ -78,13 +80,9 @@ class Scene:
     def __init__(self, mesh, *, leaf_size: Optional[int] = None,
                  max_depth: Optional[int] = None, octree_rule: str = "smallest"):
         self._mesh = as_mesh(mesh)
-        self.leaf_size = None if leaf_size is None else _positive_int("leaf_size", leaf_size)
-        depth = _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None else max_depth
-        if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)):
-            raise TypeError(f"max_depth must be an int, got {depth!r}")
-        if not 1 <= depth <= _core.MAX_OCTREE_DEPTH:
-            raise ValueError(f"max_depth must be in 1 .. {_core.MAX_OCTREE_DEPTH}, got {depth}")
-        self.max_depth = int(depth)
+        self.leaf_size = None if leaf_size is None else _int_in("leaf_size", leaf_size, _INT32_MAX)
+        self.max_depth = _int_in("max_depth", _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None
+                                 else max_depth, _core.MAX_OCTREE_DEPTH)
         if octree_rule not in OCTREE_RULES:
             raise ValueError(f"unknown octree_rule {octree_rule!r}; valid rules are "
                              f"{', '.join(map(repr, OCTREE_RULES))}")
