@@ -100,6 +100,18 @@ def test_malformed_files_name_the_problem(tmp_path, text, message):
     assert message in str(err.value)
 
 
+@pytest.mark.parametrize("header", [b"OFF BINARY\n", b"COFF BINARY # colours\n"])
+def test_binary_off_is_refused_by_name(tmp_path, header):
+    # A well-formed Geomview binary OFF triangle (big-endian counts, floats
+    # and faces): neither zbuffer's reader nor trimesh's reads the format.
+    body = np.array([3, 1, 0], ">i4").tobytes() + np.eye(3, dtype=">f4").tobytes() \
+        + np.array([3, 0, 1, 2, 0], ">i4").tobytes()
+    path = tmp_path / "binary.off"
+    path.write_bytes(header + body)
+    with pytest.raises(ValueError, match="is a binary OFF file, which zbuffer cannot read"):
+        zbuffer.load(path)
+
+
 @pytest.mark.skipif(not (MODELS / "bunny_7k.off").is_file(), reason="shared models not present")
 def test_a_triangle_mesh_reads_as_trimesh_reads_it():
     import trimesh

@@ -453,7 +453,8 @@ class Mesh:
 def load(path, merge_vertices: bool = True) -> Mesh:
     """Read a mesh file: OBJ, ASCII OFF and PLY with zbuffer's own readers
     (PLY files it does not know: through trimesh), any other format trimesh
-    reads (STL, glTF, binary OFF, ...) through trimesh.
+    reads (STL, glTF, ...) through trimesh. Binary OFF is refused
+    (ValueError): neither reads it.
 
     Parameters
     ----------
@@ -497,8 +498,10 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     if path.lower().endswith(".off"):
         from .off import is_binary_off, read_off
 
-        if not is_binary_off(path):  # (binary OFF: trimesh's)
-            return _merged(_polygon_mesh(path, _parse(path, read_off)), merge_vertices).prepare()
+        if is_binary_off(path):
+            raise ValueError(f"{path!r} is a binary OFF file, which zbuffer cannot read (nor can "
+                             "trimesh): convert it to ASCII OFF, PLY or OBJ")
+        return _merged(_polygon_mesh(path, _parse(path, read_off)), merge_vertices).prepare()
     unsupported = None  # (why zbuffer's PLY reader left a .ply file to trimesh)
     if path.lower().endswith(".ply"):
         from .ply import UnsupportedPly, read_ply

@@ -64,8 +64,8 @@ def read_off(path: str) -> ObjData:
     Raises
     ------
     ValueError
-        Not an ASCII OFF file (binary OFF is left to trimesh: the caller
-        checks :func:`is_binary_off` first), counts that the records do not
+        Not an ASCII OFF file (:func:`zbuffer.load` refuses binary OFF
+        before calling this: :func:`is_binary_off`), counts that the records do not
         match, malformed records (naming the line), indices outside the
         vertices.
     """
