@@ -144,6 +144,21 @@ def test_render_takes_up_on_the_built_in_scene():
         assert camera.eye == zbuffer.scenes.default_camera(800 / 600).eye
 
 
+@pytest.mark.parametrize("option", [["--fov", "45"], ["--projection", "perspective"],
+                                    ["--view-dir", "0,0,1"]])
+def test_render_view_options_given_frame_the_built_in_scene(option):
+    # Giving a view option takes the built-in scene off its own view, even
+    # with the option's default value (it used to be told by the value).
+    from zbuffer.cli import build_parser, render_camera
+
+    mesh = zbuffer.scenes.default_scene()
+    own = render_camera(build_parser().parse_args(["render"]), mesh, 800, 600)
+    assert own == zbuffer.scenes.default_camera(800 / 600)
+    camera = render_camera(build_parser().parse_args(["render", *option]), mesh, 800, 600)
+    assert camera == zbuffer.Camera.fit(mesh, aspect=800 / 600)
+    assert camera != own
+
+
 def test_render_takes_clip_planes_with_eye():
     # --near and --far set the camera's clip planes (fitted to the mesh
     # otherwise), so that a mesh the camera cannot frame by itself (the

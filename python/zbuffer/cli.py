@@ -117,16 +117,19 @@ def render_camera(args, mesh, width: int, height: int):
     from .camera import Camera
     from .scenes import default_camera
 
+    # (--fov and --projection default to None, so that giving either, even
+    # with its default value, takes the built-in scene off its own view.)
+    fov = 45.0 if args.fov is None else args.fov
+    projection = args.projection or "perspective"
     if args.eye is not None:
         target = args.target if args.target is not None else tuple(mesh.bounding_sphere[0])
-        return Camera.look_at(args.eye, target, up=args.up, fov_y=args.fov,
-                              near=args.near, far=args.far, projection=args.projection)
-    if (args.mesh is None and args.view_dir is None and args.fov == 45.0
-            and args.projection == "perspective"):
+        return Camera.look_at(args.eye, target, up=args.up, fov_y=fov,
+                              near=args.near, far=args.far, projection=projection)
+    if args.mesh is None and args.view_dir is None and args.fov is None and args.projection is None:
         return default_camera(width / height, up=args.up)
     direction = args.view_dir if args.view_dir is not None else (0.0, 0.0, 1.0)
-    return Camera.fit(mesh, direction=direction, up=args.up, fov_y=args.fov,
-                      projection=args.projection, aspect=width / height)
+    return Camera.fit(mesh, direction=direction, up=args.up, fov_y=fov,
+                      projection=projection, aspect=width / height)
 
 
 def _cmd_render(args) -> int:
@@ -282,9 +285,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="Lambert shading from face normals (flat, default) or interpolated "
                         "vertex normals (smooth)")
     r.add_argument("--cull-backfaces", action="store_true", help="skip back-facing triangles")
-    r.add_argument("--projection", choices=["perspective", "orthographic"], default="perspective",
+    r.add_argument("--projection", choices=["perspective", "orthographic"], default=None,
                    help="camera projection (default perspective)")
-    r.add_argument("--fov", type=float, default=45.0, help="vertical field of view in degrees")
+    r.add_argument("--fov", type=float, default=None,
+                   help="vertical field of view in degrees (default 45)")
     r.add_argument("--view-dir", type=_vec3, default=None, metavar="X,Y,Z",
                    help="direction from the mesh towards the camera (default 0,0,1; "
                         "the built-in scene without view options: its own view)")

@@ -14,7 +14,8 @@ s     shading: flat, smooth, none (triangle ids in false colour)
 d     overlay: the depth map
 p     overlay: the Z-pyramid, one level coarser each press (then off)
 o     overlay: the tree's node rectangles, coloured by fate
-      (``hiz_octree`` / ``hiz_bvh``: hidden red, drawn green)
+      (``hiz_octree`` / ``hiz_bvh``: hidden red, visited orange,
+      drawn green)
 r     reset the view
 ====  =========================================================
 
@@ -39,7 +40,7 @@ from .scene import TREE_ALGORITHMS, Scene
 __all__ = ["Viewer", "run"]
 
 SHADINGS = ("flat", "smooth", "none")
-# Overlay colours of node fates (zbuffer.scene.NODE_FATES): hidden, drawn.
+# Overlay colours of node fates (zbuffer.scene.NODE_FATES): hidden, visited, drawn.
 _RECT_COLORS = {2: (214, 39, 40), 3: (255, 159, 28), 4: (44, 160, 44)}
 
 
@@ -193,8 +194,8 @@ def _grey(values: np.ndarray) -> np.ndarray:
 
 
 def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
-    """Outline, in place, the screen rectangle of every hidden or drawn tree
-    node in front of the camera (the rectangle its node test used, without
+    """Outline, in place, the screen rectangle of every hidden, visited or
+    drawn tree node in front of the camera (the rectangle its node test used, without
     the margin), in its fate's colour."""
     h, w = picture.shape[:2]
     fate = nodes["fate"]

@@ -279,6 +279,22 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
     (all zeros: they agree bit for bit -- except ``"scanline"`` on a mesh with
     polygon faces, which it draws natively: docs/rasterization.md, 3.7).
 
+    Parameters
+    ----------
+    mesh, camera, width, height
+        As for :func:`zbuffer.render` (camera None: framed), every algorithm
+        the same; small images by default (320 x 240).
+    algos : sequence of str, optional
+        The algorithms, in the order shown (default: ``zbuffer.algorithms()``);
+        the depth differences are from the first.
+    screenshot : str or True, optional
+        Write a PNG of the figure there instead of opening a window (True:
+        draw it offscreen only; the results are returned either way).
+    **render_options
+        Passed on to every :func:`zbuffer.render` (``shading``,
+        ``cull_backfaces``, ...); ``record_culls`` only to the algorithms
+        with a Z-pyramid.
+
     Returns
     -------
     dict
