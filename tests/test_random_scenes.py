@@ -83,3 +83,43 @@ def test_random_scene_equals_reference(seed):
         res = zbuffer.render(mesh, algo=algo, camera=camera, width=width, height=height,
                              cull_backfaces=cull, shading="none")
         assert_same_visibility(res, ref)
+
+
+def test_tiny_meshes_far_from_the_origin_equal_reference():
+    # A fuzzer's find: the tree algorithms' node test put a box wholly
+    # outside a plane of the view volume by its rounded corners alone, and
+    # dropped a triangle the reference drew (size 10 at 1e15: rounding moves
+    # a clip coordinate by about as much as the box is wide). Then random
+    # small meshes at offsets where that happens, drawn per frame and from a
+    # Scene built once.
+    v = np.array([[1000000000000006.1, 1000000000000016.6, 999999999999988.8],
+                  [1000000000000005.8, 999999999999998.6, 1000000000000005.8],
+                  [999999999999996.4, 1000000000000006.2, 999999999999999.4]])
+    camera = zbuffer.Camera.look_at(
+        (999999999999982.6, 999999999999976.8, 1000000000000014.4),
+        (1000000000000005.1, 1000000000000004.0, 999999999999997.0),
+        fov_y=10.0, near=0.013304721906150464, far=133.04721906150465)
+    cases = [(zbuffer.Mesh(v, [[0, 1, 2]]), camera, 4, 4)]
+    rng = np.random.default_rng(7)
+    for _ in range(12):
+        offset = rng.normal(size=3) * 10 ** rng.uniform(12, 15)
+        size = 10 ** rng.uniform(-1, 1.5)
+        n = int(rng.integers(1, 40))
+        verts = offset + rng.normal(size=(3 * n, 3)) * size
+        eye = offset + rng.normal(size=3) * size * 3
+        cam = zbuffer.Camera.look_at(eye, offset, fov_y=float(rng.uniform(10, 60)),
+                                     near=size * 1e-3, far=size * 20)
+        cases.append((zbuffer.Mesh(verts, np.arange(3 * n).reshape(n, 3)), cam, 24, 16))
+    drawn = 0
+    for mesh, cam, width, height in cases:
+        ref = zbuffer.reference.render(mesh, camera=cam, width=width, height=height,
+                                       shading="none")
+        drawn += int(ref.mask.sum())
+        scene = zbuffer.Scene(mesh)
+        for algo in ALGORITHMS:
+            assert_same_visibility(zbuffer.render(mesh, algo=algo, camera=cam, width=width,
+                                                  height=height, shading="none"), ref)
+        for algo in zbuffer.scene.TREE_ALGORITHMS:
+            assert_same_visibility(scene.render(cam, algo=algo, width=width, height=height,
+                                                shading="none"), ref)
+    assert drawn > 0  # the cases draw something

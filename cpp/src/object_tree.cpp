@@ -261,6 +261,24 @@ float float_at_or_below(double v) {
   return f;
 }
 
+// How far beyond a plane of the view volume (x + w < 0, w - x < 0, ... in
+// clip space) all of a box's corners must lie for none of its triangles'
+// vertices to be computed inside it: a corner's computed x + w and a
+// vertex's are each within 8u (S_x + S_w) of the exact values (u = 2^-53;
+// S: the row's largest sum of product magnitudes, `mag`), and the exact
+// values of a point in the box are a convex combination of its corners'.
+// kRoundingScale (16u) covers both. Without it, a mesh tiny beside its
+// distance from the origin (size 10 at 1e15) lost a triangle that the
+// reference drew: its box's corners, rounded, fell just outside a plane.
+// Margins per axis; infinite (never outside) where the magnitudes overflow.
+void plane_margins(const double* mag, double* margin) {
+  for (int a = 0; a < 3; ++a) {
+    margin[a] = kRoundingScale * (mag[a] + mag[3]);
+    if (!(margin[a] <= std::numeric_limits<double>::max()))
+      margin[a] = std::numeric_limits<double>::infinity();
+  }
+}
+
 // Projects node `i`'s box. Returns false if it lies outside the view volume
 // (wholly beyond one of its planes, or off the image).
 bool project_node(const TreeNode& node, int32_t i, const double* mvp, const Viewport& vp,
@@ -282,13 +300,31 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
   simd::transform8(mvp, x, y, z, clip);
   const __m512d cx = clip[0], cy = clip[1], cz = clip[2], cw = clip[3];
   const __mmask8 invalid = simd::nonfinite8(clip);
-  const __m512d zero = _mm512_setzero_pd();
-  auto below = [&](__m512d v) { return __mmask8(_mm512_cmp_pd_mask(v, zero, _CMP_LT_OQ) & ~invalid); };
-  // Wholly outside one plane of the view volume (an invalid corner is
+  // Magnitudes of each row's products, for the rounding margins.
+  const __m512d ax = _mm512_abs_pd(x), ay = _mm512_abs_pd(y), az = _mm512_abs_pd(z);
+  auto magnitude = [&](int r) {
+    const double* m = mvp + 4 * r;
+    return _mm512_reduce_max_pd(_mm512_add_pd(
+        _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(std::abs(m[0])), ax),
+                                    _mm512_mul_pd(_mm512_set1_pd(std::abs(m[1])), ay)),
+                      _mm512_mul_pd(_mm512_set1_pd(std::abs(m[2])), az)),
+        _mm512_set1_pd(std::abs(m[3]))));
+  };
+  for (int r = 0; r < 4; ++r) mag[r] = magnitude(r);
+  auto below = [&](__m512d v, double margin = 0.0) {
+    return __mmask8(_mm512_cmp_pd_mask(v, _mm512_set1_pd(-margin), _CMP_LT_OQ) & ~invalid);
+  };
+  // Wholly outside one plane of the view volume, by more than rounding
+  // could move a corner and a vertex (plane_margins; an invalid corner is
   // outside none, as outcode() has it).
-  if (below(_mm512_add_pd(cx, cw)) == 0xFF || below(_mm512_sub_pd(cw, cx)) == 0xFF ||
-      below(_mm512_add_pd(cy, cw)) == 0xFF || below(_mm512_sub_pd(cw, cy)) == 0xFF ||
-      below(_mm512_add_pd(cz, cw)) == 0xFF || below(_mm512_sub_pd(cw, cz)) == 0xFF)
+  double margin[3];
+  plane_margins(mag, margin);
+  if (below(_mm512_add_pd(cx, cw), margin[0]) == 0xFF ||
+      below(_mm512_sub_pd(cw, cx), margin[0]) == 0xFF ||
+      below(_mm512_add_pd(cy, cw), margin[1]) == 0xFF ||
+      below(_mm512_sub_pd(cw, cy), margin[1]) == 0xFF ||
+      below(_mm512_add_pd(cz, cw), margin[2]) == 0xFF ||
+      below(_mm512_sub_pd(cw, cz), margin[2]) == 0xFF)
     return false;
   near = (invalid | below(_mm512_add_pd(cz, cw)) |
           _mm512_cmp_pd_mask(cw, _mm512_set1_pd(kMinClipW), _CMP_NGE_UQ)) != 0;
@@ -305,32 +341,43 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
     y_lo = _mm512_reduce_min_pd(yw);
     y_hi = _mm512_reduce_max_pd(yw);
     z_lo = _mm512_reduce_min_pd(zw);
-    // Magnitudes of each row's products, for the rounding margins.
-    const __m512d ax = _mm512_abs_pd(x), ay = _mm512_abs_pd(y), az = _mm512_abs_pd(z);
-    auto magnitude = [&](int r) {
-      const double* m = mvp + 4 * r;
-      return _mm512_reduce_max_pd(_mm512_add_pd(
-          _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(std::abs(m[0])), ax),
-                                      _mm512_mul_pd(_mm512_set1_pd(std::abs(m[1])), ay)),
-                        _mm512_mul_pd(_mm512_set1_pd(std::abs(m[2])), az)),
-          _mm512_set1_pd(std::abs(m[3]))));
-    };
-    for (int r = 0; r < 4; ++r) mag[r] = magnitude(r);
     w_min = _mm512_reduce_min_pd(cw);
     ndc_max[0] = _mm512_reduce_max_pd(_mm512_abs_pd(xn));
     ndc_max[1] = _mm512_reduce_max_pd(_mm512_abs_pd(yn));
     ndc_max[2] = _mm512_reduce_max_pd(_mm512_abs_pd(zn));
   }
 #else
-  uint32_t all_out = ~0u;
+  ClipVertex clip[8];
   for (int corner = 0; corner < 8; ++corner) {
     const double p[3] = {(corner & 1) ? node.hi[0] : node.lo[0],
                          (corner & 2) ? node.hi[1] : node.lo[1],
                          (corner & 4) ? node.hi[2] : node.lo[2]};
-    const ClipVertex c = transform_point(mvp, p);
-    const uint32_t oc = outcode(c, vp);
-    all_out &= oc;
-    if (oc & (kOutNear | kOutInvalid)) {  // at, behind or too close to the eye
+    clip[corner] = transform_point(mvp, p);
+    for (int r = 0; r < 4; ++r) {
+      const double* m = mvp + 4 * r;
+      mag[r] = std::max(mag[r], std::abs(m[0]) * std::abs(p[0]) + std::abs(m[1]) * std::abs(p[1]) +
+                                    std::abs(m[2]) * std::abs(p[2]) + std::abs(m[3]));
+    }
+  }
+  // Wholly outside one plane (as above: by more than the margins; an
+  // invalid corner is outside none).
+  double margin[3];
+  plane_margins(mag, margin);
+  uint32_t all_out = 0x3F;  // bit 2a: below -w on axis a, bit 2a + 1: above w
+  for (const ClipVertex& c : clip) {
+    if (outcode(c, vp) & kOutInvalid) {
+      all_out = 0;
+      break;
+    }
+    const double v[3] = {c.x, c.y, c.z};
+    for (int a = 0; a < 3; ++a) {
+      if (!(v[a] + c.w < -margin[a])) all_out &= ~(1u << (2 * a));
+      if (!(c.w - v[a] < -margin[a])) all_out &= ~(2u << (2 * a));
+    }
+  }
+  if (all_out) return false;
+  for (const ClipVertex& c : clip) {
+    if (outcode(c, vp) & (kOutNear | kOutInvalid)) {  // at, behind or too close to the eye
       near = true;
       continue;
     }
@@ -344,17 +391,11 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
     y_lo = std::min(y_lo, yw);
     y_hi = std::max(y_hi, yw);
     z_lo = std::min(z_lo, zw);
-    for (int r = 0; r < 4; ++r) {
-      const double* m = mvp + 4 * r;
-      mag[r] = std::max(mag[r], std::abs(m[0]) * std::abs(p[0]) + std::abs(m[1]) * std::abs(p[1]) +
-                                    std::abs(m[2]) * std::abs(p[2]) + std::abs(m[3]));
-    }
     w_min = std::min(w_min, c.w);
     ndc_max[0] = std::max(ndc_max[0], std::abs(c.x * inv_w));
     ndc_max[1] = std::max(ndc_max[1], std::abs(c.y * inv_w));
     ndc_max[2] = std::max(ndc_max[2], std::abs(c.z * inv_w));
   }
-  if (all_out & kOutView) return false;
 #endif
   // The rounding margins (see kRoundingScale), in NDC; w is at least what
   // the corners' computed w says less its own error.
