@@ -112,6 +112,13 @@ def test_vertex_and_face_colours_together_keep_the_vertices(tmp_path):
     ((b"element face 2", b"element face 4000000000"), "fewer records than its header declares"),
     ((b"element face 2", b"element face 1"), "more records than its header declares"),
     ((b"0 128 255", b"0 300 255"), "face colours must lie in 0-255"),
+    # A fuzzer's finds: an index past int64 (an OverflowError), a record
+    # longer than its properties and a colour of 2.5 (both read as if fine),
+    # a list counted by a float (numpy's "invalid shape").
+    ((b"3 0 1 6", b"3 0 1 9223372036854775808"), "a face index lies outside [0, 7)"),
+    ((b"0 128 255", b"0 128 255 7"), "malformed PLY record '3 0 1 6 0 128 255 7'"),
+    ((b"5 255 0 0", b"5 255 2.5 0"), "property 'green' has an integer type, but a record holds 2.5"),
+    ((b"list uchar int", b"list float int"), "a list's count must have an integer type"),
 ])
 def test_malformed_files_are_refused_plainly(tmp_path, change, message):
     path = tmp_path / "bad.ply"
@@ -121,6 +128,35 @@ def test_malformed_files_are_refused_plainly(tmp_path, change, message):
     with pytest.raises(ValueError, match="could not read a mesh from") as err:
         zbuffer.load(path)
     assert message in str(err.value)
+
+
+@pytest.mark.parametrize("index, message", [(2.5, "a face index is not a whole number: 2.5"),
+                                            (float("inf"), "not a whole number: inf"),
+                                            (1e300, "a face index lies outside [0, 7)")])
+def test_face_indices_of_a_float_type_must_be_whole_and_in_range(tmp_path, index, message):
+    # (They were truncated to integers, or raised OverflowError.)
+    path = tmp_path / "float_indices.ply"
+    faces = [([0, 1, 2, 3, 4, 5], ()), ([0, 1, index], ())]
+    data = header("binary_little_endian", "").replace(b"list uchar int", b"list uchar double") \
+        + b"".join(struct.pack("<3f", *v) for v in VERTICES) \
+        + b"".join(struct.pack(f"<B{len(f)}d", len(f), *f) for f, _ in faces)
+    path.write_bytes(data)
+    with pytest.raises(ValueError, match="could not read a mesh from") as err:
+        zbuffer.load(path)
+    assert message in str(err.value)
+    path.write_bytes(data.replace(struct.pack("<d", index), struct.pack("<d", 6.0)))
+    assert len(zbuffer.load(path).faces) == 5
+
+
+def test_a_negative_list_count_is_named(tmp_path):
+    # (A char count of -3 read as "fewer records than its header declares".)
+    path = tmp_path / "negative.ply"
+    data = header("binary_little_endian", "").replace(b"list uchar int", b"list char int") \
+        + b"".join(struct.pack("<3f", *v) for v in VERTICES) \
+        + struct.pack("<b6i", 6, 0, 1, 2, 3, 4, 5) + struct.pack("<b3i", -3, 0, 1, 6)
+    path.write_bytes(data)
+    with pytest.raises(ValueError, match="record 1 of an element has a list of -3 items"):
+        zbuffer.load(path)
 
 
 def test_binary_data_beyond_the_counts_is_refused(tmp_path):

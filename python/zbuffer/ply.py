@@ -45,22 +45,26 @@ def _header(fh) -> Tuple[str, list]:
             fmt = words[1]
         elif words[0] == "element" and len(words) == 3:
             if not words[2].isdigit():
-                raise ValueError(f"an element count must be a whole number, got {raw.strip()!r}")
+                raise ValueError("an element count must be a whole number, got "
+                                 f"{' '.join(words)!r}")
             elements.append((words[1], int(words[2]), []))
         elif words[0] == "property" and elements and len(words) >= 3:
             if words[1] == "list" and len(words) == 5 and words[2] in _TYPES \
                     and words[3] in _TYPES:
+                if _TYPES[words[2]] in "fd":
+                    raise ValueError(f"a list's count must have an integer type, got "
+                                     f"{' '.join(words)!r}")
                 elements[-1][2].append((words[4], _TYPES[words[3]], _TYPES[words[2]]))
             elif len(words) == 3 and words[1] in _TYPES:
                 elements[-1][2].append((words[2], _TYPES[words[1]], None))
             else:
-                raise UnsupportedPly(f"unreadable PLY property line {raw.strip()!r}")
+                raise UnsupportedPly(f"unreadable PLY property line {' '.join(words)!r}")
         elif words[0] == "end_header":
             if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
                 raise UnsupportedPly(f"unknown PLY format {fmt!r}")
             return fmt, elements
         else:
-            raise UnsupportedPly(f"unreadable PLY header line {raw.strip()!r}")
+            raise UnsupportedPly(f"unreadable PLY header line {' '.join(words)!r}")
     raise UnsupportedPly("the PLY header does not end")
 
 
@@ -99,6 +103,8 @@ def _records_binary(body: bytes, offset: int, order: str, count: int, props):
                     column += 1
                 else:
                     (n,) = struct.unpack_from(order + count_kind, body, offset)
+                    if n < 0:
+                        raise ValueError(f"record {r} of an element has a list of {n} items")
                     offset += struct.calcsize(count_kind)
                     lists[k].append(struct.unpack_from(f"{order}{n}{kind}", body, offset))
                     offset += n * struct.calcsize(kind)
@@ -143,10 +149,15 @@ def _as_declared(scalars: np.ndarray, props) -> np.ndarray:
     """ASCII scalars as their declared types hold them (a ``float``
     property's text rounded to float32, as binary files and trimesh have
     it)."""
+    names = [p[0] for p in props if p[2] is None]
     kinds = [p[1] for p in props if p[2] is None]
     for c, kind in enumerate(kinds):
         if kind == "f":
             scalars[:, c] = scalars[:, c].astype(np.float32)
+        elif kind != "d" and (scalars[:, c] != np.round(scalars[:, c])).any():
+            bad = scalars[:, c][scalars[:, c] != np.round(scalars[:, c])][0]
+            raise ValueError(f"property {names[c]!r} has an integer type, but a record holds "
+                             f"{float(bad)!r}")
     return scalars
 
 
@@ -203,6 +214,8 @@ def _records_ascii(lines, count: int, props):
                         raise IndexError
                     lists[k].append(tuple(float(x) if kind in "fd" else int(x) for x in values))
                     at += 1 + n
+            if at != len(tokens):
+                raise ValueError
         except (IndexError, ValueError):
             raise ValueError(f"malformed PLY record {line.strip()!r}") from None
     return _as_declared(scalars, props), lists
@@ -229,10 +242,12 @@ def read_ply(path: str) -> ObjData:
         property type, no vertex element with x, y and z, no face element
         with a ``vertex_indices`` list.
     ValueError
-        Malformed: an element count that is not a whole number, records that
-        run out, do not parse or outnumber the header's counts (ASCII),
-        indices outside the vertices, faces of fewer than 3 corners, colours
-        out of range.
+        Malformed: an element count that is not a whole number, a list
+        counted by a float type or with a negative count, records that run
+        out, do not parse, hold more than their properties or outnumber the
+        header's counts (ASCII), a fraction in an integer property (ASCII),
+        face indices outside the vertices or not whole numbers, faces of
+        fewer than 3 corners, colours out of range.
     """
     try:
         return _read_ply(path)
@@ -278,12 +293,22 @@ def _read_ply(path: str) -> ObjData:
     faces = lists[at]
     if isinstance(faces, np.ndarray):  # (all faces the same size)
         sizes = np.full(len(faces), faces.shape[1] if faces.ndim == 2 else 0, dtype=np.int64)
-        indices = faces.astype(np.int64).reshape(-1)
+        raw = faces.reshape(-1)
     else:
         sizes = np.array([len(f) for f in faces], dtype=np.int64)
-        indices = np.array([i for f in faces for i in f], dtype=np.int64)
-    if indices.size and (indices.min() < 0 or indices.max() >= len(vertices)):
+        # (float64 holds any index a file can hold exactly enough to judge it:
+        # ASCII integers past int64 would overflow an int64 array)
+        try:
+            raw = np.array([i for f in faces for i in f], dtype=np.float64)
+        except OverflowError:  # (an integer beyond float64's range)
+            raise ValueError(f"a face index lies outside [0, {len(vertices)})") from None
+    if raw.dtype.kind == "f" and raw.size and not (np.isfinite(raw).all()
+                                                   and (raw == np.round(raw)).all()):
+        bad = raw[~(np.isfinite(raw) & (raw == np.round(raw)))][0]
+        raise ValueError(f"a face index is not a whole number: {float(bad)!r}")
+    if raw.size and (raw.min() < 0 or raw.max() >= len(vertices)):
         raise ValueError(f"a face index lies outside [0, {len(vertices)})")
+    indices = raw.astype(np.int64)
     if sizes.size and sizes.min() < 3:
         raise ValueError("a face has fewer than 3 corners")
     scalar_names = [p[0] for p in props if p[2] is None]
