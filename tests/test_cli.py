@@ -1,5 +1,9 @@
 """The zbuffer command line."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import skimage.io
@@ -56,6 +60,29 @@ def test_errors_are_reported_not_raised(args, message, capsys, tmp_path, monkeyp
     assert main(args) == 2
     assert message in capsys.readouterr().err
     assert not list(tmp_path.iterdir())  # refused before anything was written
+
+
+def test_an_unreadable_file_is_reported_not_raised(tmp_path, capsys, monkeypatch):
+    # A fuzzer's find: an OSError other than "no such file" (here EIO, from a
+    # mesh file that is really /proc/self/mem) came out as a traceback.
+    if not os.path.exists("/proc/self/mem"):
+        pytest.skip("needs Linux's /proc/self/mem")
+    (tmp_path / "x.obj").symlink_to("/proc/self/mem")
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", "x.obj", "--out", "none"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("zbuffer: error: ") and "Traceback" not in err
+
+
+def test_output_cut_short_by_a_closed_pipe_is_quiet():
+    # `zbuffer render ... | head -1` printed a BrokenPipeError traceback.
+    code = "import sys; from zbuffer.cli import main; sys.exit(main(sys.argv[1:]))"
+    with subprocess.Popen([sys.executable, "-c", code, "render", "--out", "none", "--size",
+                           "32x24"], stdout=subprocess.PIPE, stderr=subprocess.PIPE) as proc:
+        proc.stdout.close()  # before it writes a line
+        err = proc.stderr.read().decode()
+        assert proc.wait() == 1
+    assert err == ""
 
 
 @pytest.mark.parametrize("size, message", [("big", "size must look like 800x600"),

@@ -336,8 +336,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if args.command == "render" and args.out == "none":
         args.out = None
     try:
-        return args.func(args)
-    except (ValueError, TypeError, FileNotFoundError) as err:
+        status = args.func(args)
+        sys.stdout.flush()  # (so that a closed pipe shows here, not at exit)
+        return status
+    except BrokenPipeError:
+        # Whatever read the output stopped early (`zbuffer render | head -1`):
+        # nothing to report. Standard output goes to /dev/null, so that
+        # Python's last flush at exit does not fail again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except (ValueError, TypeError, OSError) as err:  # (OSError: unreadable files, full disks)
         print(f"zbuffer: error: {err}", file=sys.stderr)
         return 2
 
