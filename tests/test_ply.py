@@ -148,6 +148,22 @@ def test_face_indices_of_a_float_type_must_be_whole_and_in_range(tmp_path, index
     assert len(zbuffer.load(path).faces) == 5
 
 
+@pytest.mark.parametrize("index, message", [("9223372036854775808", "a face index lies outside"),
+                                            ("9" * 400, "a face index lies outside"),
+                                            ("inf", "malformed PLY record '3 0 1 inf")])
+def test_huge_indices_in_a_file_of_triangles_are_named(tmp_path, index, message):
+    # (All faces of one size are read at once, as floats: such an index made
+    # numpy warn of an invalid cast before the range check refused it.)
+    path = tmp_path / "triangles.ply"
+    path.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                    "property float y\nproperty float z\nelement face 2\n"
+                    "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+                    f"3 0 1 2\n3 0 1 {index}\n")
+    with pytest.raises(ValueError, match="could not read a mesh from") as err:
+        zbuffer.load(path)
+    assert message in str(err.value)
+
+
 def test_a_negative_list_count_is_named(tmp_path):
     # (A char count of -3 read as "fewer records than its header declares".)
     path = tmp_path / "negative.ply"

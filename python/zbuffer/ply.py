@@ -185,8 +185,8 @@ def _records_ascii(lines, count: int, props):
                 break
             values = table[:, at + 1:at + 1 + n]
             if kind not in "fd":
-                if (values != np.round(values)).any():
-                    break  # (the record by record reading says which record)
+                if not (np.abs(values) < 2.0 ** 53).all() or (values != np.round(values)).any():
+                    break  # (the record by record reading says which record, or index)
                 values = values.astype(np.int64)
             lists[k] = values
             at += 1 + n
