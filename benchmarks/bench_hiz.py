@@ -17,7 +17,9 @@ Per case, the median of --runs renders after a warm-up:
 - built once: ``zbuffer.Scene`` -- the tree is built once (build time
   reported apart), then every frame only renders.
 
-Ratios are against ``zbuffer`` measured in the same run. Also: the octree's
+On each grid and camera (and each single mesh), the cases render in
+interleaved rounds -- each once in turn, --runs times -- so that ratios to
+``zbuffer`` are of times measured side by side. Also: the octree's
 two straddling-triangle rules, a leaf-size sweep, and temporal coherence over
 an orbit. Nothing here asserts a speed.
 """
@@ -73,15 +75,50 @@ def summary(times, stats, triangles):
     return out
 
 
-def per_frame(mesh, camera, algo, size, runs):
-    render = lambda: zbuffer.render(mesh, algo=algo, camera=camera, width=size, height=size,
-                                    shading="none")
-    render()  # warm-up (and the spatial visiting order of large meshes)
-    times, res = [], None
+def build_trees(mesh) -> zbuffer.Scene:
+    """A Scene of ``mesh`` with both trees built, each build timed (wall
+    clock) into ``scene.build_wall_ms``."""
+    scene = zbuffer.Scene(mesh)
+    scene.build_wall_ms = {}
+    for algo in TREES:
+        t0 = time.perf_counter()
+        scene.build(algo)
+        scene.build_wall_ms[algo] = (time.perf_counter() - t0) * 1e3
+    return scene
+
+
+def interleaved(mesh, camera, scene, size, runs) -> list:
+    """Every algorithm per frame (``zbuffer.render``, trees built in the
+    call) and every tree of ``scene`` built once, on one mesh and camera, in
+    rounds: a warm-up each, then ``runs`` rounds in which each case renders
+    once in turn, so that the machine's drift hits them all alike and the
+    ratios to ``zbuffer`` compare like with like. One summary per case."""
+    cases = [("per frame", algo) for algo in ALGOS] + [("built once", algo) for algo in TREES]
+
+    def render(mode, algo):
+        if mode == "per frame":
+            return zbuffer.render(mesh, algo=algo, camera=camera, width=size, height=size,
+                                  shading="none")
+        return scene.render(camera, algo=algo, width=size, height=size, shading="none")
+
+    for case in cases:
+        render(*case)  # warm-up (and the spatial visiting order of large meshes)
+    times = {case: [] for case in cases}
+    last = {}
     for _ in range(runs):
-        res = render()
-        times.append(res.stats["render_ms"])
-    return summary(times, res.stats, len(mesh.faces))
+        for case in cases:
+            last[case] = render(*case)
+            times[case].append(last[case].stats["render_ms"])
+    out = []
+    for mode, algo in cases:
+        c = {"algo": algo, "mode": mode,
+             **summary(times[mode, algo], last[mode, algo].stats, len(mesh.faces))}
+        if mode == "built once":
+            info = scene.tree_info(algo)
+            c.update({"build_ms": info["build_ms"], "build_wall_ms": scene.build_wall_ms[algo],
+                      "tree_nodes": info["nodes"], "tree_bytes": info["memory_bytes"]})
+        out.append(c)
+    return out
 
 
 def built_once(mesh, camera, algo, size, runs, **options):
@@ -186,8 +223,9 @@ def markdown(report: dict) -> str:
         f"- command: `{report['command']}`",
         f"- scene: {report['scene']}; {report['size']}x{report['size']}, depth only, one thread",
         "- ms: median of the runs of the compiled call (`render_ms`); *x zbuffer*: that median",
-        "  over `zbuffer`'s in the same run (below 1 is faster). Per frame: `zbuffer.render`,",
-        "  tree built in the call. Built once: `zbuffer.Scene`, build time apart.",
+        "  over `zbuffer`'s in the same interleaved rounds (below 1 is faster). Per frame:",
+        "  `zbuffer.render`, tree built in the call. Built once: `zbuffer.Scene`, build time",
+        "  apart.",
         "",
         "| N | triangles | projection | algorithm | mode | ms | x zbuffer | build ms "
         "| rasterized | culled by triangle test | in culled nodes | cull ratio "
@@ -290,16 +328,13 @@ def main(argv=None) -> int:
 
     for n in sizes:
         mesh = zbuffer.scenes.instance_grid(base, (5, 5, n))
+        scene = build_trees(mesh)  # (one Scene for both projections: trees do not depend on the camera)
         for projection in ("perspective", "orthographic"):
             camera = grid_camera(mesh, projection)
             common = {"N": n, "triangles": len(mesh.faces), "projection": projection}
-            for algo in ALGOS:
-                record({**common, "algo": algo, "mode": "per frame",
-                        **per_frame(mesh, camera, algo, size, runs)})
-            for algo in TREES:
-                record({**common, "algo": algo, "mode": "built once",
-                        **built_once(mesh, camera, algo, size, runs)})
-        del mesh
+            for case in interleaved(mesh, camera, scene, size, runs):
+                record({**common, **case})
+        del mesh, scene
 
     # Single meshes: only a mesh's own back is hidden, what the hierarchy costs shows.
     report["unoccluded"] = []
@@ -311,13 +346,8 @@ def main(argv=None) -> int:
             continue
         single = zbuffer.load(path)
         camera = zbuffer.Camera.fit(single, aspect=1.0).resolve(single)
-        for algo in ALGOS:
-            case = {"mesh": name, "algo": algo, "mode": "per frame",
-                    **per_frame(single, camera, algo, size, runs * 3)}
-            report["unoccluded"].append(case)
-        for algo in TREES:
-            report["unoccluded"].append({"mesh": name, "algo": algo, "mode": "built once",
-                                         **built_once(single, camera, algo, size, runs * 3)})
+        for case in interleaved(single, camera, build_trees(single), size, runs * 3):
+            report["unoccluded"].append({"mesh": name, **case})
         for c in report["unoccluded"][-(len(ALGOS) + len(TREES)):]:
             progress(f"{name} {c['algo']} {c['mode']}: {c['ms_median']:.2f} ms")
 
