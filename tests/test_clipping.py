@@ -70,3 +70,40 @@ def test_geometry_behind_the_camera_is_culled(algo):
     assert not res.mask.any()
     # Tree algorithms cull the whole box at its node.
     assert res.stats["culled_frustum"] + res.stats["culled_in_nodes"] == 12
+
+
+def test_clipped_vertices_rounded_outside_the_guard_band_go_onto_it():
+    # A fuzzer's find: at clip coordinates of about 1e21 and beyond, the
+    # clipping intersections' rounding left vertices many guard bands
+    # outside, past what fixed point holds: the core drew nothing where the
+    # reference drew 448 pixels (the triangle's true coverage: 7 columns),
+    # or garbage, and the reference itself cast out-of-range floats to int64.
+    # Such vertices now go onto the guard-band plane (docs/rasterization.md,
+    # 2.3), in both. Then random thin triangles of that kind, both
+    # projections, in y and in x.
+    cases = [(zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), projection="orthographic",
+                                     ortho_height=2e-12, near=1, far=10),
+              np.array([[8e-13, 1.9e9, -5.0], [5e-13, -1.5e9, -5.0], [9e-13, -1.4e9, -5.0]]))]
+    rng = np.random.default_rng(3)
+    for k in range(40):
+        if k % 2:
+            camera = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), projection="orthographic",
+                                            ortho_height=2e-12, near=1, far=10)
+            scale, across = 10 ** rng.uniform(18, 32), rng.uniform(-1, 1, 3) * 1e-12
+        else:
+            camera = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), fov_y=1e-6, near=1, far=10)
+            scale, across = 10 ** rng.uniform(12, 30), rng.uniform(-1, 1, 3) * 3e-8
+        along = rng.uniform(0.5, 2, 3) * np.array([1, -1, -1]) * scale
+        xy = (across, along) if k % 4 < 2 else (along, across)
+        cases.append((camera, np.stack([*xy, rng.uniform(-6, -4, 3)], 1)))
+    drawn = []
+    for camera, v in cases:
+        mesh = zbuffer.Mesh(v, [[0, 1, 2]])
+        ref = zbuffer.reference.render(mesh, camera=camera, width=64, height=64, shading="none")
+        drawn.append(int(ref.mask.sum()))
+        for algo in ALGORITHMS:
+            res = zbuffer.render(mesh, algo=algo, camera=camera, width=64, height=64,
+                                 shading="none")
+            assert_same_visibility(res, ref)
+            assert counters_add_up(res.stats)
+    assert drawn[0] == 448 and sum(d > 0 for d in drawn) > 30

@@ -226,6 +226,17 @@ int clip_polygon(ClipVertex* poly, int n, const Viewport& vp) {
         !std::isfinite(c.z) || !std::isfinite(c.w))
       return 0;
   }
+  // Rounding in the intersections (a + t (b - a) with |b| around 1e21 and
+  // beyond) can leave a vertex outside a guard-band plane, even by many
+  // bands, where its fixed-point coordinates would not fit: such a vertex
+  // goes onto the plane (docs/rasterization.md, 2.3).
+  for (int k = 0; k < n; ++k) {
+    ClipVertex& c = poly[k];
+    if (plane_distance(2, c, vp) < 0.0) c.x = -(vp.guard_x * c.w);
+    else if (plane_distance(3, c, vp) < 0.0) c.x = vp.guard_x * c.w;
+    if (plane_distance(4, c, vp) < 0.0) c.y = -(vp.guard_y * c.w);
+    else if (plane_distance(5, c, vp) < 0.0) c.y = vp.guard_y * c.w;
+  }
   return n;
 }
 

@@ -174,7 +174,21 @@ def clip_polygon(poly, gx: float, gy: float):
     for v in poly:
         if not (v[3] >= MIN_CLIP_W) or not np.all(np.isfinite(v)):
             return []
-    return poly
+    # A vertex that rounding left outside a guard-band plane goes onto it
+    # (docs/rasterization.md, 2.3).
+    placed = []
+    for v in poly:
+        v = v.copy()
+        if _plane_distance(2, v, gx, gy) < 0.0:
+            v[0] = -(gx * v[3])
+        elif _plane_distance(3, v, gx, gy) < 0.0:
+            v[0] = gx * v[3]
+        if _plane_distance(4, v, gx, gy) < 0.0:
+            v[1] = -(gy * v[3])
+        elif _plane_distance(5, v, gx, gy) < 0.0:
+            v[1] = gy * v[3]
+        placed.append(v)
+    return placed
 
 
 def vertex_stage(vertices: np.ndarray, faces: np.ndarray, mvp: np.ndarray, width: int,
