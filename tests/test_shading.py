@@ -162,6 +162,8 @@ def test_vertex_normals_are_the_numpy_definitions_bits():
         v = rng.normal(size=(n, 3)) * 10.0 ** int(rng.integers(-6, 6))
         if k % 10 == 9:  # scaled by powers of two inside (reference.vertex_normals)
             v *= 10.0 ** [-250, -150, -70, 70, 150, 250][k // 10]
+        if k % 10 == 8:  # wholly subnormal: the compiled scale was once 2^1030 = inf
+            v *= 1e-300 * 10.0 ** [-8, -10, -12, -14, -16, -20][k // 10]
         f = rng.integers(0, n, size=(int(rng.integers(0, 60)), 3))
         meshes.append(zbuffer.Mesh(v, f))
     meshes.append(zbuffer.Mesh(np.zeros((0, 3)), np.zeros((0, 3), int)))

@@ -1623,18 +1623,20 @@ void vertex_normals(const MeshView& mesh, double* out) {
   // scaled by the power of two that brings it into [1, 2) (exact, and the
   // same for every face: the same weights), so that the sums and their
   // squares neither overflow nor underflow; others are taken as they are.
+  // Each coordinate is scaled by scalbn, not multiplied by 2^e: for a mesh
+  // wholly below 2^-1023 (subnormal), 2^e itself would overflow to inf
+  // (every normal came out zero, and smooth shading flat).
   double big = 0.0;
   for (size_t k = 0; k < 3 * n; ++k)
     if (std::isfinite(p[k])) big = std::max(big, std::abs(p[k]));
-  const double scale = big > 0.0 && (big < 0x1p-200 || big > 0x1p200)
-                           ? std::scalbn(1.0, -std::ilogb(big)) : 1.0;
+  const int e = big > 0.0 && (big < 0x1p-200 || big > 0x1p200) ? -std::ilogb(big) : 0;
   for (int corner = 0; corner < 3; ++corner)
     for (int64_t f = 0; f < mesh.n_faces; ++f) {
       const int32_t* idx = mesh.faces + 3 * f;
       const double* a = p + 3 * size_t(idx[0]);
       const double* b = p + 3 * size_t(idx[1]);
       const double* c = p + 3 * size_t(idx[2]);
-      auto at = [scale](const double* q, int k) { return q[k] * scale; };
+      auto at = [e](const double* q, int k) { return e == 0 ? q[k] : std::scalbn(q[k], e); };
       const double u[3] = {at(b, 0) - at(a, 0), at(b, 1) - at(a, 1), at(b, 2) - at(a, 2)};
       const double v[3] = {at(c, 0) - at(a, 0), at(c, 1) - at(a, 1), at(c, 2) - at(a, 2)};
       double* sum = out + 3 * size_t(idx[corner]);
