@@ -95,24 +95,29 @@ py::dict nodes(Tree& self) {
   auto nt = n_triangles.mutable_unchecked<1>(), ot = own_triangles.mutable_unchecked<1>();
   auto f = fate.mutable_unchecked<1>();
   const bool rendered = self.frame.node_fate.size() == nodes.size();
-  for (py::ssize_t i = 0; i < n; ++i) p(i) = -1;
-  for (py::ssize_t i = 0; i < n; ++i) {
-    const zbuffer::TreeNode& node = nodes[size_t(i)];
-    for (int a = 0; a < 3; ++a) {
-      l(i, a) = node.lo[a];
-      h(i, a) = node.hi[a];
+  {
+    // Filled without the GIL (plain memory of this call's own arrays): a
+    // tree of millions of nodes takes a second or more.
+    py::gil_scoped_release release;
+    for (py::ssize_t i = 0; i < n; ++i) p(i) = -1;
+    for (py::ssize_t i = 0; i < n; ++i) {
+      const zbuffer::TreeNode& node = nodes[size_t(i)];
+      for (int a = 0; a < 3; ++a) {
+        l(i, a) = node.lo[a];
+        h(i, a) = node.hi[a];
+      }
+      d(i) = node.depth;
+      fc(i) = node.first_child;
+      nc(i) = node.n_children;
+      nt(i) = node.n_triangles;
+      ot(i) = 0;
+      if (node.cluster >= 0) {
+        const auto& cl = self.tree.clusters[size_t(node.cluster)];
+        ot(i) = cl.face_end - cl.face_begin;
+      }
+      f(i) = rendered ? self.frame.node_fate[size_t(i)] : uint8_t(zbuffer::kNodeNotReached);
+      for (int32_t k = 0; k < node.n_children; ++k) p(node.first_child + k) = int32_t(i);
     }
-    d(i) = node.depth;
-    fc(i) = node.first_child;
-    nc(i) = node.n_children;
-    nt(i) = node.n_triangles;
-    ot(i) = 0;
-    if (node.cluster >= 0) {
-      const auto& cl = self.tree.clusters[size_t(node.cluster)];
-      ot(i) = cl.face_end - cl.face_begin;
-    }
-    f(i) = rendered ? self.frame.node_fate[size_t(i)] : uint8_t(zbuffer::kNodeNotReached);
-    for (int32_t k = 0; k < node.n_children; ++k) p(node.first_child + k) = int32_t(i);
   }
   py::dict out;
   out["lo"] = lo;
