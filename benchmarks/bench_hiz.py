@@ -75,6 +75,14 @@ def summary(times, stats, triangles):
     return out
 
 
+def tree_fields(scene, algo, build_wall_ms) -> dict:
+    """A built tree's entries in a case: build times (the core's and the
+    wall clock's), nodes and bytes."""
+    info = scene.tree_info(algo)
+    return {"build_ms": info["build_ms"], "build_wall_ms": build_wall_ms,
+            "tree_nodes": info["nodes"], "tree_bytes": info["memory_bytes"]}
+
+
 def build_trees(mesh):
     """A Scene of ``mesh`` with both trees built, and each build's wall-clock
     time (ms) by algorithm."""
@@ -114,9 +122,7 @@ def interleaved(mesh, camera, trees, size, runs) -> list:
         c = {"algo": algo, "mode": mode,
              **summary(times[mode, algo], last[mode, algo].stats, len(mesh.faces))}
         if mode == "built once":
-            info = scene.tree_info(algo)
-            c.update({"build_ms": info["build_ms"], "build_wall_ms": wall_ms[algo],
-                      "tree_nodes": info["nodes"], "tree_bytes": info["memory_bytes"]})
+            c.update(tree_fields(scene, algo, wall_ms[algo]))
         out.append(c)
     return out
 
@@ -131,13 +137,7 @@ def built_once(mesh, camera, algo, size, runs, **options):
     for _ in range(runs):
         res = scene.render(camera, algo=algo, width=size, height=size, shading="none")
         times.append(res.stats["render_ms"])
-    out = summary(times, res.stats, len(mesh.faces))
-    info = scene.tree_info(algo)
-    out["build_ms"] = info["build_ms"]
-    out["build_wall_ms"] = build_wall
-    out["tree_nodes"] = info["nodes"]
-    out["tree_bytes"] = info["memory_bytes"]
-    return out
+    return {**summary(times, res.stats, len(mesh.faces)), **tree_fields(scene, algo, build_wall)}
 
 
 def submission_order(detail, occluder, size, runs):

@@ -364,11 +364,11 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
   double margin[3];
   plane_margins(mag, margin);
   uint32_t all_out = 0x3F;  // bit 2a: below -w on axis a, bit 2a + 1: above w
-  for (const ClipVertex& c : clip) {
-    if (outcode(c, vp) & kOutInvalid) {
-      all_out = 0;
-      break;
-    }
+  uint32_t oc[8];
+  for (int corner = 0; corner < 8; ++corner) {
+    const ClipVertex& c = clip[corner];
+    oc[corner] = outcode(c, vp);
+    if (oc[corner] & kOutInvalid) all_out = 0;
     const double v[3] = {c.x, c.y, c.z};
     for (int a = 0; a < 3; ++a) {
       if (!(v[a] + c.w < -margin[a])) all_out &= ~(1u << (2 * a));
@@ -376,8 +376,9 @@ bool project_node(const TreeNode& node, int32_t i, const double* mvp, const View
     }
   }
   if (all_out) return false;
-  for (const ClipVertex& c : clip) {
-    if (outcode(c, vp) & (kOutNear | kOutInvalid)) {  // at, behind or too close to the eye
+  for (int corner = 0; corner < 8; ++corner) {
+    const ClipVertex& c = clip[corner];
+    if (oc[corner] & (kOutNear | kOutInvalid)) {  // at, behind or too close to the eye
       near = true;
       continue;
     }
