@@ -172,6 +172,7 @@ def _cmd_view(args) -> int:
 
     from .scenes import default_scene
     from .viewer import Viewer, run
+    from .viz import _can_open_window
 
     width, height = args.size
     if args.screenshot is not None:
@@ -191,14 +192,6 @@ def _cmd_view(args) -> int:
         print(viewer.status())
         print(f"wrote {args.screenshot}")
     return 0
-
-
-def _can_open_window() -> bool:
-    import os
-    import sys as _sys
-
-    return _sys.platform in ("win32", "darwin") or bool(os.environ.get("DISPLAY")
-                                                        or os.environ.get("WAYLAND_DISPLAY"))
 
 
 def _cmd_algorithms(args) -> int:

@@ -220,17 +220,20 @@ def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
 def run(viewer: Viewer, screenshot: Optional[str] = None):
     """Show the viewer in a window (or, with ``screenshot``, render one frame
     offscreen into that PNG file and return the picture)."""
-    from .viz import _image_plane, _pyvista
+    from .viz import _check_window, _image_plane, _pyvista
 
     pv = _pyvista()
     offscreen = screenshot is not None
-    plotter = pv.Plotter(off_screen=offscreen, window_size=(viewer.width, viewer.height),
+    plotter = pv.Plotter(off_screen=True if offscreen else None,  # None: pyvista.OFF_SCREEN
+                         window_size=(viewer.width, viewer.height),
                          border=False, title="zbuffer view")
+    _check_window(plotter)
     plotter.set_background("black")
 
     def show():
         grid = _image_plane(pv, viewer.frame())
-        plotter.add_mesh(grid, scalars="values", rgb=True, show_scalar_bar=False, name="frame")
+        plotter.add_mesh(grid, scalars="values", rgb=True, show_scalar_bar=False, name="frame",
+                         lighting=False)  # the frame's own colours (viz._add_image)
         plotter.add_text(viewer.status(), position="upper_left", font_size=9, color="white",
                          shadow=True, name="status")
         plotter.view_xy()

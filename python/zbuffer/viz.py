@@ -13,6 +13,7 @@ machines without a display (VTK renders offscreen through EGL with Mesa).
 from __future__ import annotations
 
 import os
+import sys
 from typing import Dict, Iterable, List, Optional, Sequence, Union
 
 import numpy as np
@@ -67,14 +68,20 @@ def _image_plane(pv, values: np.ndarray):
 def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
                scalar_bar=True, bar_title=None):
     grid = _image_plane(pv, values)
+    # Unlit: a picture shows its own colours (lit, the white background of a
+    # render came out (200, 197, 189)).
     if rgb:
-        plotter.add_mesh(grid, scalars="values", rgb=True, show_scalar_bar=False)
+        plotter.add_mesh(grid, scalars="values", rgb=True, show_scalar_bar=False,
+                         lighting=False)
     else:
         plotter.add_mesh(grid, scalars="values", cmap=cmap, clim=clim, nan_color="black",
-                         show_scalar_bar=False)
+                         show_scalar_bar=False, lighting=False)
         if scalar_bar:
-            plotter.add_scalar_bar(title=title if bar_title is None else bar_title, vertical=True,
-                                   n_labels=3, fmt="%.4f")
+            # Under the picture, inside its panel (upright at the right edge,
+            # the title and labels were cut off by the window's border).
+            plotter.add_scalar_bar(title=title if bar_title is None else bar_title,
+                                   vertical=False, position_x=0.2, position_y=0.03,
+                                   width=0.6, height=0.1, n_labels=3, fmt="%.4g")
     plotter.add_text(title, font_size=10)
     plotter.view_xy()
     plotter.enable_parallel_projection()
@@ -93,10 +100,29 @@ def _finish(plotter, screenshot):
     return plotter
 
 
+def _can_open_window() -> bool:
+    """Whether a window can be opened here (a display, or a desktop system)."""
+    return sys.platform in ("win32", "darwin") or bool(os.environ.get("DISPLAY")
+                                                       or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _check_window(plotter) -> None:
+    """RuntimeError (the plotter closed) for a plotter that would open a
+    window where none can open -- no display, not offscreen, not in a
+    notebook -- rather than pyvista's warning and nothing shown."""
+    if plotter.off_screen or plotter.notebook or _can_open_window():
+        return
+    plotter.close()
+    raise RuntimeError("no display to open a window on: pass screenshot='picture.png' to write "
+                       "a PNG file instead")
+
+
 def _plotter(pv, shape, window_size, screenshot):
     offscreen = screenshot is not None and screenshot is not False
-    plotter = pv.Plotter(shape=shape, off_screen=offscreen, window_size=window_size,
-                         border=False)
+    # (None: pyvista's own setting, pyvista.OFF_SCREEN)
+    plotter = pv.Plotter(shape=shape, off_screen=True if offscreen else None,
+                         window_size=window_size, border=False)
+    _check_window(plotter)
     plotter.set_background("white")
     return plotter
 
@@ -264,7 +290,7 @@ def show_pyramid_stack(source: Union[RenderResult, Sequence[np.ndarray]],
                             origin=(0, h - lh * scale, k * spacing * max(w, h)))
         grid.cell_data["depth"] = level[::-1].reshape(-1)
         plotter.add_mesh(grid, scalars="depth", cmap="viridis_r", clim=clim, nan_color="black",
-                         nan_opacity=0.08, opacity=1.0 if k == 0 else 0.85,
+                         nan_opacity=0.08, opacity=1.0 if k == 0 else 0.85, lighting=False,
                          show_scalar_bar=k == 0, show_edges=lw <= 32)
     plotter.add_text("Z-pyramid: each level the max of 2x2 cells below", font_size=10)
     plotter.view_isometric()
@@ -314,8 +340,16 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
                             **render_options)
                for name in names}
     first = results[names[0]]
+    same = np.where(np.isfinite(first.depth), first.depth, 0.0)
+    diffs = []
+    for name in names:
+        res = results[name]
+        diff = np.abs(np.where(np.isfinite(res.depth), res.depth, 0.0).astype(np.float64) - same)
+        diff[res.triangle_id != first.triangle_id] = 1.0
+        diffs.append(diff)
+    clim = (0.0, max(max(float(d.max()) for d in diffs), 1e-12))  # one scale, one bar
     plotter = _plotter(pv, (2, len(names)), (400 * len(names), 720), screenshot)
-    for k, name in enumerate(names):
+    for k, (name, diff) in enumerate(zip(names, diffs)):
         res = results[name]
         plotter.subplot(0, k)
         picture = res.image if res.image is not None else id_colors(res.triangle_id)
@@ -325,12 +359,9 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
                    f"culled",
                    rgb=True)
         plotter.subplot(1, k)
-        same = np.where(np.isfinite(first.depth), first.depth, 0.0)
-        other = np.where(np.isfinite(res.depth), res.depth, 0.0)
-        diff = np.abs(other.astype(np.float64) - same)
-        diff[res.triangle_id != first.triangle_id] = 1.0
-        _add_image(plotter, pv, diff, f"|depth - {names[0]}| (max {diff.max():g})",
-                   clim=(0.0, max(float(diff.max()), 1e-12)), cmap="magma")
+        _add_image(plotter, pv, diff, f"depth difference from {names[0]}: max {diff.max():g}",
+                   clim=clim, cmap="magma", scalar_bar=k == 0,
+                   bar_title="depth difference (1: another triangle)")
     _finish(plotter, screenshot)
     return results
 

@@ -42,6 +42,40 @@ def test_show_result_writes_a_picture(result, tmp_path):
     assert not_blank(image)
 
 
+def test_pictures_show_their_own_colours(tmp_path):
+    # Drawn unlit: pyvista's lights turned a white background into (200, 197, 189).
+    res = zbuffer.render(scenes.default_scene(), width=40, height=30)
+    res.image[:] = (10, 200, 90)
+    shown = viz.show_result(res, screenshot=True, window_size=(600, 200))
+    assert tuple(shown[100, 100]) == (10, 200, 90)  # the middle of the image's panel
+    frame = zbuffer.viewer.Viewer(scenes.default_scene(), width=96, height=72)
+    picture = viz_image(_view_screenshot(frame, tmp_path / "view.png"))
+    np.testing.assert_array_equal(picture[36:, :, :3], frame.frame()[36:])  # (below the status)
+
+
+def _view_screenshot(viewer, path):
+    from zbuffer.viewer import run
+
+    run(viewer, screenshot=str(path))
+    return path
+
+
+def test_no_window_where_none_can_open(monkeypatch):
+    # No display, not offscreen, not a notebook: an error saying so, not
+    # pyvista's warning and a plotter that shows nothing.
+    monkeypatch.setattr(pv, "OFF_SCREEN", False)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    res = zbuffer.render(scenes.default_scene(), width=40, height=30)
+    with pytest.raises(RuntimeError, match="no display to open a window on"):
+        res.show()
+    with pytest.raises(RuntimeError, match="no display to open a window on"):
+        zbuffer.viewer.run(zbuffer.viewer.Viewer(scenes.default_scene(), width=40, height=30))
+    monkeypatch.setattr(pv, "OFF_SCREEN", True)  # pyvista told to draw offscreen: no error
+    assert res.show() is not None
+
+
 def test_show_result_without_image(tmp_path):
     res = zbuffer.render(scenes.default_scene(), width=80, height=60, shading="none")
     image = viz.show_result(res, screenshot=str(tmp_path / "r.png"), window_size=(400, 200))
