@@ -144,6 +144,15 @@ def test_unknown_algorithm_lists_the_valid_names():
         _core.render(V, F.astype(np.int32), np.eye(4), 8, 8, "painter")
 
 
+def test_a_camera_in_algos_place_says_where_it_goes():
+    # render(mesh, cam) -- Scene.render takes the camera first, render the algorithm
+    cam = zbuffer.Camera.look_at(eye=(0, 0, 3), target=(0, 0, 0))
+    with pytest.raises(TypeError, match=r"got a Camera: pass it as camera=\.\.\."):
+        zbuffer.render((V, F), cam)
+    with pytest.raises(TypeError, match=r"algo must be an algorithm name \(a str\), got int"):
+        zbuffer.Scene((V, F)).render(cam, 3)
+
+
 def test_bad_options(render):
     with pytest.raises(ValueError, match="unknown shading 'phong'"):
         render((V, F), shading="phong")

@@ -270,7 +270,13 @@ def claimed(arrays):
 
 
 def check_algorithm(algo) -> None:
-    """ValueError unless ``algo`` names a registered algorithm."""
+    """ValueError unless ``algo`` names a registered algorithm (TypeError
+    for what is not a name at all)."""
+    if isinstance(algo, Camera):  # render(mesh, cam): Scene.render takes the camera first
+        raise TypeError("algo must be an algorithm name, got a Camera: pass it as camera=... "
+                        "(render's second argument is algo)")
+    if not isinstance(algo, str):
+        raise TypeError(f"algo must be an algorithm name (a str), got {type(algo).__name__}")
     if algo not in _ALGORITHMS:
         raise ValueError(
             f"unknown algorithm {algo!r}; valid names are {', '.join(map(repr, _ALGORITHMS))}"

@@ -122,7 +122,8 @@ class Viewer:
         """Switch an overlay on (or off, if it is on). "pyramid" steps one
         level coarser each call instead, and off after the last level."""
         if overlay not in ("depth", "pyramid", "tree"):
-            raise ValueError(f"unknown overlay {overlay!r}")
+            raise ValueError(f"unknown overlay {overlay!r}; valid names are 'depth', 'pyramid', "
+                             "'tree'")
         if overlay == "pyramid":
             levels = _pyramid_levels(self.width, self.height)
             if self.overlay != "pyramid":
