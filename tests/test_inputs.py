@@ -64,6 +64,29 @@ def test_other_pyvista_datasets_render_their_outer_surface():
     assert box.mask.any()
 
 
+def test_pyvista_colours_are_kept():
+    # Active uint8 RGB(A) scalars are colours (per point: vertex colours, per
+    # cell: face colours); other scalars are data.
+    pv = pytest.importorskip("pyvista")
+    sphere = pv.Sphere(theta_resolution=16, phi_resolution=12)
+    sphere.point_data["RGB"] = np.tile(np.array([0, 0, 255], np.uint8), (sphere.n_points, 1))
+    mesh = zbuffer.as_mesh(sphere)
+    np.testing.assert_array_equal(mesh.vertex_colors, np.tile([0, 0, 1], (sphere.n_points, 1)))
+    image = zbuffer.render(sphere, width=32, height=32, light_dir=(0, 0, -1)).image
+    assert image[16, 16, 2] > 200 and image[16, 16, :2].max() == 0
+    sphere.point_data["height"] = sphere.points[:, 2]
+    sphere.set_active_scalars("height")  # data, not a colour
+    assert zbuffer.as_mesh(sphere).vertex_colors is None
+    # Cells: a line and a point come first in a PolyData's cells; a quad is two triangles.
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 2, 0]], float)
+    poly = pv.PolyData(points, faces=[3, 0, 1, 2, 4, 1, 3, 4, 2], lines=[2, 0, 4], verts=[1, 3])
+    poly.cell_data["RGBA"] = np.array([[9, 9, 9, 255], [9, 9, 9, 255], [255, 0, 0, 255],
+                                       [0, 255, 0, 255]], np.uint8)
+    mesh = zbuffer.as_mesh(poly)
+    assert len(mesh.faces) == 3
+    np.testing.assert_array_equal(mesh.face_colors, [[1, 0, 0], [0, 1, 0], [0, 1, 0]])
+
+
 def test_scene_is_concatenated_with_colours():
     a = trimesh.creation.box()
     a.visual.face_colors = [255, 0, 0, 255]

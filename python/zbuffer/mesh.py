@@ -669,13 +669,34 @@ def _has_content(path: str) -> bool:
     return False
 
 
+def _pyvista_colors(poly, n_faces: int) -> dict:
+    """The vertex or face colours of a triangulated pyvista.PolyData, as
+    Mesh's keyword arguments: its active scalars when they are uint8 with 3
+    or 4 components (RGB or RGBA, as pyvista reads them from PLY files and
+    plots them); other scalars are data, not colours, and are not kept."""
+    name = poly.active_scalars_name
+    if name is None:
+        return {}
+    association = poly.active_scalars_info.association.name
+    values = np.asarray(poly.active_scalars)
+    if values.dtype != np.uint8 or values.ndim != 2 or values.shape[1] not in (3, 4):
+        return {}
+    if association == "POINT" and len(values) == poly.n_points:
+        return {"vertex_colors": values}
+    if association == "CELL" and len(values) == poly.n_cells == n_faces:
+        return {"face_colors": values}
+    return {}
+
+
 def as_mesh(obj) -> Mesh:
     """Turn anything :func:`zbuffer.render` accepts into a :class:`Mesh`.
 
     Accepted: a :class:`Mesh`; a ``trimesh.Trimesh``; a ``trimesh.Scene``
     (concatenated); a ``pyvista.PolyData`` (triangulated), or any other
     pyvista dataset (its outer surface, triangulated); a
-    ``(vertices, faces)`` pair of arrays; a file path.
+    ``(vertices, faces)`` pair of arrays; a file path. The colours of
+    trimesh meshes are kept, and those of pyvista datasets whose active
+    scalars are uint8 RGB or RGBA (per point or per cell).
     """
     if isinstance(obj, Mesh):
         return obj
@@ -699,12 +720,18 @@ def as_mesh(obj) -> Mesh:
                 obj = obj.extract_surface(algorithm="dataset_surface")
             except TypeError:
                 obj = obj.extract_surface()
+        points_and_lines = obj.n_verts + obj.n_lines  # (cells numbered these first, then polygons)
+        if points_and_lines and obj.n_cells > points_and_lines:
+            # Nothing to draw; and VTK's triangle filter can misplace the
+            # polygons' cell data (colours) when they are there.
+            obj = obj.remove_cells(np.arange(points_and_lines))
         poly = obj.triangulate()  # quads, polygons and strips to triangles
         if poly.faces.size:
             faces = np.asarray(poly.regular_faces)
         else:  # only points or lines: nothing to render
             faces = np.zeros((0, 3), np.int32)
-        return Mesh(np.asarray(poly.points, dtype=np.float64), faces)
+        return Mesh(np.asarray(poly.points, dtype=np.float64), faces,
+                    **_pyvista_colors(poly, len(faces)))
     if isinstance(obj, (tuple, list)) and len(obj) == 2:
         return Mesh(obj[0], obj[1])
     raise TypeError(
