@@ -84,6 +84,42 @@ def test_ties_with_an_occluder_are_never_culled(algo):
     assert set(np.unique(res.triangle_id)) <= {-1, 0, 1}
 
 
+def test_a_triangle_touching_the_pyramids_depth_is_not_culled():
+    # Strictly farther, or drawn: a wall of 3,200 triangles at depth 0.5
+    # (identity MVP) is drawn first -- more than a batch, so the pyramid
+    # holds it -- then T, whose nearest depth is the wall's exactly (its top
+    # edge lies in the wall, 20 pixel centres on it) and whose id, 0, wins
+    # those ties; then U, wholly behind the wall. A test culling at equal
+    # depths would cull T (and lose its 20 pixels) as it culls U.
+    from zbuffer import _core, reference
+
+    size, n = 64, 40
+    xs = np.linspace(-1, 1, n + 1)
+    gx, gy = np.meshgrid(xs, xs)
+    wall_v = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], 1)
+    at = lambda i, j: i * (n + 1) + j  # noqa: E731
+    wall_f = np.array([f for i in range(n) for j in range(n)
+                       for f in ([at(i, j), at(i, j + 1), at(i + 1, j + 1)],
+                                 [at(i, j), at(i + 1, j + 1), at(i + 1, j)])])
+    ndc = lambda px, py, z: [px / (size / 2) - 1, 1 - py / (size / 2), z]  # noqa: E731
+    t = [ndc(10.5, 20.5, 0.0), ndc(30.5, 20.5, 0.0), ndc(20.5, 40.5, 0.5)]
+    u = [ndc(40.5, 40.5, 0.2), ndc(50.5, 40.5, 0.2), ndc(45.5, 50.5, 0.3)]
+    v = np.vstack([wall_v, t, u])
+    k = len(wall_v)
+    faces = np.vstack([wall_f, [[k, k + 1, k + 2], [k + 3, k + 4, k + 5]]]).astype(np.int32)
+    ids = np.concatenate([np.arange(2, len(wall_f) + 2), [0, 1]]).astype(np.int32)  # visit order
+    by_id = faces[np.argsort(ids)]
+    tris, _ = reference.vertex_stage(v, by_id, np.eye(4), size, size, False)
+    ref_depth, ref_ids, _ = reference.rasterize(tris, size, size)
+    assert (ref_ids == 0).sum() == 20 and not (ref_ids == 1).any()
+    for algo in HIERARCHICAL:
+        depth, tri_ids, stats = _core.render(v, faces, np.eye(4), size, size, algo, False, ids)
+        np.testing.assert_array_equal(tri_ids, ref_ids, err_msg=algo)
+        np.testing.assert_array_equal(depth, ref_depth, err_msg=algo)
+        if algo == "hiz":  # (visited in this order: the tests ran)
+            assert stats["culled_hidden"] == 1
+
+
 def test_pyramid_levels_hold_the_max_of_their_children():
     mesh = scenes.default_scene()
     res = zbuffer.render(mesh, width=101, height=77, shading="none")
