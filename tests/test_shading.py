@@ -323,3 +323,40 @@ def test_per_vertex_colours_of_faces_collinear_within_rounding():
             assert _compiled_and_reference(mesh, camera=cam, width=1024, height=1024,
                                            shading=shading) <= 1
     assert drawn >= 15
+
+
+@pytest.mark.parametrize("shading", ["none", "flat", "smooth"])
+def test_the_reference_calls_no_compiled_code(monkeypatch, tmp_path, shading):
+    # zbuffer.reference is pure numpy: with every module's handle on the
+    # compiled core replaced by one that refuses, it renders the same bits
+    # (vertex colours, and polygon faces drawn natively, too).
+    import sys
+
+    class Refuse:
+        def __getattr__(self, name):
+            raise AssertionError(f"the reference called the compiled core: _core.{name}")
+
+    v, f = scenes.uv_sphere(n_lat=8, n_lon=12)
+    colours = np.random.default_rng(0).uniform(size=(len(v), 3))
+    path = tmp_path / "polygons.obj"
+    path.write_text("v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nv 3 0 0\n"
+                    "f 1 2 3 4 5\nf 2 6 3\n")  # a concave pentagon and a triangle
+    cam = zbuffer.Camera.look_at((0.2, 0.3, 3), (0, 0, 0))
+    poly_cam = zbuffer.Camera.look_at((1.5, 1, 5), (1.5, 1, 0), fov_y=50)
+
+    def renders():
+        return (zbuffer.reference.render(zbuffer.Mesh(v, f, vertex_colors=colours), camera=cam,
+                                         width=40, height=30, shading=shading),
+                zbuffer.reference.render(zbuffer.load(path), camera=poly_cam, width=40,
+                                         height=30, shading=shading, polygons=True))
+
+    expected = renders()
+    for name, module in list(sys.modules.items()):
+        if (name == "zbuffer" or name.startswith("zbuffer.")) and hasattr(module, "_core"):
+            monkeypatch.setattr(module, "_core", Refuse())
+    monkeypatch.setitem(sys.modules, "zbuffer._core", Refuse())
+    for res, exp in zip(renders(), expected):
+        np.testing.assert_array_equal(res.triangle_id, exp.triangle_id)
+        np.testing.assert_array_equal(res.depth, exp.depth)
+        if shading != "none":
+            np.testing.assert_array_equal(res.image, exp.image)

@@ -584,7 +584,8 @@ def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
         stats.update(pixel_stats)
     image = None
     if params.mode != "none":
-        image = shade_numpy(mesh, triangle_id, camera, mvp, params)
+        normals = vertex_normals(mesh.vertices, mesh.faces) if params.mode == "smooth" else None
+        image = shade_numpy(mesh, triangle_id, camera, mvp, params, vertex_normals=normals)
     stats["total_ms"] = (time.perf_counter() - start) * 1e3
     return RenderResult(image=image, depth=depth, triangle_id=triangle_id, stats=stats,
                         camera=camera, mvp=mvp, algo="reference")

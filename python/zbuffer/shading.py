@@ -138,8 +138,11 @@ def face_normal_directions(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
 
 
 def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
-                params: ShadingParams) -> np.ndarray:
-    """The shading pass in numpy: (H, W, 3) uint8 image of a visibility result."""
+                params: ShadingParams, vertex_normals=None) -> np.ndarray:
+    """The shading pass in numpy: (H, W, 3) uint8 image of a visibility
+    result. ``vertex_normals``: the mesh's, for smooth shading (default:
+    ``mesh.vertex_normals``, computed by the compiled core; the reference
+    passes its own numpy ones, the same bits)."""
     height, width = triangle_id.shape
     image = np.empty((height, width, 3), np.uint8)
     image[...] = params.background
@@ -201,7 +204,7 @@ def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
 
     n = ng
     if smooth:
-        vn = mesh.vertex_normals
+        vn = mesh.vertex_normals if vertex_normals is None else vertex_normals
         ns = (b0[:, None] * vn[idx[:, 0]] + b1[:, None] * vn[idx[:, 1]]
               + b2[:, None] * vn[idx[:, 2]])
         n = np.where((_dot(ns, ns) > 0.0)[:, None], ns, ng)
