@@ -229,8 +229,8 @@ def markdown(report: dict) -> str:
         "",
         "| N | triangles | projection | algorithm | mode | ms | x zbuffer | build ms "
         "| rasterized | culled by triangle test | in culled nodes | cull ratio "
-        "| nodes visited / hidden |",
-        "|---:|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|",
+        "| nodes visited / hidden | pyramid cells updated | pyramid ms |",
+        "|---:|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|",
     ]
     for c in report["grid"]:
         base = next(d for d in report["grid"] if d["N"] == c["N"]
@@ -242,24 +242,32 @@ def markdown(report: dict) -> str:
         lines.append(
             f"| {c['N']} | {c['triangles']:,} | {c['projection']} | {c['algo']} | {c['mode']} | "
             f"{c['ms_median']:.1f} | {ratio:.2f} | {build} | {c['rasterized']:,} | "
-            f"{c['culled_hidden']:,} | {c['culled_in_nodes']:,} | {c['cull_ratio']:.1%} | {nodes} |")
+            f"{c['culled_hidden']:,} | {c['culled_in_nodes']:,} | {c['cull_ratio']:.1%} | {nodes} | "
+            + (f"{c['pyramid_cells_updated']:,} | {c['pyramid_ms']:.1f} |" if c["algo"] != "zbuffer"
+               else " | |"))
     if report.get("unoccluded"):
         lines += ["", "Single unoccluded meshes (camera framing the mesh), same size, x zbuffer "
                   "per frame in the same run:", "",
-                  "| mesh | algorithm | mode | ms | x zbuffer | rasterized |", "|---|---|---|---:|---:|---:|"]
+                  "| mesh | algorithm | mode | ms | x zbuffer | rasterized | cull ratio "
+                  "| pyramid cells updated | pyramid ms |",
+                  "|---|---|---|---:|---:|---:|---:|---:|---:|"]
         for c in report["unoccluded"]:
             base = next(d for d in report["unoccluded"] if d["mesh"] == c["mesh"]
                         and d["algo"] == "zbuffer")
+            pyramid = (f"{c['pyramid_cells_updated']:,} | {c['pyramid_ms']:.2f}"
+                       if c["algo"] != "zbuffer" else " | ")
             lines.append(f"| {c['mesh']} | {c['algo']} | {c['mode']} | {c['ms_median']:.2f} | "
-                         f"{c['ms_median'] / base['ms_median']:.2f} | {c['rasterized']:,} |")
-    lines += ["", "Output sensitivity (built once, perspective): time at the largest N over "
-              "time at the smallest:", ""]
-    for algo in TREES:
-        rows = [c for c in report["grid"] if c["algo"] == algo and c["mode"] == "built once"
-                and c["projection"] == "perspective"]
-        if len(rows) >= 2:
-            lines.append(f"- {algo}: N={rows[-1]['N']} / N={rows[0]['N']} = "
-                         f"{rows[-1]['ms_median'] / rows[0]['ms_median']:.2f}")
+                         f"{c['ms_median'] / base['ms_median']:.2f} | {c['rasterized']:,} | "
+                         f"{c['cull_ratio']:.1%} | {pyramid} |")
+    lines += ["", "Output sensitivity (built once): time at the largest N over time at the "
+              "smallest:", ""]
+    for projection in ("perspective", "orthographic"):
+        for algo in TREES:
+            rows = [c for c in report["grid"] if c["algo"] == algo and c["mode"] == "built once"
+                    and c["projection"] == projection]
+            if len(rows) >= 2:
+                lines.append(f"- {algo}, {projection}: N={rows[-1]['N']} / N={rows[0]['N']} = "
+                             f"{rows[-1]['ms_median'] / rows[0]['ms_median']:.2f}")
     if report.get("order"):
         c0 = report["order"][0]
         lines += ["", f"Submission order: a scaled spot.obj in front of bunny_69k.obj "

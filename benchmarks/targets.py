@@ -111,21 +111,26 @@ def _hiz(report):
     if not ns:
         return lines
     top, low = ns[-1], ns[0]
-    base = case(top, "perspective", "zbuffer", "per frame")
-    for algo in ("hiz_octree", "hiz_bvh"):
-        c = case(top, "perspective", algo, "built once")
-        if c and base:
-            speedup = base["ms_median"] / c["ms_median"]
-            lines.append(verdict(speedup >= 5 if algo == "hiz_octree" else True,
-                                 f"`{algo}` built once, N={top}, perspective: {speedup:.1f}x "
-                                 f"faster than `zbuffer`"
-                                 + (" (target >= 5x; issue 4)." if algo == "hiz_octree" else ".")))
-        c0 = case(low, "perspective", algo, "built once")
-        if c and c0 and top != low and algo == "hiz_octree":
-            growth = c["ms_median"] / c0["ms_median"]
-            lines.append(verdict(growth <= 2, f"output sensitivity of `{algo}`: time at N={top} "
-                                 f"is {growth:.2f}x its time at N={low} ({top // low}x the "
-                                 "triangles; target <= 2x; issue 4)."))
+    # Issue 4 runs the grid in both projections; its built-once targets are
+    # checked in both (in orthographic view the copies' silhouettes coincide:
+    # benchmarks/README.md says why few nodes are hidden whole there).
+    for projection in ("perspective", "orthographic"):
+        base = case(top, projection, "zbuffer", "per frame")
+        for algo in ("hiz_octree", "hiz_bvh"):
+            c = case(top, projection, algo, "built once")
+            if c and base:
+                speedup = base["ms_median"] / c["ms_median"]
+                lines.append(verdict(speedup >= 5 if algo == "hiz_octree" else True,
+                                     f"`{algo}` built once, N={top}, {projection}: "
+                                     f"{speedup:.1f}x faster than `zbuffer`"
+                                     + (" (target >= 5x; issue 4)." if algo == "hiz_octree"
+                                        else ".")))
+            c0 = case(low, projection, algo, "built once")
+            if c and c0 and top != low and algo == "hiz_octree":
+                growth = c["ms_median"] / c0["ms_median"]
+                lines.append(verdict(growth <= 2, f"output sensitivity of `{algo}`, {projection}: "
+                                     f"time at N={top} is {growth:.2f}x its time at N={low} "
+                                     f"({top // low}x the triangles; target <= 2x; issue 4)."))
     for projection in ("perspective", "orthographic"):
         for n in [n for n in ns if n >= 20]:
             zb = case(n, projection, "zbuffer", "per frame")
