@@ -99,6 +99,15 @@ def test_algorithms_lists_the_registry(capsys):
     assert capsys.readouterr().out.startswith("zbuffer ")
 
 
+def test_version_is_the_installed_distributions(capsys):
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.strip() == f"zbuffer {version('zbuffer')}"
+
+
 @pytest.mark.skipif(__import__("sys").platform in ("win32", "darwin"), reason="always has a display")
 def test_view_without_a_display_asks_for_a_screenshot(monkeypatch, capsys):
     monkeypatch.delenv("DISPLAY", raising=False)

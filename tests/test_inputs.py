@@ -164,3 +164,12 @@ def test_pickled_meshes_and_arrays_render():
     from zbuffer import _core
     with pytest.raises(TypeError, match="positions must have dtype float64"):
         _core.render(mesh.vertices.astype(">f8"), mesh.faces, np.eye(4), 8, 8)
+
+
+def test_a_results_repr_is_one_line_not_its_arrays():
+    res = zbuffer.render(scenes.default_scene(), algo="hiz", width=40, height=30,
+                         shading="none", record_culls=True)
+    text = repr(res)
+    drawn = int((res.triangle_id >= 0).sum())
+    assert text.startswith(f"<RenderResult 'hiz' 40x30, no image: {drawn:,} pixels drawn, ")
+    assert text.endswith(", culls recorded>") and "\n" not in text and "array" not in text

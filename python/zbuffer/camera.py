@@ -125,9 +125,12 @@ class Camera:
         Camera position, the point it looks at, and the approximate up vector.
     projection : {"perspective", "orthographic"}
     fov_y : float
-        Vertical field of view in degrees (perspective only).
+        Vertical field of view in degrees (perspective only: an orthographic
+        camera keeps it unused, so that ``dataclasses.replace(cam,
+        projection=...)`` switches between the two).
     ortho_height : float or None
-        Height of the view volume in world units (orthographic only).
+        Height of the view volume in world units (orthographic only; kept
+        unused by a perspective camera, likewise).
     near, far : float or None
         Distances of the clip planes along the viewing direction. For a
         perspective camera ``0 < near < far``; for an orthographic one only
@@ -212,12 +215,14 @@ class Camera:
         up : (3,) array_like of float
             Any vector not parallel to ``target - eye``.
         fov_y : float
-            Vertical field of view in degrees (perspective).
+            Vertical field of view in degrees (perspective; an orthographic
+            camera keeps it unused).
         near, far : float, optional
             Clip plane distances; fitted to the rendered mesh when omitted.
         projection : {"perspective", "orthographic"}
         ortho_height : float, optional
-            View volume height for orthographic cameras; fitted when omitted.
+            View volume height for orthographic cameras; fitted when omitted
+            (a perspective camera keeps it unused).
 
         Raises
         ------
@@ -251,7 +256,8 @@ class Camera:
             Direction from the points' centre towards the camera.
         up : (3,) array_like of float
         fov_y : float
-            Vertical field of view in degrees (perspective).
+            Vertical field of view in degrees (perspective; an orthographic
+            camera keeps it unused).
         projection : {"perspective", "orthographic"}
         aspect : float
             Image width / height; the narrower side decides the distance.

@@ -262,8 +262,12 @@ def _cmd_bench(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The command line's parser: ``zbuffer render | view | algorithms | bench ...``."""
+    from . import __version__
+
     parser = argparse.ArgumentParser(
         prog="zbuffer", description="Exact software Z-buffer renderers for triangle meshes.")
+    parser.add_argument("--version", action="version", version=f"zbuffer {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("render", help="render a mesh file (or the built-in scene) to PNG")
@@ -273,7 +277,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--size", type=_size, default=(800, 600), help="WIDTHxHEIGHT (default 800x600)")
     r.add_argument("--out", default="render.png",
                    help="shaded image to write (default render.png); 'none' to skip")
-    r.add_argument("--depth", default=None, help="also write the depth map (distance along the view axis) as a 16-bit PNG")
+    r.add_argument("--depth", default=None, help="also write the depth map (distance along the view axis) as a 16-bit PNG, "
+                   "scaled per image: nearest white, farthest dark grey, nothing drawn black")
     r.add_argument("--shading", choices=["flat", "smooth"], default="flat",
                    help="Lambert shading from face normals (flat, default) or interpolated "
                         "vertex normals (smooth)")

@@ -12,7 +12,7 @@ from .camera import Camera
 __all__ = ["RenderResult"]
 
 
-@dataclass
+@dataclass(repr=False)
 class RenderResult:
     """What :func:`render` returns.
 
@@ -61,6 +61,15 @@ class RenderResult:
 
     def __post_init__(self):
         self.height, self.width = self.depth.shape
+
+    def __repr__(self) -> str:
+        # A line, not every array (the camera is repr(res.camera) away).
+        drawn = int(np.count_nonzero(self.triangle_id >= 0))
+        ms = self.stats.get("total_ms")
+        return (f"<RenderResult {self.algo!r} {self.width}x{self.height}"
+                f"{'' if self.image is not None else ', no image'}: {drawn:,} pixels drawn"
+                + (f", {ms:.2f} ms" if isinstance(ms, float) else "")
+                + (", culls recorded" if self.culls is not None else "") + ">")
 
     @property
     def mask(self) -> np.ndarray:
