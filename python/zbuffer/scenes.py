@@ -137,11 +137,36 @@ def default_scene() -> Mesh:
 
 def default_camera(aspect: float = 4.0 / 3.0, up=(0.0, 1.0, 0.0)):
     """A camera looking at :func:`default_scene` from the front, above and right
-    (``up``: the world direction shown upwards)."""
+    (``up``: the world direction shown upwards; it turns the view about the
+    same eye and target)."""
     from .camera import Camera
 
-    return Camera.fit(default_scene(), direction=(0.45, 0.55, 1.0), up=up, aspect=aspect,
-                      margin=0.8)
+    mesh = default_scene()
+    y_up = (0.0, 1.0, 0.0)
+    camera = Camera.fit(mesh, direction=(0.45, 0.55, 1.0), up=y_up, aspect=aspect)
+    # Fitted to the bounding sphere, the scene (low and wide) would sit in
+    # the lower part of the picture: aim at the middle of its projection and
+    # come closer until its larger extent spans 90% of the picture, in a few
+    # steps.
+    points = np.c_[mesh.vertices, np.ones(len(mesh.vertices))]
+    for _ in range(4):
+        resolved = camera.resolve(mesh)
+        clip = points @ (resolved.projection_matrix(aspect) @ resolved.view_matrix()).T
+        ndc = clip[:, :2] / clip[:, 3:]
+        centre = (ndc.min(axis=0) + ndc.max(axis=0)) / 2
+        half = float(np.max((ndc.max(axis=0) - ndc.min(axis=0)) / 2))
+        eye, target = np.array(camera.eye), np.array(camera.target)
+        back = eye - target
+        distance = float(np.linalg.norm(back))
+        right = np.cross(y_up, back)
+        right /= np.linalg.norm(right)
+        upward = np.cross(back, right) / distance
+        tan = np.tan(np.radians(camera.fov_y) / 2)
+        shift = distance * tan * (centre[0] * aspect * right + centre[1] * upward)
+        target = target + shift
+        eye = target + back * (half / 0.9)
+        camera = Camera.look_at(tuple(eye), tuple(target), up=y_up, fov_y=camera.fov_y)
+    return Camera.look_at(camera.eye, camera.target, up=up, fov_y=camera.fov_y)
 
 
 # Test Scenes
