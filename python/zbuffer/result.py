@@ -101,8 +101,11 @@ class RenderResult:
     def pyramid(self) -> List[np.ndarray]:
         """The Z-pyramid of ``depth``: a list of float32 arrays from ``depth``
         itself down to 1 x 1, each cell the farthest depth of its 2 x 2
-        children (+inf where nothing was drawn below it). It equals the
-        pyramid the ``hiz`` algorithms hold at the end of the render."""
+        children (+inf where nothing was drawn below it), computed from the
+        final depth. The algorithms' own pyramids keep only its coarser
+        levels (from 8 x 8 pixels for ``hiz``, 4 x 4 for the trees) and may
+        lag the last batches drawn (never nearer than these: depth only
+        decreases); brought up to date, they equal these levels."""
         from . import _core
 
         return _core.pyramid_levels(self.depth)
