@@ -103,7 +103,7 @@ def test_shading_cycle_and_false_colour_ids(viewer):
 def test_bad_arguments():
     with pytest.raises(ValueError, match="unknown algorithm 'fast'"):
         Viewer(scenes.default_scene(), algo="fast")
-    with pytest.raises(ValueError, match="shading must be one of"):
+    with pytest.raises(ValueError, match="unknown shading .phong.; valid values are .flat."):
         Viewer(scenes.default_scene(), shading="phong")
     with pytest.raises(ValueError, match="unknown overlay 'normals'; valid names are 'depth'"):
         Viewer(scenes.default_scene()).toggle("normals")

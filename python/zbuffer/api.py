@@ -1,4 +1,5 @@
-"""The public entry points: :func:`render`, :class:`RenderResult`, :func:`algorithms`."""
+"""The public entry points: :func:`render` and :func:`algorithms` (the
+result is a :class:`~zbuffer.result.RenderResult`)."""
 
 from __future__ import annotations
 

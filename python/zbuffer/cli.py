@@ -5,6 +5,7 @@
     zbuffer view bunny.obj --algo hiz_octree        # a live window (see zbuffer.viewer)
     zbuffer view --screenshot frame.png             # one frame offscreen, then exit
     zbuffer algorithms
+    zbuffer bench [SUITE ...] [--quick]             # a source checkout's benchmarks
 """
 
 from __future__ import annotations
@@ -15,6 +16,11 @@ import sys
 from typing import Optional, Sequence
 
 import numpy as np
+
+from .camera import PROJECTIONS
+from .options import DEFAULT_SIZE
+from .scene import TREE_ALGORITHMS
+from .shading import SHADINGS
 
 __all__ = ["main", "save_image", "save_depth"]
 
@@ -55,8 +61,6 @@ def _check_output(path: str, what: str, suffixes) -> None:
 def _write(path: str, what: str, write) -> None:
     """``write(path)``, with an OSError reported as a ValueError naming the
     file (and no half-written file left behind)."""
-    import os
-
     try:
         write(path)
     except OSError as err:
@@ -179,12 +183,11 @@ def _cmd_view(args) -> int:
         _check_output(args.screenshot, "--screenshot", (".png",))
     mesh = default_scene() if args.mesh is None else zbuffer.load(args.mesh)
     viewer = Viewer(mesh, algo=args.algo, width=width, height=height, shading=args.shading)
-    if args.overlay == "pyramid":
-        viewer.render()
     if args.overlay != "none":
         viewer.toggle(args.overlay)
         if viewer.overlay != args.overlay:
-            raise ValueError(f"overlay {args.overlay!r} needs a tree algorithm (hiz_octree, hiz_bvh)")
+            raise ValueError(f"overlay {args.overlay!r} needs a tree algorithm "
+                             f"({', '.join(TREE_ALGORITHMS)})")
     if args.screenshot is None and not _can_open_window():
         raise ValueError("no display to open a window on; use --screenshot FILE")
     run(viewer, screenshot=args.screenshot)
@@ -207,7 +210,6 @@ def find_benchmarks():
     folder named by $ZBUFFER_BENCHMARKS, else the checkout this package runs
     from (an editable install), else ``benchmarks/`` in the current folder or
     one above it."""
-    import os
     from pathlib import Path
 
     def is_harness(folder: Path) -> bool:
@@ -274,7 +276,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("mesh", nargs="?", help="mesh file (any format trimesh reads); "
                    "omitted: the built-in default scene")
     r.add_argument("--algo", default="zbuffer", help="depth algorithm (see 'zbuffer algorithms')")
-    r.add_argument("--size", type=_size, default=(800, 600), help="WIDTHxHEIGHT (default 800x600)")
+    r.add_argument("--size", type=_size, default=DEFAULT_SIZE,
+                   help="WIDTHxHEIGHT (default %dx%d)" % DEFAULT_SIZE)
     r.add_argument("--out", default="render.png",
                    help="shaded image to write (default render.png); 'none' to skip")
     r.add_argument("--depth", default=None, help="also write the depth map (distance along the view axis) as a 16-bit PNG, "
@@ -283,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="Lambert shading from face normals (flat, default) or interpolated "
                         "vertex normals (smooth)")
     r.add_argument("--cull-backfaces", action="store_true", help="skip back-facing triangles")
-    r.add_argument("--projection", choices=["perspective", "orthographic"], default=None,
+    r.add_argument("--projection", choices=PROJECTIONS, default=None,
                    help="camera projection (default perspective)")
     r.add_argument("--fov", type=float, default=None,
                    help="vertical field of view in degrees (default 45)")
@@ -305,8 +308,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "(drag: rotate, wheel: zoom, keys a/s/d/p/o/r; see zbuffer.viewer)")
     v.add_argument("mesh", nargs="?", help="mesh file; omitted: the built-in default scene")
     v.add_argument("--algo", default="hiz_octree", help="starting algorithm (key a: next)")
-    v.add_argument("--size", type=_size, default=(800, 600), help="WIDTHxHEIGHT (default 800x600)")
-    v.add_argument("--shading", choices=["flat", "smooth", "none"], default="flat")
+    v.add_argument("--size", type=_size, default=DEFAULT_SIZE,
+                   help="WIDTHxHEIGHT (default %dx%d)" % DEFAULT_SIZE)
+    v.add_argument("--shading", choices=SHADINGS, default="flat")
     v.add_argument("--overlay", choices=["none", "depth", "pyramid", "tree"], default="none",
                    help="starting overlay (keys d, p, o)")
     v.add_argument("--screenshot", default=None, metavar="FILE",

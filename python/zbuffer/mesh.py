@@ -243,7 +243,7 @@ class Mesh:
     # The positions and faces are fixed for a Mesh's life (caches, prepared
     # orders and Scenes' trees are made from them): read-only arrays, and
     # attributes that cannot be set anew (a Scene's tree over other faces
-    # than the ones shaded read out of bounds; a fuzzer's find).
+    # than the ones shaded would read out of bounds).
     @property
     def vertices(self) -> np.ndarray:
         """(N, 3) float64 positions, read-only."""
@@ -270,17 +270,6 @@ class Mesh:
         used = np.zeros(len(self.vertices), bool)
         used[self.faces.reshape(-1)] = True
         return bounding_sphere(self.vertices if used.all() else self.vertices[used])
-
-    @cached_property
-    def face_normals(self) -> np.ndarray:
-        """(M, 3) float64 unit normals, right-hand rule on the face's vertex
-        order; zero for degenerate faces."""
-        from .shading import face_normal_directions  # (scaled where they would over- or underflow)
-
-        p = self.vertices[self.faces]
-        n = face_normal_directions(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        length = np.linalg.norm(n, axis=1, keepdims=True)
-        return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 
     @cached_property
     def vertex_normals(self) -> np.ndarray:

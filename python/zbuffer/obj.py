@@ -185,7 +185,7 @@ def _ear_clip(p2: np.ndarray) -> List[Tuple[int, int, int]]:
     goes on from its neighbour, and a candidate is tested only against the
     corners that are not convex (only such a corner can lie in an ear of a
     simple polygon), all at once: O(n^2) for n corners in the worst case,
-    not O(n^3) (a 2,000-corner spiral: 233 s before, well under a second now).
+    not O(n^3) (a 2,000-corner spiral takes well under a second).
     """
     n = len(p2)
     x = p2[:, 0].astype(np.float64)
@@ -275,7 +275,7 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
         # decisions), so that no product below -- up to the fourth power of
         # the coordinates -- underflows or overflows: near 1e-80 or 1e77 a
         # concave polygon passed for convex and became a fan, and near 1e154
-        # the ear clipping found no ear (a fuzzer's find).
+        # the ear clipping found no ear.
         p = power_scaled(vertices[idx], axis=(1, 2))       # (P, n, 3)
         q = np.roll(p, -1, axis=1)
         normal = _newell_normals(p)

@@ -81,9 +81,7 @@ def _records_binary(body: bytes, offset: int, order: str, count: int, props):
         raise ValueError("the file holds fewer records than its header declares")
     if _fixed(props):
         dtype = np.dtype([(f"p{k}", order + kind) for k, (_, kind, _) in enumerate(props)])
-        end = offset + count * dtype.itemsize
-        if end > len(body):
-            raise ValueError("the file holds fewer records than its header declares")
+        end = offset + count * dtype.itemsize  # (within the body: checked above)
         table = np.frombuffer(body, dtype=dtype, count=count, offset=offset)
         scalars = np.stack([table[f"p{k}"].astype(np.float64) for k in range(len(props))], 1) \
             if props else np.zeros((count, 0))
@@ -198,9 +196,7 @@ def _records_ascii(lines, count: int, props):
     scalars = np.zeros((count, sum(p[2] is None for p in props)))
     lists = {k: [] for k, p in enumerate(props) if p[2] is not None}
     for r in range(count):
-        line = next(lines, None)
-        if line is None:
-            raise ValueError("the file holds fewer records than its header declares")
+        line = next(lines)  # (rows holds count lines)
         tokens, at, column = line.split(), 0, 0
         try:
             for k, (_, kind, count_kind) in enumerate(props):

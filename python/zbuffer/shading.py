@@ -53,15 +53,20 @@ def _rgb_float(value, name: str) -> np.ndarray:
     return c.astype(np.float32)
 
 
+def check_shading(shading) -> None:
+    """ValueError unless ``shading`` is one of :data:`SHADINGS`."""
+    if shading not in SHADINGS:
+        raise ValueError(
+            f"unknown shading {shading!r}; valid values are {', '.join(map(repr, SHADINGS))}"
+        )
+
+
 def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAULT_AMBIENT,
                     diffuse: float = DEFAULT_DIFFUSE, color=None, background=DEFAULT_BACKGROUND
                     ) -> ShadingParams:
     """Check and normalise shading options. ``light_dir=None`` is a headlight:
     the light travels along the camera's viewing direction."""
-    if shading not in SHADINGS:
-        raise ValueError(
-            f"unknown shading {shading!r}; valid values are {', '.join(map(repr, SHADINGS))}"
-        )
+    check_shading(shading)
     for name, value in (("ambient", ambient), ("diffuse", diffuse)):
         x = _number(value, name)
         if not (math.isfinite(x) and x >= 0.0):

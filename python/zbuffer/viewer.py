@@ -31,15 +31,16 @@ from typing import Optional
 
 import numpy as np
 
-from .api import algorithms
+from .api import algorithms, check_algorithm
 from .camera import Camera
 from .mesh import as_mesh
+from .options import check_size
 from .result import RenderResult
 from .scene import TREE_ALGORITHMS, Scene
+from .shading import SHADINGS, check_shading
 
 __all__ = ["Viewer", "run"]
 
-SHADINGS = ("flat", "smooth", "none")
 # Overlay colours of node fates (zbuffer.scene.NODE_FATES): hidden, visited, drawn.
 _RECT_COLORS = {2: (214, 39, 40), 3: (255, 159, 28), 4: (44, 160, 44)}
 
@@ -60,13 +61,10 @@ class Viewer:
     def __init__(self, mesh, algo: str = "hiz_octree", width: int = 800, height: int = 600,
                  shading: str = "flat"):
         self.scene = Scene(as_mesh(mesh))
-        if algo not in algorithms():
-            raise ValueError(f"unknown algorithm {algo!r}; valid names are "
-                             f"{', '.join(map(repr, algorithms()))}")
-        if shading not in SHADINGS:
-            raise ValueError(f"shading must be one of {SHADINGS}, got {shading!r}")
+        check_algorithm(algo)
+        check_shading(shading)
         self.algo = algo
-        self.width, self.height = int(width), int(height)
+        self.width, self.height = check_size(width, height)
         self.shading = shading
         self.overlay = "none"     # "none", "depth", "pyramid", "tree"
         self.pyramid_level = 0
