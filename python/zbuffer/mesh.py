@@ -27,6 +27,26 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return view
 
 
+def unit_rgb(c: np.ndarray, what: str) -> np.ndarray:
+    """float32 RGB in [0, 1] from colours along the last axis of ``c`` (RGB
+    or RGBA): integers 0-255 or floats 0-1 (alpha dropped, but checked like
+    the rest). For the mesh's colours and the render's ``color`` and
+    ``background``."""
+    def values() -> str:
+        return (f"{c.tolist()!r}" if c.size <= 4
+                else f"values from {c.min().item()!r} to {c.max().item()!r}")
+
+    if np.issubdtype(c.dtype, np.integer) and c.dtype != np.bool_:
+        if c.size and (c.min() < 0 or c.max() > 255):
+            raise ValueError(f"integer {what} must lie in 0-255, got {values()}")
+        return c[..., :3].astype(np.float32) / np.float32(255.0)
+    if not np.issubdtype(c.dtype, np.floating):
+        raise TypeError(f"{what} must be integers (0-255) or floats (0-1), got dtype {c.dtype}")
+    if c.size and (not np.all(np.isfinite(c)) or c.min() < 0.0 or c.max() > 1.0):
+        raise ValueError(f"float {what} must lie in [0, 1], got {values()}")
+    return c[..., :3].astype(np.float32)
+
+
 def _as_colors(colors, n: int, what: str) -> Optional[np.ndarray]:
     """(n, 3) float32 RGB in [0, 1] from uint8 or float RGB/RGBA, or None."""
     if colors is None:
@@ -34,15 +54,7 @@ def _as_colors(colors, n: int, what: str) -> Optional[np.ndarray]:
     c = np.asarray(colors)
     if c.ndim != 2 or c.shape[0] != n or c.shape[1] not in (3, 4):
         raise ValueError(f"{what} must have shape ({n}, 3) or ({n}, 4), got {c.shape}")
-    if np.issubdtype(c.dtype, np.integer) and c.dtype != np.bool_:
-        if c.size and (c.min() < 0 or c.max() > 255):
-            raise ValueError(f"integer {what} must lie in 0-255")
-        return np.ascontiguousarray(c[:, :3], dtype=np.float32) / np.float32(255.0)
-    if not np.issubdtype(c.dtype, np.floating):
-        raise TypeError(f"{what} must be integers (0-255) or floats (0-1), got dtype {c.dtype}")
-    if not np.all(np.isfinite(c)) or c.min(initial=0.0) < 0.0 or c.max(initial=0.0) > 1.0:
-        raise ValueError(f"float {what} must lie in [0, 1]")  # (alpha too, as for integers)
-    return np.ascontiguousarray(c[:, :3], dtype=np.float32)
+    return np.ascontiguousarray(unit_rgb(c, what))
 
 
 class Visit(NamedTuple):

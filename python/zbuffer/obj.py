@@ -18,7 +18,7 @@ import numpy as np
 
 from .shading import power_scaled
 
-__all__ = ["read_obj", "triangulate_polygons", "unit_rgb", "ObjData"]
+__all__ = ["read_obj", "triangulate_polygons", "file_rgb", "ObjData"]
 
 
 class ObjData:
@@ -46,7 +46,7 @@ class ObjData:
         self.face_colors = face_colors
 
 
-def unit_rgb(rgb: np.ndarray, integers: bool, what: str) -> np.ndarray:
+def file_rgb(rgb: np.ndarray, integers: bool, what: str) -> np.ndarray:
     """Colours read from a file as RGB in [0, 1]: divided by 255 where the
     file gave integers; ValueError outside 0-255 (integers) or [0, 1]
     (floats). (The OFF and PLY readers'.)"""

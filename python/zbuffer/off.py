@@ -13,7 +13,7 @@ from typing import List, Optional
 
 import numpy as np
 
-from .obj import ObjData, unit_rgb
+from .obj import ObjData, file_rgb
 
 __all__ = ["read_off"]
 
@@ -37,7 +37,7 @@ def _colors(rows: List[List[str]], what: str, line_numbers: List[int]) -> Option
         raise ValueError(f"line {line_numbers[k]}: {what} colour is not numbers: "
                          f"{' '.join(rows[k])!r}") from None
     floats = any(any(c in x for c in ".eE") for r in rows for x in r)
-    return unit_rgb(values, not floats, what)
+    return file_rgb(values, not floats, what)
 
 
 def _is_number(text: str) -> bool:

@@ -16,7 +16,7 @@ from typing import Tuple
 
 import numpy as np
 
-from .obj import ObjData, unit_rgb
+from .obj import ObjData, file_rgb
 
 __all__ = ["read_ply", "UnsupportedPly"]
 
@@ -223,7 +223,7 @@ def _colours(scalars, names, kinds, what: str):
     if not all(c in names for c in ("red", "green", "blue")):
         return None
     at = [names.index(c) for c in ("red", "green", "blue")]
-    return unit_rgb(scalars[:, at], kinds[at[0]] not in "fd", f"PLY {what}")
+    return file_rgb(scalars[:, at], kinds[at[0]] not in "fd", f"PLY {what}")
 
 
 def read_ply(path: str) -> ObjData:

@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from .camera import _number, _reals, _unit
+from .mesh import unit_rgb
 
 __all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy"]
 
@@ -42,15 +43,7 @@ def _rgb_float(value, name: str) -> np.ndarray:
     c = np.asarray(value)
     if c.shape != (3,):
         raise ValueError(f"{name} must be 3 numbers (RGB), got {value!r}")
-    if np.issubdtype(c.dtype, np.integer):
-        if c.min() < 0 or c.max() > 255:
-            raise ValueError(f"integer {name} must lie in 0-255, got {value!r}")
-        return c.astype(np.float32) / np.float32(255.0)
-    if not np.issubdtype(c.dtype, np.floating):
-        raise TypeError(f"{name} must be numbers, got {value!r}")
-    if not np.all(np.isfinite(c)) or c.min() < 0.0 or c.max() > 1.0:
-        raise ValueError(f"float {name} must lie in [0, 1], got {value!r}")
-    return c.astype(np.float32)
+    return unit_rgb(c, name)
 
 
 def check_shading(shading) -> None:
