@@ -103,9 +103,9 @@ def test_mvp_takes_whole_image_sizes_only():
     # A fractional size would cache a matrix of its own aspect ratio under
     # the whole size (64.99 x 48 under 64 x 48) for every later render.
     cam = zbuffer.Camera.look_at((0, 0, 3), near=1, far=10)
-    with pytest.raises(TypeError, match="width and height must be integers"):
+    with pytest.raises(TypeError, match="width must be an integer, got 64.99"):
         cam.mvp(64.99, 48.0)
-    with pytest.raises(TypeError, match="width and height must be integers"):
+    with pytest.raises(TypeError, match="height must be an integer, got '48'"):
         cam.mvp(64, "48")
     expected = zbuffer.Camera.look_at((0, 0, 3), near=1, far=10).mvp(64, 48)
     np.testing.assert_array_equal(cam.mvp(np.int64(64), np.int32(48)), expected)

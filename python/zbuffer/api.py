@@ -13,7 +13,8 @@ import numpy as np
 from . import _core
 from .camera import Camera
 from .mesh import Mesh, Visit
-from .options import DEFAULT_SIZE, check_flag, prepare
+from .checks import check_flag
+from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import (DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, ShadingParams,
                       color_source)

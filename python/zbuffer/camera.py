@@ -9,11 +9,12 @@ core and to the numpy reference alike, so both start from the same bits.
 from __future__ import annotations
 
 import math
-import operator
 from dataclasses import dataclass, replace
 from typing import Optional, Sequence, Tuple
 
 import numpy as np
+
+from .checks import check_index
 
 __all__ = ["Camera"]
 
@@ -379,13 +380,8 @@ class Camera:
     def mvp(self, width: int, height: int) -> np.ndarray:
         """(4, 4) float64 C-contiguous, read-only model-view-projection matrix
         (computed once per image size: cameras are immutable)."""
-        try:  # whole numbers only (numpy's too; not bools): the matrix and its cache key agree
-            if isinstance(width, (bool, np.bool_)) or isinstance(height, (bool, np.bool_)):
-                raise TypeError
-            key = (operator.index(width), operator.index(height))
-        except TypeError:
-            raise TypeError(f"width and height must be integers, got {width!r} and "
-                            f"{height!r}") from None
+        # Whole numbers only (numpy's too; not bools): the matrix and its cache key agree.
+        key = (check_index("width", width), check_index("height", height))
         if key[0] <= 0 or key[1] <= 0:
             raise ValueError(f"width and height must be positive, got {key[0]}x{key[1]}")
         m = self._mvp_cache.get(key)

@@ -44,7 +44,7 @@ def unit_rgb(c: np.ndarray, what: str) -> np.ndarray:
         raise TypeError(f"{what} must be integers (0-255) or floats (0-1), got dtype {c.dtype}")
     if c.size and (not np.all(np.isfinite(c)) or c.min() < 0.0 or c.max() > 1.0):
         raise ValueError(f"float {what} must lie in [0, 1], got {values()}")
-    return c[..., :3].astype(np.float32)
+    return np.asarray(c[..., :3], dtype=np.float32)  # (float32 RGB kept as given, no copy)
 
 
 def _as_colors(colors, n: int, what: str) -> Optional[np.ndarray]:
@@ -484,7 +484,7 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     ValueError
         If the file cannot be parsed as a mesh.
     """
-    from .options import check_flag
+    from .checks import check_flag
 
     check_flag("merge_vertices", merge_vertices)
     path = os.fsdecode(os.fspath(path))

@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
-import operator
 from typing import Optional, Tuple
 
 import numpy as np
 
 from .camera import Camera
+from .checks import check_flag, check_index
 from .conventions import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE
 from .mesh import Mesh, as_mesh
 from .shading import ShadingParams, resolve_shading
@@ -19,10 +19,9 @@ DEFAULT_SIZE = (800, 600)
 
 
 def check_size(width, height) -> Tuple[int, int]:
-    for name, value in (("width", width), ("height", height)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-            raise TypeError(f"{name} must be an int, got {value!r}")
-    width, height = int(width), int(height)
+    """(width, height) of an image as ints; TypeError for non-integers,
+    ValueError for sizes <= 0 or beyond the limits (conventions.py)."""
+    width, height = check_index("width", width), check_index("height", height)
     if width <= 0 or height <= 0:
         raise ValueError(f"width and height must be positive, got {width}x{height}")
     if (width > MAX_IMAGE_SIDE or height > MAX_IMAGE_SIDE
@@ -32,25 +31,6 @@ def check_size(width, height) -> Tuple[int, int]:
             f"a side and {MAX_IMAGE_PIXELS} pixels in all"
         )
     return width, height
-
-
-def check_index(name: str, value) -> int:
-    """``value`` as an int: any integer numpy's indexing takes (Python and
-    numpy integers, 0-d integer arrays), not a bool; TypeError otherwise."""
-    try:
-        if isinstance(value, (bool, np.bool_)):
-            raise TypeError
-        return operator.index(value)
-    except TypeError:
-        raise TypeError(f"{name} must be an integer, got {value!r}") from None
-
-
-def check_flag(name: str, value) -> bool:
-    """``value`` as a bool; TypeError unless it is one (a string such as
-    "no" would otherwise count as True)."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a bool, got {value!r}")
-    return bool(value)
 
 
 def prepare(mesh, camera: Optional[Camera], width, height, shading, light_dir,

@@ -20,7 +20,8 @@ import numpy as np
 from .camera import Camera
 from .conventions import (GUARD_BAND_PX, HALF_PIXEL, MAX_CLIP_VERTICES, MIN_CLIP_W,
                           SUBPIXEL_BITS, SUBPIXEL_SCALE)
-from .options import DEFAULT_SIZE, check_flag, prepare
+from .checks import check_flag
+from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, shade_numpy
 

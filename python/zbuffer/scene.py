@@ -13,7 +13,8 @@ from . import _core
 from .api import check_algorithm, claimed, finish, output_arrays, render_visibility
 from .camera import Camera
 from .mesh import _INT32_MAX, Mesh, as_mesh
-from .options import DEFAULT_SIZE, check_flag, prepare
+from .checks import check_flag, check_int
+from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE
 
@@ -26,16 +27,6 @@ TREE_ALGORITHMS = {"hiz_octree": "octree", "hiz_bvh": "bvh"}
 NODE_FATES = ("not reached", "outside", "hidden", "visited", "drawn")
 
 OCTREE_RULES = ("smallest", "greene")
-
-
-def _int_in(name: str, value, largest: int) -> int:
-    """``value`` as an int in 1 .. ``largest`` (TypeError for a non-int or
-    a bool, ValueError outside the range)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an int, got {value!r}")
-    if not 1 <= value <= largest:
-        raise ValueError(f"{name} must be in 1 .. {largest}, got {value}")
-    return int(value)
 
 
 class Scene:
@@ -80,9 +71,9 @@ class Scene:
     def __init__(self, mesh, *, leaf_size: Optional[int] = None,
                  max_depth: Optional[int] = None, octree_rule: str = "smallest"):
         self._mesh = as_mesh(mesh)
-        self.leaf_size = None if leaf_size is None else _int_in("leaf_size", leaf_size, _INT32_MAX)
-        self.max_depth = _int_in("max_depth", _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None
-                                 else max_depth, _core.MAX_OCTREE_DEPTH)
+        self.leaf_size = None if leaf_size is None else check_int("leaf_size", leaf_size, 1, _INT32_MAX)
+        self.max_depth = check_int("max_depth", _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None
+                                   else max_depth, 1, _core.MAX_OCTREE_DEPTH)
         if octree_rule not in OCTREE_RULES:
             raise ValueError(f"unknown octree_rule {octree_rule!r}; valid rules are "
                              f"{', '.join(map(repr, OCTREE_RULES))}")

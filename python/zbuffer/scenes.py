@@ -10,6 +10,7 @@ from typing import List, Sequence, Tuple
 
 import numpy as np
 
+from .checks import check_int
 from .mesh import Mesh
 
 __all__ = [
@@ -34,14 +35,8 @@ def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
 
 
 def _count(value, name: str, least: int) -> int:
-    """An integer parameter of a scene (options.check_index): ValueError
-    below ``least``."""
-    from .options import check_index
-
-    n = check_index(name, value)
-    if n < least:
-        raise ValueError(f"{name} must be at least {least}, got {value!r}")
-    return n
+    """An integer parameter of a scene, at least ``least``."""
+    return check_int(name, value, least)
 
 
 def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:
@@ -249,9 +244,9 @@ def instance_grid(mesh, counts=(5, 5, 10), spacing: float = 1.1) -> Mesh:
     from .mesh import as_mesh
 
     mesh = as_mesh(mesh)
-    counts = tuple(int(c) for c in counts)
-    if len(counts) != 3 or min(counts) < 1:
-        raise ValueError(f"counts must be three positive integers, got {counts}")
+    if len(counts) != 3:
+        raise ValueError(f"counts must be three positive integers, got {counts!r}")
+    counts = tuple(check_int(f"counts[{k}]", c, 1) for k, c in enumerate(counts))
     if len(mesh.vertices) == 0:
         raise ValueError("instance_grid needs a mesh with vertices (its extent spaces the copies)")
     n_copies = counts[0] * counts[1] * counts[2]

@@ -239,7 +239,7 @@ def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
     """(k, 2) int array of (row, column) of the at most ``n`` cells of one
     level of :attr:`RenderResult.culls` with the highest counts, highest
     first (cells that culled nothing are left out; ties by position)."""
-    from .options import check_index
+    from .checks import check_index
 
     try:
         count = check_index("n", n)

@@ -1,0 +1,45 @@
+"""Checks of scalar arguments shared by the package's modules: one wording
+for every "NAME must be ..., got ..." (TypeError for the wrong kind of
+value, ValueError for one out of range). Imports nothing from the package,
+so every module can use it."""
+
+from __future__ import annotations
+
+import operator
+from typing import Optional
+
+import numpy as np
+
+__all__ = ["check_flag", "check_index", "check_int"]
+
+
+def check_flag(name: str, value) -> bool:
+    """``value`` as a bool; TypeError unless it is one (a string such as
+    "no" would otherwise count as True)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {value!r}")
+    return bool(value)
+
+
+def check_index(name: str, value) -> int:
+    """``value`` as an int: any integer numpy's indexing takes (Python and
+    numpy integers, 0-d integer arrays), not a bool; TypeError otherwise."""
+    try:
+        if isinstance(value, (bool, np.bool_)):
+            raise TypeError
+        return operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name} must be an integer, got {value!r}") from None
+
+
+def check_int(name: str, value, least: Optional[int] = None, most: Optional[int] = None) -> int:
+    """:func:`check_index`, and ValueError outside ``least .. most`` (either
+    bound may be None)."""
+    n = check_index(name, value)
+    if least is not None and most is not None and not least <= n <= most:
+        raise ValueError(f"{name} must be in {least} .. {most}, got {n}")
+    if least is not None and n < least:
+        raise ValueError(f"{name} must be at least {least}, got {n}")
+    if most is not None and n > most:
+        raise ValueError(f"{name} must be at most {most}, got {n}")
+    return n
