@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import zbuffer
-from zbuffer.obj import read_obj, triangulate_polygons
+from zbuffer.obj import read_obj
+from zbuffer.polygons import triangulate_polygons
 from helpers import model_path
 
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 import zbuffer
 from zbuffer import _core, reference
-from zbuffer.obj import triangulate_polygons
+from zbuffer.polygons import triangulate_polygons
 from helpers import (ALGORITHMS, POLYGON_ALGORITHMS, assert_same_counters,
                      assert_same_visibility, model_path, reference_for)
 from test_properties import MVP, SIZE, SUB, grid_coord, triangles, to_arrays

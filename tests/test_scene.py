@@ -10,7 +10,7 @@ from hypothesis import given, settings
 
 import zbuffer
 from zbuffer import _core, scenes
-from zbuffer.obj import triangulate_polygons
+from zbuffer.polygons import triangulate_polygons
 from zbuffer.scene import NODE_FATES, TREE_ALGORITHMS
 from helpers import TREE_ALGORITHMS as REGISTERED_TREES
 from helpers import assert_same_counters, assert_same_visibility, counters_add_up, reference_for

@@ -121,7 +121,7 @@ class Mesh:
     polygons : ((P,) array_like of int, (K,) array_like of int), optional
         The polygon faces as written, as (sizes, concatenated vertex
         indices); ``faces`` must then be their triangulation in polygon order,
-        ``size - 2`` triangles each (as :func:`zbuffer.obj.triangulate_polygons`
+        ``size - 2`` triangles each (as :func:`zbuffer.polygons.triangulate_polygons`
         makes it). Algorithms that draw polygons natively (``"scanline"``)
         draw these; the others draw ``faces``.
 
@@ -551,10 +551,10 @@ def _parse(path: str, read):
 
 
 def _polygon_mesh(path: str, data) -> Mesh:
-    """The mesh of the polygon faces a reader found in ``path`` (obj.ObjData):
+    """The mesh of the polygon faces a reader found in ``path`` (polygons.PolygonData):
     the polygons triangulated exactly, and kept as written when any has more
     than 3 corners; colours per polygon become colours per triangle."""
-    from .obj import triangulate_polygons
+    from .polygons import triangulate_polygons
 
     if (len(data.vertices) == 0 and path.lower().endswith(".obj")
             and not _is_obj_without_geometry(path)):

@@ -12,52 +12,16 @@ which covers area outside it.
 
 from __future__ import annotations
 
-from typing import List, Tuple
+from typing import List
 
 import numpy as np
 
-from .shading import power_scaled
+from .polygons import PolygonData
 
-__all__ = ["read_obj", "triangulate_polygons", "file_rgb", "ObjData"]
-
-
-class ObjData:
-    """What :func:`read_obj` found.
-
-    Attributes
-    ----------
-    vertices : (N, 3) float64
-    polygon_sizes : (P,) int64
-        Number of corners of each face, in file order (>= 3).
-    polygon_indices : (sum of sizes,) int64
-        Vertex indices of all faces' corners, concatenated, 0-based.
-    vertex_colors : (N, 3) float64 or None
-        From ``v x y z r g b`` lines, when every vertex has them.
-    face_colors : (P, 3) float64 or None
-        One per face (OFF files: off.read_off); OBJ faces have none.
-    """
-
-    def __init__(self, vertices, polygon_sizes, polygon_indices, vertex_colors,
-                 face_colors=None):
-        self.vertices = vertices
-        self.polygon_sizes = polygon_sizes
-        self.polygon_indices = polygon_indices
-        self.vertex_colors = vertex_colors
-        self.face_colors = face_colors
+__all__ = ["read_obj"]
 
 
-def file_rgb(rgb: np.ndarray, integers: bool, what: str) -> np.ndarray:
-    """Colours read from a file as RGB in [0, 1]: divided by 255 where the
-    file gave integers; ValueError outside 0-255 (integers) or [0, 1]
-    (floats). (The OFF and PLY readers'.)"""
-    if integers:
-        rgb = rgb / 255.0
-    if rgb.size and (not np.all(np.isfinite(rgb)) or rgb.min() < 0.0 or rgb.max() > 1.0):
-        raise ValueError(f"{what} colours must lie in 0-255 (integers) or [0, 1] (floats)")
-    return rgb
-
-
-def read_obj(path: str) -> ObjData:
+def read_obj(path: str) -> PolygonData:
     """Parse the ``v`` and ``f`` records of an OBJ file.
 
     Supports ``v x y z [w]`` and ``v x y z r g b``, faces of any number of
@@ -162,147 +126,4 @@ def read_obj(path: str) -> ObjData:
         raise ValueError(f"face {face} refers to vertex {int(polygon_indices[k]) + 1} "
                          f"(1-based, after resolving relative indices), but the file "
                          f"has {n} vertices")
-    return ObjData(vertices, polygon_sizes, polygon_indices, colors)
-
-
-# Triangulation
-
-def _newell_normals(p: np.ndarray) -> np.ndarray:
-    """(..., 3) normals of polygons with corners (..., n, 3) (Newell's
-    method), of length twice their areas."""
-    q = np.roll(p, -1, axis=-2)
-    return np.stack([((p[..., 1] - q[..., 1]) * (p[..., 2] + q[..., 2])).sum(-1),
-                     ((p[..., 2] - q[..., 2]) * (p[..., 0] + q[..., 0])).sum(-1),
-                     ((p[..., 0] - q[..., 0]) * (p[..., 1] + q[..., 1])).sum(-1)], -1)
-
-
-def _ear_clip(p2: np.ndarray) -> List[Tuple[int, int, int]]:
-    """Triangles (local indices) of a simple polygon given counter-clockwise
-    in 2D, by ear clipping. Falls back to a fan if no ear is found (the
-    polygon is self-intersecting or degenerate).
-
-    The corners form a circular linked list; after an ear is cut the search
-    goes on from its neighbour, and a candidate is tested only against the
-    corners that are not convex (only such a corner can lie in an ear of a
-    simple polygon), all at once: O(n^2) for n corners in the worst case,
-    not O(n^3) (a 2,000-corner spiral takes well under a second).
-    """
-    n = len(p2)
-    x = p2[:, 0].astype(np.float64)
-    y = p2[:, 1].astype(np.float64)
-    prev = [(k - 1) % n for k in range(n)]
-    nxt = [(k + 1) % n for k in range(n)]
-
-    def cross(o, a, b):
-        return (x[a] - x[o]) * (y[b] - y[o]) - (y[a] - y[o]) * (x[b] - x[o])
-
-    def convex(v):
-        return cross(prev[v], v, nxt[v]) > 0.0
-
-    # Corners that are reflex or flat: the only ones an ear can hold.
-    reflex = np.zeros(n, bool)
-    for v in range(n):
-        reflex[v] = not convex(v)
-
-    def is_ear(b):
-        a, c = prev[b], nxt[b]
-        if reflex[b]:
-            return False
-        d = np.flatnonzero(reflex)
-        d = d[(d != a) & (d != c)]
-        if len(d) == 0:
-            return True
-        xd, yd = x[d], y[d]
-        inside = (((x[b] - x[a]) * (yd - y[a]) - (y[b] - y[a]) * (xd - x[a])) >= 0.0) & \
-                 (((x[c] - x[b]) * (yd - y[b]) - (y[c] - y[b]) * (xd - x[b])) >= 0.0) & \
-                 (((x[a] - x[c]) * (yd - y[c]) - (y[a] - y[c]) * (xd - x[c])) >= 0.0)
-        return not inside.any()
-
-    triangles = []
-    remaining, v, misses = n, 0, 0
-    while remaining > 3 and misses < remaining:
-        if not is_ear(v):
-            v, misses = nxt[v], misses + 1
-            continue
-        a, c = prev[v], nxt[v]
-        triangles.append((a, v, c))
-        nxt[a], prev[c] = c, a
-        reflex[v] = False
-        remaining -= 1
-        for u in (a, c):
-            reflex[u] = not convex(u)
-        v, misses = a, 0
-    if remaining >= 3:  # no ear left (self-intersecting or degenerate): a fan
-        rest = [v]
-        for _ in range(remaining - 1):
-            rest.append(nxt[rest[-1]])
-        triangles += [(rest[0], rest[k], rest[k + 1]) for k in range(1, len(rest) - 1)]
-    return triangles
-
-
-def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.ndarray
-                         ) -> Tuple[np.ndarray, np.ndarray]:
-    """Triangles covering each polygon exactly.
-
-    Convex polygons become fans from their first corner (in the corners'
-    order, so triangles keep the polygon's winding); other polygons are ear
-    clipped in their best-fit plane. A fan of a concave polygon would cover
-    area outside it.
-
-    Returns
-    -------
-    faces : (M, 3) int64
-    face_polygon : (M,) int64
-        The polygon each triangle came from.
-    """
-    sizes = np.asarray(sizes, dtype=np.int64)
-    indices = np.asarray(indices, dtype=np.int64)
-    if len(sizes) and (sizes == 3).all():  # triangles only (most meshes): as they are
-        return indices.reshape(-1, 3), np.arange(len(sizes), dtype=np.int64)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]) if len(sizes) else sizes
-    faces: List[np.ndarray] = []
-    owners: List[np.ndarray] = []
-    for n in np.unique(sizes):
-        polys = np.flatnonzero(sizes == n)
-        corner = starts[polys, None] + np.arange(n)       # (P, n) positions in indices
-        idx = indices[corner]                              # (P, n) vertex indices
-        if n == 3:
-            faces.append(idx)
-            owners.append(polys)
-            continue
-        # Convexity: every corner turns the same way as the polygon's normal.
-        # Each polygon is scaled by a power of two first (exact: the same
-        # decisions), so that no product below -- up to the fourth power of
-        # the coordinates -- underflows or overflows: near 1e-80 or 1e77 a
-        # concave polygon passed for convex and became a fan, and near 1e154
-        # the ear clipping found no ear.
-        p = power_scaled(vertices[idx], axis=(1, 2))       # (P, n, 3)
-        q = np.roll(p, -1, axis=1)
-        normal = _newell_normals(p)
-        turn = np.cross(p - np.roll(p, 1, axis=1), q - p)  # (P, n, 3)
-        convex = (np.einsum("pnk,pk->pn", turn, normal) >= 0.0).all(axis=1)
-        k = np.arange(1, n - 1)
-        fan = np.stack([np.repeat(idx[convex, :1], n - 2, axis=1),
-                        idx[convex][:, k], idx[convex][:, k + 1]], -1)
-        faces.append(fan.reshape(-1, 3))
-        owners.append(np.repeat(polys[convex], n - 2))
-        for j in np.flatnonzero(~convex):
-            corners = idx[j]
-            pts = p[j]
-            nrm = _newell_normals(pts)
-            axis = int(np.argmax(np.abs(nrm)))
-            # Project along the dominant axis onto a right-handed 2D frame
-            # (y, z), (z, x) or (x, y), mirrored if the normal points the
-            # other way: the polygon is then counter-clockwise.
-            p2 = pts[:, [(axis + 1) % 3, (axis + 2) % 3]]
-            if nrm[axis] < 0.0:
-                p2 = p2[:, ::-1]
-            tris = _ear_clip(p2)
-            faces.append(corners[np.array(tris, dtype=np.int64).reshape(-1, 3)])
-            owners.append(np.full(len(tris), polys[j]))
-    if not faces:
-        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
-    faces_all = np.concatenate(faces)
-    owner_all = np.concatenate(owners)
-    order = np.argsort(owner_all, kind="stable")  # triangles in polygon order
-    return faces_all[order], owner_all[order]
+    return PolygonData(vertices, polygon_sizes, polygon_indices, colors)

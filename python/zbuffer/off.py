@@ -13,7 +13,7 @@ from typing import List, Optional
 
 import numpy as np
 
-from .obj import ObjData, file_rgb
+from .polygons import PolygonData, file_rgb
 
 __all__ = ["read_off"]
 
@@ -48,7 +48,7 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def read_off(path: str) -> ObjData:
+def read_off(path: str) -> PolygonData:
     """Parse an ASCII OFF file: header (``OFF``, ``COFF``, ``NOFF`` or
     ``CNOFF``), counts (vertices, faces, edges), vertex records (x y z, then
     a normal and/or colour as the header says), face records (the number of
@@ -57,7 +57,7 @@ def read_off(path: str) -> ObjData:
 
     Returns
     -------
-    ObjData
+    PolygonData
         With ``face_colors`` (one per face, as written) when every face
         record has a colour, and ``vertex_colors`` from a ``COFF`` file.
 
@@ -143,7 +143,7 @@ def read_off(path: str) -> ObjData:
         face_lines.append(number)
 
     vertex_colors = _colors(vertex_colour_rows, "vertex", vertex_lines) if colours else None
-    return ObjData(vertices, np.array(sizes, dtype=np.int64), np.array(corners, dtype=np.int64),
+    return PolygonData(vertices, np.array(sizes, dtype=np.int64), np.array(corners, dtype=np.int64),
                    vertex_colors, _colors(face_colour_rows, "face", face_lines))
 
 

@@ -16,7 +16,7 @@ from typing import Tuple
 
 import numpy as np
 
-from .obj import ObjData, file_rgb
+from .polygons import PolygonData, file_rgb
 
 __all__ = ["read_ply", "UnsupportedPly"]
 
@@ -226,7 +226,7 @@ def _colours(scalars, names, kinds, what: str):
     return file_rgb(scalars[:, at], kinds[at[0]] not in "fd", f"PLY {what}")
 
 
-def read_ply(path: str) -> ObjData:
+def read_ply(path: str) -> PolygonData:
     """A PLY file's vertices (x, y, z; red, green, blue when present) and
     the polygons of its ``face`` element as written (with red, green, blue
     when present), skipping every other property and element.
@@ -251,7 +251,7 @@ def read_ply(path: str) -> ObjData:
         raise ValueError(f"malformed PLY file: {err!r}") from None
 
 
-def _read_ply(path: str) -> ObjData:
+def _read_ply(path: str) -> PolygonData:
     """read_ply's work."""
     with open(path, "rb") as fh:
         fmt, elements = _header(fh)
@@ -309,5 +309,5 @@ def _read_ply(path: str) -> ObjData:
         raise ValueError("a face has fewer than 3 corners")
     scalar_names = [p[0] for p in props if p[2] is None]
     scalar_kinds = [p[1] for p in props if p[2] is None]
-    return ObjData(vertices, sizes, indices, vertex_colours,
+    return PolygonData(vertices, sizes, indices, vertex_colours,
                    _colours(scalars, scalar_names, scalar_kinds, "face"))
