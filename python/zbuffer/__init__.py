@@ -12,7 +12,8 @@ side by side, all bit-identical to a pure-numpy reference.
 from . import reference, scenes
 from .api import algorithms, render
 from .camera import Camera
-from .mesh import Mesh, Visit, as_mesh, load
+from .load import as_mesh, load
+from .mesh import Mesh, Visit
 from .result import RenderResult
 from .scene import Scene
 

@@ -10,7 +10,8 @@ import numpy as np
 from .camera import Camera
 from .checks import check_flag, check_index
 from .conventions import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE
-from .mesh import Mesh, as_mesh
+from .load import as_mesh
+from .mesh import Mesh
 from .shading import ShadingParams, resolve_shading
 
 __all__ = ["prepare", "check_size", "DEFAULT_SIZE"]

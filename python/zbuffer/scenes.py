@@ -11,6 +11,7 @@ from typing import List, Sequence, Tuple
 import numpy as np
 
 from .checks import check_int
+from .load import as_mesh
 from .mesh import Mesh
 
 __all__ = [
@@ -241,8 +242,6 @@ def instance_grid(mesh, counts=(5, 5, 10), spacing: float = 1.1) -> Mesh:
     first layer in front (largest z) and the others behind it. The occlusion benchmark of the hierarchical algorithms (a
     camera on +z looking down the long axis sees the front layer and little
     else). Faces are numbered copy by copy."""
-    from .mesh import as_mesh
-
     mesh = as_mesh(mesh)
     if len(counts) != 3:
         raise ValueError(f"counts must be three positive integers, got {counts!r}")

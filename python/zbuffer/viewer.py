@@ -33,7 +33,7 @@ import numpy as np
 
 from .api import algorithms, check_algorithm
 from .camera import Camera
-from .mesh import as_mesh
+from .load import as_mesh
 from .options import check_size
 from .result import RenderResult
 from .scene import TREE_ALGORITHMS, Scene

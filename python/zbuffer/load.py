@@ -1,0 +1,303 @@
+"""Meshes from files and from other libraries' objects: :func:`load` (OBJ,
+OFF and PLY read by zbuffer's own readers, other formats through trimesh)
+and :func:`as_mesh` (anything :func:`zbuffer.render` accepts)."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .checks import check_flag
+from .mesh import Mesh
+
+__all__ = ["load", "as_mesh"]
+
+
+def load(path, merge_vertices: bool = True) -> Mesh:
+    """Read a mesh file: OBJ, ASCII OFF and PLY with zbuffer's own readers
+    (PLY files it does not know: through trimesh), any other format trimesh
+    reads (STL, glTF, ...) through trimesh. Binary OFF is refused
+    (ValueError): neither reads it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    merge_vertices : bool
+        For non-OBJ files: share vertices that have identical positions
+        (formats with per-corner attributes repeat positions, which costs
+        render time). OBJ files keep their ``v`` records as vertices. Face
+        order, and therefore triangle ids, is kept either way.
+
+    Returns
+    -------
+    Mesh
+        OBJ, OFF and PLY polygons are kept as written (``polygon_sizes``,
+        ``polygon_indices``: the scanline algorithm draws them natively) and
+        triangulated exactly for the other algorithms (fans for convex
+        polygons, ear clipping for concave ones); ``face_polygon`` maps
+        triangles to them; trimesh fan-triangulates other formats' polygons;
+        scenes are concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
+        rendering.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If the file cannot be parsed as a mesh.
+    """
+    check_flag("merge_vertices", merge_vertices)
+    path = os.fsdecode(os.fspath(path))
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"no such mesh file: {path!r}")
+    if not os.path.isfile(path):
+        raise ValueError(f"{path!r} is not a mesh file (a directory or device)")
+    if path.lower().endswith(".obj"):  # (its v records stay the vertices: not merged)
+        from .obj import read_obj
+
+        return _polygon_mesh(path, _parse(path, read_obj)).prepare()
+    if path.lower().endswith(".off"):
+        from .off import is_binary_off, read_off
+
+        if is_binary_off(path):
+            raise ValueError(f"{path!r} is a binary OFF file, which zbuffer cannot read (nor can "
+                             "trimesh): convert it to ASCII OFF, PLY or OBJ")
+        return _merged(_polygon_mesh(path, _parse(path, read_off)), merge_vertices).prepare()
+    unsupported = None  # (why zbuffer's PLY reader left a .ply file to trimesh)
+    if path.lower().endswith(".ply"):
+        from .ply import UnsupportedPly, read_ply
+
+        try:
+            data = _parse(path, read_ply)
+        except UnsupportedPly as err:
+            unsupported = err
+        else:
+            return _merged(_polygon_mesh(path, data), merge_vertices).prepare()
+    import trimesh  # (only here: importing it takes about 0.3 s)
+
+    try:
+        tm = trimesh.load(path, force="mesh", process=False)
+    except Exception as err:  # trimesh raises many types for bad files
+        reason = unsupported or err  # (zbuffer's reader says it more plainly)
+        raise ValueError(f"could not read a mesh from {path!r}: {reason}") from err
+    _check_ascii_ply_records(path)
+    if not isinstance(tm, trimesh.Trimesh):
+        raise ValueError(f"{path!r} holds no triangle mesh (got {type(tm).__name__})")
+    if len(tm.vertices) == 0 and _has_content(path) and not _declares_no_faces(path):
+        # trimesh reads some malformed files (a garbage binary STL, say) as
+        # empty; an empty mesh is only believable from an empty file, or one
+        # whose own header or records say it has no faces.
+        raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
+                         "non-empty file (malformed or unsupported content)")
+    return _merged(Mesh.from_trimesh(tm, name=os.path.basename(path)), merge_vertices).prepare()
+
+
+def _merged(mesh: Mesh, merge: bool) -> Mesh:
+    return mesh.merged() if merge else mesh
+
+
+def _parse(path: str, read):
+    """``read(path)`` (obj.read_obj, off.read_off, ply.read_ply), its
+    ValueError naming the file -- but a PLY file the reader does not know
+    (ply.UnsupportedPly) as it is, for trimesh to try."""
+    from .ply import UnsupportedPly
+
+    try:
+        return read(path)
+    except UnsupportedPly:
+        raise
+    except ValueError as err:
+        raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
+
+
+def _polygon_mesh(path: str, data) -> Mesh:
+    """The mesh of the polygon faces a reader found in ``path`` (polygons.PolygonData):
+    the polygons triangulated exactly, and kept as written when any has more
+    than 3 corners; colours per polygon become colours per triangle."""
+    from .polygons import triangulate_polygons
+
+    if (len(data.vertices) == 0 and path.lower().endswith(".obj")
+            and not _is_obj_without_geometry(path)):
+        raise ValueError(f"could not read a mesh from {path!r}: no vertices found in a "
+                         "non-empty file")
+    faces, owner = triangulate_polygons(data.vertices, data.polygon_sizes, data.polygon_indices)
+    polygons = bool(len(data.polygon_sizes)) and bool((data.polygon_sizes > 3).any())
+    # (A mesh has vertex or face colours: given both, the vertices' are kept.)
+    face_colors = None if data.face_colors is None or data.vertex_colors is not None \
+        else data.face_colors[owner]
+    try:
+        return Mesh(data.vertices, faces, vertex_colors=data.vertex_colors,
+                    face_colors=face_colors, name=os.path.basename(path),
+                    face_polygon=owner if polygons else None,
+                    polygons=(data.polygon_sizes, data.polygon_indices) if polygons else None)
+    except ValueError as err:
+        raise ValueError(f"could not read a mesh from {path!r}: {err}") from err
+
+
+def _declares_no_faces(path: str) -> bool:
+    """True if the file says, in its format's own terms and nothing else,
+    that it holds no faces: a PLY header whose only elements are its
+    vertices and, if any, ``face 0``; an OFF header (``OFF``, ``COFF``,
+    ``NOFF`` or ``CNOFF``) counting 0 faces; an ASCII STL that is only
+    ``solid ...`` and ``endsolid ...``; a binary STL of exactly 84 bytes that
+    counts 0 triangles."""
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix == ".ply":
+        with open(path, "rb") as fh:
+            header = _ply_header(fh)
+        return header is not None and all(
+            e[:1] == [b"vertex"] or e == [b"face", b"0"] for e in header[1])
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    if suffix == ".off":
+        records = [line.split(b"#", 1)[0].split() for line in head.splitlines()]
+        records = [r for r in records if r]
+        if not records or records[0][0] not in (b"OFF", b"COFF", b"NOFF", b"CNOFF"):
+            return False
+        counts = records[0][1:] or (records[1] if len(records) > 1 else [])
+        return len(counts) == 3 and counts[1] == b"0"
+    if suffix == ".stl":
+        if len(head) == 84:
+            return head[80:84] == b"\0\0\0\0"
+        lines = head.split()
+        return (len(head) < (1 << 16) and lines[:1] == [b"solid"]
+                and b"endsolid" in lines and all(not w.startswith(b"facet") for w in lines))
+    return False
+
+
+def _is_obj_without_geometry(path: str) -> bool:
+    """True if every record of the file is one an OBJ file may hold (blank
+    lines and comments aside): then an OBJ without vertices is an empty
+    mesh (what an exporter writes for an empty scene), not another kind of
+    file."""
+    keywords = {b"v", b"vt", b"vn", b"vp", b"f", b"l", b"p", b"o", b"g", b"s", b"mg",
+                b"mtllib", b"usemtl", b"cstype", b"deg", b"curv", b"curv2", b"surf", b"parm",
+                b"trim", b"hole", b"end", b"bevel", b"c_interp", b"d_interp", b"lod",
+                b"shadow_obj", b"trace_obj", b"ctech", b"stech", b"call", b"csh"}
+    with open(path, "rb") as fh:
+        text = fh.read().removeprefix(b"\xef\xbb\xbf")
+    for line in text.splitlines():
+        words = line.split(b"#", 1)[0].split()
+        if words and words[0] not in keywords:
+            return False
+    return True
+
+
+def _ply_header(fh):
+    """(format, elements) of the PLY header at the start of the binary file
+    ``fh`` -- the words after ``format`` and after each ``element`` (name,
+    count) -- leaving ``fh`` just past ``end_header``; None if the file does
+    not start with a PLY header (a BOM before ``ply`` allowed) or it does
+    not end."""
+    if fh.readline().strip().removeprefix(b"\xef\xbb\xbf") != b"ply":
+        return None
+    fmt, elements = None, []  # (None: no format line)
+    for line in fh:
+        words = line.split()
+        if words[:1] == [b"format"]:
+            fmt = words[1:]
+        elif words[:1] == [b"element"]:
+            elements.append(words[1:])
+        elif words[:1] == [b"end_header"]:
+            return fmt, elements
+    return None
+
+
+def _check_ascii_ply_records(path: str) -> None:
+    """ValueError if an ASCII PLY file holds fewer records than its header
+    declares (trimesh reads a truncated one as a smaller mesh; it refuses
+    truncated binary ones itself). Each element instance is one line."""
+    if os.path.splitext(path)[1].lower() != ".ply":
+        return
+    with open(path, "rb") as fh:
+        header = _ply_header(fh)
+        if header is None or (header[0] is not None and header[0][:1] != [b"ascii"]):
+            return  # (no header end: trimesh has judged it already)
+        declared = sum(int(e[1]) for e in header[1] if len(e) == 2 and e[1].isdigit())
+        found = sum(1 for line in fh if line.strip())
+    if found < declared:
+        raise ValueError(f"could not read a mesh from {path!r}: its header declares "
+                         f"{declared} element records, the file holds {found} (truncated?)")
+
+
+def _has_content(path: str) -> bool:
+    """True if the file holds anything but blank lines and # comments."""
+    with open(path, "rb") as fh:
+        for line in fh:
+            line = line.strip()
+            if line and not line.startswith(b"#"):
+                return True
+    return False
+
+
+def _pyvista_colors(poly, n_faces: int) -> dict:
+    """The vertex or face colours of a triangulated pyvista.PolyData, as
+    Mesh's keyword arguments: its active scalars when they are uint8 with 3
+    or 4 components (RGB or RGBA, as pyvista reads them from PLY files and
+    plots them); other scalars are data, not colours, and are not kept."""
+    name = poly.active_scalars_name
+    if name is None:
+        return {}
+    association = poly.active_scalars_info.association.name
+    values = np.asarray(poly.active_scalars)
+    if values.dtype != np.uint8 or values.ndim != 2 or values.shape[1] not in (3, 4):
+        return {}
+    if association == "POINT" and len(values) == poly.n_points:
+        return {"vertex_colors": values}
+    if association == "CELL" and len(values) == poly.n_cells == n_faces:
+        return {"face_colors": values}
+    return {}
+
+
+def as_mesh(obj) -> Mesh:
+    """Turn anything :func:`zbuffer.render` accepts into a :class:`Mesh`.
+
+    Accepted: a :class:`Mesh`; a ``trimesh.Trimesh``; a ``trimesh.Scene``
+    (concatenated); a ``pyvista.PolyData`` (triangulated), or any other
+    pyvista dataset (its outer surface, triangulated); a
+    ``(vertices, faces)`` pair of arrays; a file path. The colours of
+    trimesh meshes are kept, and those of pyvista datasets whose active
+    scalars are uint8 RGB or RGBA (per point or per cell).
+    """
+    if isinstance(obj, Mesh):
+        return obj
+    if isinstance(obj, (str, os.PathLike)):
+        return load(obj)
+    module = type(obj).__module__ or ""
+    if module.startswith("trimesh"):
+        import trimesh
+
+        if isinstance(obj, trimesh.Scene):
+            obj = obj.to_mesh()
+        if isinstance(obj, trimesh.Trimesh):
+            return Mesh.from_trimesh(obj)
+    if module.startswith("pyvista") and hasattr(obj, "extract_surface"):
+        import pyvista
+
+        # (Not hasattr(obj, "regular_faces"): that property raises for a
+        # PolyData of mixed polygon sizes.)
+        if not isinstance(obj, pyvista.PolyData):  # a volume or grid: its outer surface
+            try:  # (newer pyvista warns unless the algorithm is named)
+                obj = obj.extract_surface(algorithm="dataset_surface")
+            except TypeError:
+                obj = obj.extract_surface()
+        points_and_lines = obj.n_verts + obj.n_lines  # (cells numbered these first, then polygons)
+        if points_and_lines and obj.n_cells > points_and_lines:
+            # Nothing to draw; and VTK's triangle filter can misplace the
+            # polygons' cell data (colours) when they are there.
+            obj = obj.remove_cells(np.arange(points_and_lines))
+        poly = obj.triangulate()  # quads, polygons and strips to triangles
+        if poly.faces.size:
+            faces = np.asarray(poly.regular_faces)
+        else:  # only points or lines: nothing to render
+            faces = np.zeros((0, 3), np.int32)
+        return Mesh(np.asarray(poly.points, dtype=np.float64), faces,
+                    **_pyvista_colors(poly, len(faces)))
+    if isinstance(obj, (tuple, list)) and len(obj) == 2:
+        return Mesh(obj[0], obj[1])
+    raise TypeError(
+        "cannot render a "
+        f"{type(obj).__name__}: pass a zbuffer.Mesh, trimesh.Trimesh, trimesh.Scene, "
+        "pyvista.PolyData, a (vertices, faces) pair or a file path"
+    )
