@@ -92,14 +92,10 @@ def save_depth(path: str, depth: np.ndarray) -> None:
     ``RenderResult.eye_depth()`` for a map linear in distance."""
     import skimage.io
 
-    drawn = np.isfinite(depth)
-    out = np.zeros(depth.shape, np.uint16)
-    if drawn.any():
-        d = depth[drawn].astype(np.float64)
-        lo, hi = d.min(), d.max()
-        t = (d - lo) / (hi - lo) if hi > lo else np.zeros_like(d)
-        out[drawn] = np.round(65535.0 - t * (65535.0 - 8192.0)).astype(np.uint16)
-    skimage.io.imsave(path, out, check_contrast=False)
+    from .viz import depth_grey
+
+    skimage.io.imsave(path, depth_grey(depth, 65535, 8192).astype(np.uint16),
+                      check_contrast=False)
 
 
 def _print_stats(stats: dict, out) -> None:

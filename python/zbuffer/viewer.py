@@ -36,13 +36,18 @@ from .camera import Camera
 from .load import as_mesh
 from .options import check_size
 from .result import RenderResult
-from .scene import TREE_ALGORITHMS, Scene
+from .scene import NODE_FATES, TREE_ALGORITHMS, Scene
 from .shading import SHADINGS, check_shading
+from .viz import (FATE_COLORS, _check_window, _image_plane, _pyvista, depth_for_display,
+                  depth_grey, id_colors)
 
 __all__ = ["Viewer", "run"]
 
-# Overlay colours of node fates (zbuffer.scene.NODE_FATES): hidden, visited, drawn.
-_RECT_COLORS = {2: (214, 39, 40), 3: (255, 159, 28), 4: (44, 160, 44)}
+# Overlay colours of node fates (zbuffer.scene.NODE_FATES): hidden, visited,
+# drawn -- as viz.show_tree colours them.
+_RECT_COLORS = {k: tuple(int(FATE_COLORS[k][i:i + 2], 16) for i in (1, 3, 5))
+                for k in (NODE_FATES.index("hidden"), NODE_FATES.index("visited"),
+                          NODE_FATES.index("drawn"))}
 
 
 class Viewer:
@@ -149,8 +154,6 @@ class Viewer:
 
     def frame(self) -> np.ndarray:
         """Render and compose the picture shown: (H, W, 3) uint8."""
-        from .viz import depth_for_display, id_colors
-
         res = self.render()
         picture = res.image if res.image is not None else id_colors(res.triangle_id)
         if self.overlay == "depth":
@@ -181,15 +184,8 @@ class Viewer:
 
 
 def _grey(values: np.ndarray) -> np.ndarray:
-    """Depth to grey: nearest white, farthest dark, nothing drawn black."""
-    out = np.zeros(values.shape + (3,), np.uint8)
-    drawn = np.isfinite(values)
-    if drawn.any():
-        v = values[drawn]
-        lo, hi = v.min(), v.max()
-        t = (v - lo) / (hi - lo) if hi > lo else np.zeros_like(v)
-        out[drawn] = np.round(255 - 200 * t).astype(np.uint8)[:, None]
-    return out
+    """Depth to grey RGB: nearest white, farthest dark, nothing drawn black."""
+    return np.repeat(depth_grey(values, 255, 55).astype(np.uint8)[..., None], 3, axis=-1)
 
 
 def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
@@ -219,8 +215,6 @@ def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
 def run(viewer: Viewer, screenshot: Optional[str] = None):
     """Show the viewer in a window (or, with ``screenshot``, render one frame
     offscreen into that PNG file and return the picture)."""
-    from .viz import _check_window, _image_plane, _pyvista
-
     pv = _pyvista()
     offscreen = screenshot is not None
     plotter = pv.Plotter(off_screen=True if offscreen else None,  # None: pyvista.OFF_SCREEN

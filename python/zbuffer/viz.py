@@ -21,7 +21,7 @@ import numpy as np
 from . import _core
 from .result import RenderResult
 
-__all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms",
+__all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms", "depth_grey",
            "show_tree", "tree_grid", "frustum_grid", "id_colors", "depth_for_display",
            "most_culling_cells", "load_benchmark", "plot_grid_times", "plot_grid_culling",
            "plot_models"]
@@ -47,6 +47,20 @@ def id_colors(triangle_id: np.ndarray, seed: int = 0) -> np.ndarray:
     rgb = (rgb // 2 + 96).astype(np.uint8)  # keep them light enough to tell apart
     rgb[ids < 0] = 0
     return rgb
+
+
+def depth_grey(depth: np.ndarray, white: int, darkest: int) -> np.ndarray:
+    """int64 grey levels of a depth map scaled to the image: the nearest
+    drawn depth ``white``, the farthest ``darkest``, nothing drawn 0 (for
+    ``zbuffer render --depth`` and the viewer's depth overlay)."""
+    out = np.zeros(np.shape(depth), np.int64)
+    drawn = np.isfinite(depth)
+    if drawn.any():
+        d = np.asarray(depth)[drawn].astype(np.float64)
+        lo, hi = d.min(), d.max()
+        t = (d - lo) / (hi - lo) if hi > lo else np.zeros_like(d)
+        out[drawn] = np.round(white - t * (white - darkest)).astype(np.int64)
+    return out
 
 
 def depth_for_display(depth: np.ndarray) -> np.ndarray:
