@@ -111,6 +111,29 @@ def _positive(value, name: str, allow_none: bool = False) -> Optional[float]:
     return x
 
 
+def _clip_planes(projection: str, near, far) -> Tuple[Optional[float], Optional[float]]:
+    """``near`` and ``far`` (either may be None: fitted later) as floats,
+    checked: finite, ``near < far``, and for a perspective camera both in
+    front of the eye (``near`` at least MIN_NEAR)."""
+    planes = []
+    for name, value in (("near", near), ("far", far)):
+        if value is not None and not math.isfinite(_number(value, name)):
+            raise ValueError(f"{name} must be a finite number, got {value!r}")
+        planes.append(None if value is None else float(value))
+    near, far = planes
+    if projection == "perspective":
+        if near is not None and near <= 0.0:
+            raise ValueError(f"near must be > 0 for a perspective camera, got {near!r}")
+        if near is not None and near < MIN_NEAR:
+            raise ValueError(f"near must be at least {MIN_NEAR:g} for a perspective camera "
+                             f"(clip-space w below that counts as behind the eye), got {near!r}")
+        if far is not None and far <= 0.0:
+            raise ValueError(f"far must be > 0 for a perspective camera, got {far!r}")
+    if near is not None and far is not None and not near < far:
+        raise ValueError(f"near must be smaller than far, got near={near!r}, far={far!r}")
+    return near, far
+
+
 @dataclass(frozen=True)
 class Camera:
     """A pinhole (perspective) or orthographic camera.
@@ -175,23 +198,9 @@ class Camera:
         object.__setattr__(
             self, "ortho_height", _positive(self.ortho_height, "ortho_height", allow_none=True)
         )
-        near, far = self.near, self.far
-        for name, value in (("near", near), ("far", far)):
-            if value is not None and not math.isfinite(_number(value, name)):
-                raise ValueError(f"{name} must be a finite number, got {value!r}")
-        near = None if near is None else float(near)
-        far = None if far is None else float(far)
-        if self.projection == "perspective" and near is not None and near <= 0.0:
-            raise ValueError(f"near must be > 0 for a perspective camera, got {near!r}")
-        if self.projection == "perspective" and near is not None and near < MIN_NEAR:
-            raise ValueError(f"near must be at least {MIN_NEAR:g} for a perspective camera "
-                             f"(clip-space w below that counts as behind the eye), got {near!r}")
-        if self.projection == "perspective" and far is not None and far <= 0.0:
-            raise ValueError(f"far must be > 0 for a perspective camera, got {far!r}")
-        if near is not None and far is not None and not near < far:
-            raise ValueError(f"near must be smaller than far, got near={near!r}, far={far!r}")
-        object.__setattr__(self, "near", None if near is None else float(near))
-        object.__setattr__(self, "far", None if far is None else float(far))
+        near, far = _clip_planes(self.projection, self.near, self.far)
+        object.__setattr__(self, "near", near)
+        object.__setattr__(self, "far", far)
         object.__setattr__(self, "_mvp_cache", {})  # (width, height) -> matrix
 
     # Construction
