@@ -145,11 +145,11 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     mesh, camera, mvp, width, height, params = prepare(
         mesh, camera, width, height, shading, light_dir, ambient, diffuse, color, background,
         cull_backfaces)
+    record_culls = check_flag("record_culls", record_culls)  # (in Scene.render's order)
     depth, ids, image = output_arrays(out, width, height, mesh)
     with claimed((depth, ids, image)):
         planes = render_visibility(mesh, algo, mvp, width, height, cull_backfaces,
-                                   check_flag("record_culls", record_culls),
-                                   out_depth=depth, out_ids=ids)
+                                   record_culls, out_depth=depth, out_ids=ids)
         return finish(mesh, camera, mvp, params, algo, *planes, start=start, out_image=image)
 
 
