@@ -35,9 +35,8 @@ def read_obj(path: str) -> PolygonData:
     Raises
     ------
     ValueError
-        A malformed ``v`` or ``f`` record (naming the line), a vertex
-        coordinate that is not a number, or an index outside the vertices
-        (naming the face).
+        A malformed ``v`` or ``f`` record, a vertex coordinate that is not
+        a number, or an index outside the vertices (each naming the line).
     """
     with open(path, "rb") as fh:
         text = fh.read().decode("utf-8", errors="replace")
@@ -47,6 +46,8 @@ def read_obj(path: str) -> PolygonData:
     coord_count: List[int] = []   # how many numbers each v record has
     sizes: List[int] = []
     corners: List[int] = []
+    vertex_lines: List[int] = []  # the line each v record starts on (for messages)
+    face_lines: List[int] = []    # and each f record
     lines = text.splitlines()
     number = 0
     while number < len(lines):
@@ -74,6 +75,7 @@ def read_obj(path: str) -> PolygonData:
                                  f"(optionally w, or r g b), got {line.strip()!r}")
             coords.extend(parts[1:])
             coord_count.append(len(parts) - 1)
+            vertex_lines.append(start)
         elif tag == "f":
             if len(parts) < 4:
                 raise ValueError(f"line {start}: a face needs at least 3 corners, "
@@ -94,11 +96,15 @@ def read_obj(path: str) -> PolygonData:
             except ValueError:
                 raise ValueError(f"line {start}: bad face record {line.strip()!r}") from None
             sizes.append(len(parts) - 1)
+            face_lines.append(start)
 
     try:
         values = np.array(coords, dtype=np.float64)
-    except ValueError as err:
-        raise ValueError(f"a vertex record has a non-numeric coordinate: {err}") from None
+    except ValueError:
+        k = next(i for i, c in enumerate(coords) if not _is_float(c))
+        record = int(np.searchsorted(np.cumsum(coord_count), k, side="right"))
+        raise ValueError(f"line {vertex_lines[record]}: a vertex coordinate is not a number, "
+                         f"got {coords[k]!r}") from None
     counts = np.array(coord_count, dtype=np.int64)
     n = len(counts)
     if n and (counts == counts[0]).all():
@@ -123,7 +129,15 @@ def read_obj(path: str) -> PolygonData:
     if bad.any():
         k = int(np.argmax(bad))
         face = int(np.searchsorted(np.cumsum(polygon_sizes), k, side="right"))
-        raise ValueError(f"face {face} refers to vertex {int(polygon_indices[k]) + 1} "
-                         f"(1-based, after resolving relative indices), but the file "
-                         f"has {n} vertices")
+        raise ValueError(f"line {face_lines[face]}: face {face} refers to vertex "
+                         f"{int(polygon_indices[k]) + 1} (1-based, after resolving relative "
+                         f"indices), but the file has {n} vertices")
     return PolygonData(vertices, polygon_sizes, polygon_indices, colors)
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
