@@ -163,14 +163,11 @@ void bind_object_tree(py::module_& m) {
         params.leaf_size = leaf_size;
         params.max_depth = max_depth;
         if (!zbuffer::parse_octree_rule(rule, params.rule))
-          throw py::value_error("unknown octree rule \"" + rule +
-                                "\"; valid rules are \"smallest\", \"greene\"");
-        if (leaf_size < 1)
-          throw py::value_error("leaf_size must be >= 1, got " + std::to_string(leaf_size));
-        if (max_depth < 1 || max_depth > zbuffer::kMaxOctreeDepth)
-          throw py::value_error("max_depth must be in 1 .. " +
-                                std::to_string(zbuffer::kMaxOctreeDepth) + ", got " +
-                                std::to_string(max_depth));
+          throw py::value_error(
+              "unknown octree rule \"" + rule + "\"; valid rules are \"" +
+              zbuffer::octree_rule_name(zbuffer::OctreeRule::kSmallest) + "\", \"" +
+              zbuffer::octree_rule_name(zbuffer::OctreeRule::kGreene) + "\"");
+        // (leaf_size and max_depth: build_octree's std::invalid_argument, a ValueError)
         return build("octree", positions, faces,
                      [&](const zbuffer::MeshView& mesh) { return zbuffer::build_octree(mesh, params); });
       },
@@ -180,9 +177,7 @@ void bind_object_tree(py::module_& m) {
   m.def(
       "build_bvh",
       [](py::handle positions, py::handle faces, int leaf_size) {
-        if (leaf_size < 1)
-          throw py::value_error("leaf_size must be >= 1, got " + std::to_string(leaf_size));
-        zbuffer::BvhParams params;
+        zbuffer::BvhParams params;  // (leaf_size: build_bvh's std::invalid_argument)
         params.leaf_size = leaf_size;
         return build("bvh", positions, faces,
                      [&](const zbuffer::MeshView& mesh) { return zbuffer::build_bvh(mesh, params); });

@@ -474,8 +474,8 @@ void gather_rows(const ObjectTree& tree, const TriangleCluster& cl, std::vector<
   // 16 rows at a time: three gathers of corners, one of ids, and the
   // corners interleaved back into rows (simd::interleave16) -- where 3 x the
   // face index fits the gathers' int32 lanes.
-  const bool narrow = tree.n_input_faces <= std::numeric_limits<int32_t>::max() / 3;
-  for (; narrow && k < n; k += 16) {
+  const bool gatherable = tree.n_input_faces <= std::numeric_limits<int32_t>::max() / 3;
+  for (; gatherable && k < n; k += 16) {
     const __mmask16 live = n - k >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (n - k)) - 1u);
     if (k + 64 < n) {  // mostly runs of consecutive faces: fetch ahead along them
       const int64_t ahead = order[k + 64];

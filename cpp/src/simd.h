@@ -5,8 +5,9 @@
 // A build with AVX-512 F/DQ/VL/BW (e.g. -march=native on a recent x86) gets
 // the 16-lane loops; a build with AVX2 but not AVX-512 (most AMD processors
 // before Zen 4, Intel's client cores) gets 8-lane loops for the vertex
-// stage, face setup, rasterization and shading (the scanline and the
-// per-frame trees' face pass stay scalar there); any other build gets the
+// stage, face setup (the scanline's too), rasterization and shading (the
+// scanline's row walk and the per-frame trees' face pass stay scalar
+// there); any other build gets the
 // scalar loops. All perform the same IEEE operations per pixel and per
 // vertex, so they produce the same bits; tests hold the vector loops to the
 // scalar ones.

@@ -1,10 +1,11 @@
 // Triangle batches: assembly, setup and drawing, grouped by box shape.
 //
 // The scalar paths call vertex_stage.h's assemble_triangle and raster.h's
-// setup_triangle. The AVX-512 paths compute the same integers exactly (all
-// fit in int32 or int64 lanes) and the same IEEE operations on z, so a face
-// ends up with the same edge values, thresholds and depth coefficients
-// whichever path set it up.
+// setup_triangle. The AVX-512 paths (16 faces per instruction) and the AVX2
+// ones (8) compute the same integers exactly (all fit in int32 or int64
+// lanes) and the same IEEE operations on z, so a face ends up with the same
+// edge values, fill-rule biases and depth coefficients whichever path set
+// it up.
 #include "zbuffer/triangle_batch.h"
 
 #include <algorithm>
@@ -555,12 +556,12 @@ void TriangleBatch::update_pyramid() {
 // w2 not) at the pass's pixels, stepped pass by pass, and what the depth
 // formula and the depth write need. `col` and `row` place each lane in the
 // pass, which covers `rows` rows.
-struct TriangleBatch::Lanes16 {
+struct TriangleBatch::PassLanes16 {
   __m512i w0b, w1, w2, step0, step1, step2, bias1, bias2, id;
   simd::DepthPlane16 plane;
   float* depth;   // the box's first pixel
   int32_t* ids;
-  Lanes16(const TriangleBatch& b, int i, __m512i col, __m512i row, int rows)
+  PassLanes16(const TriangleBatch& b, int i, __m512i col, __m512i row, int rows)
       : plane(b.z0_[i], b.a1_[i], b.a2_[i], b.z_lo_[i], b.z_hi_[i]) {
     w1 = _mm512_add_epi32(_mm512_set1_epi32(b.w1_[i]),
                           _mm512_add_epi32(_mm512_mullo_epi32(col, _mm512_set1_epi32(b.sx1_[i])),
@@ -611,7 +612,7 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered_out, int64_t& writte
   __m512i covered = _mm512_setzero_si512(), written = _mm512_setzero_si512();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
-    Lanes16 t(*this, i, col, second_row, 2);
+    PassLanes16 t(*this, i, col, second_row, 2);
     const unsigned columns = x0_[i] + 8 <= target_.width ? 0xFFu : (1u << box_w_[i]) - 1;
     const __mmask16 box = __mmask16(columns | columns << 8);
     const bool odd = box_h_[i] & 1;
@@ -640,7 +641,7 @@ void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_
   __m512i covered = _mm512_setzero_si512(), written = _mm512_setzero_si512();
   for (int n = 0; n < group_size_[group]; ++n) {
     const int i = group_[group][n];
-    Lanes16 t(*this, i, col, _mm512_setzero_si512(), 1);
+    PassLanes16 t(*this, i, col, _mm512_setzero_si512(), 1);
     const __mmask16 box =
         x0_[i] + 16 <= target_.width ? __mmask16(0xFFFF) : __mmask16((1u << box_w_[i]) - 1);
     const bool odd = box_h_[i] & 1;

@@ -58,20 +58,12 @@ int frame_tree_depth(int64_t faces, int leaf_size);
 // The leaf size the registry's per-frame trees aim at, by mesh size: 128
 // triangles up to 20,480 faces, then faces / 160 (the depth stays at 3), up
 // to `largest`: 512 for the BVH (from 81,920 faces on), 8192 for the
-// octree (from 1,310,720). A tree built every frame pays for its depth within
-// the frame. Measured (one process per variant, ratios of medians,
-// benchmarks/README.md) against 128 throughout, 512 made the octree 4-7%
-// faster on bunny_69k and armadillo_86k and 15% on the 5 x 5 x 10 spot grid
-// (1.46M faces) -- one level shallower: fewer, fuller clusters --, but up to
-// 8% slower on spot and dragon_20k, which lose a level they need. On the
-// grids the octree gains from one level less again (2048: N = 10 a further
-// 5-12%, N = 20 6-11%, N = 40 0-2%; N = 80 keeps depth 6, the cap, where 5
-// measured the same), the BVH does not (N = 10: 3-4% slower). And from one
-// more (8192, measured by benchmarks/ab.py, two runs): N = 10 0.95-0.96x
-// in both projections, N = 20 0.92-0.94x in orthographic view (where nodes
-// are never hidden whole) and 1.00x in perspective, N = 40 and 80 0.96-1.00x
-// in orthographic view, but N = 40 1.02-1.03x in perspective; 4096 (a level
-// less at N = 20 and 80 only) gained at N = 20 in orthographic view alone.
+// octree (from 1,310,720). A tree built every frame pays for its depth
+// within the frame: one level shallower (fewer, fuller clusters) wins on
+// large meshes, loses on small ones that need the level; the octree, whose
+// nodes are seldom hidden whole on the orthographic grid, gains from
+// shallower trees longer than the BVH. The measurements behind each bound:
+// benchmarks/README.md, "Leaf size of the per-frame trees by mesh size".
 inline int frame_leaf_size(int64_t faces, int64_t largest) {
   return int(std::min<int64_t>(largest, std::max<int64_t>(128, faces / 160)));
 }

@@ -47,7 +47,8 @@ struct TriangleCluster {
 // Design decision: a tree built to last (zbuffer.Scene) is self-contained.
 // Every cluster gets its own copy of its vertices, with faces indexed
 // locally, so that drawing a cluster transforms exactly the vertices it uses
-// (vertex_stage.h, 8 at a time) and never touches the rest of the mesh.
+// (vertex_stage.h: 8 at a time with AVX-512, 4 with AVX2) and never
+// touches the rest of the mesh.
 // Good: render time depends on what is visible, not on the size of the
 // mesh, and the tree outlives the arrays it was built from. Bad: vertices on
 // cluster borders are stored (and transformed) more than once -- identical

@@ -100,13 +100,20 @@ inline TriangleSetup setup_triangle(const ScreenTriangle& t, int width, int heig
   return s;
 }
 
-// The one depth formula. w1, w2 are the exact (unbiased) edge values; each
-// operation is one float32 IEEE operation (float(w) rounds to nearest even).
-inline float depth_at(const TriangleSetup& s, int64_t w1, int64_t w2) {
-  float z = s.z0 + (float(w1) * s.a1 + float(w2) * s.a2);
-  z = (z < s.z_lo) ? s.z_lo : z;
-  z = (z > s.z_hi) ? s.z_hi : z;
+// The one depth formula. w1, w2 are the exact (unbiased) edge values, of
+// any integer type (float(w) of one value is the same float from int32 or
+// int64: it rounds to nearest even); each operation is one float32 IEEE
+// operation, then the clamp to the triangle's own depth range.
+template <typename Int>
+inline float depth_at(float z0, float a1, float a2, float z_lo, float z_hi, Int w1, Int w2) {
+  float z = z0 + (float(w1) * a1 + float(w2) * a2);
+  z = (z < z_lo) ? z_lo : z;
+  z = (z > z_hi) ? z_hi : z;
   return z;
+}
+
+inline float depth_at(const TriangleSetup& s, int64_t w1, int64_t w2) {
+  return depth_at(s.z0, s.a1, s.a2, s.z_lo, s.z_hi, w1, w2);
 }
 
 // n = q * d + r with 0 <= r < d, for d > 0 and |n|, d < 2^53. The double

@@ -52,7 +52,7 @@ struct ShadingInput {
 
 // Writes the (height, width, 3) RGB image for the visibility result ids,
 // with the fastest pass this build has (16 pixels at a time in float32 with
-// AVX-512).
+// AVX-512, 8 with AVX2, else the scalar pass).
 void shade(const ShadingInput& in, const int32_t* triangle_id, uint8_t* image);
 
 // The plain pass in double precision, one pixel at a time: kept callable so

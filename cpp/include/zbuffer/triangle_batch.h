@@ -28,7 +28,7 @@ namespace zbuffer {
 // covers past the box is masked off at an address of the box's own (AVX2
 // builds skip it). Any other triangle keeps its full TriangleSetup and goes
 // through rasterize_rect. With AVX-512, sixteen faces are assembled and set
-// up per instruction. Good: no branch mispredicted per triangle (a
+// up per instruction (eight with AVX2). Good: no branch mispredicted per triangle (a
 // per-triangle box loop has a varying trip count, and in a detailed mesh
 // about half the faces are front faces and half back faces), and setting up
 // one triangle never waits for the previous one to be drawn. Bad: triangles
@@ -107,7 +107,7 @@ class TriangleBatch {
   void draw_narrow(int group, int64_t& covered, int64_t& written);
   template <int kRows>
   void draw_wide(int group, int64_t& covered, int64_t& written);
-  struct Lanes16;  // a small triangle in the lanes of a pass (AVX-512 builds)
+  struct PassLanes16;  // a small triangle in the lanes of a pass (AVX-512 builds)
   // Whether the batch must be drawn before `incoming` more faces are added:
   // its small triangles stored and culled reach `capacity`, or its large
   // ones (tested when drawn) would pass it.

@@ -30,8 +30,9 @@ struct ScreenVertex {
 
 // The transformed vertices of a mesh.
 // Design decision: structure of arrays, except that x and y share one array
-// as pairs. Good: the vector vertex stage stores and the vector triangle
-// setup gathers one field for 16 vertices at a time, and a corner's x and y
+// as pairs. Good: the vector vertex stage stores one field for 8 vertices
+// at a time (4 with AVX2), the vector triangle setup gathers one for 16
+// faces' corners (8 with AVX2), and a corner's x and y
 // arrive in one 64-bit element (gathers cost by the element). Bad: scalar
 // code touches three arrays per vertex.
 struct ScreenVertices {

@@ -33,10 +33,12 @@ inline void pyramid_level_sizes(int width, int height, std::vector<int>& widths,
 // algorithm that only asks about 8 x 8 tiles keeps levels 3 and up and does
 // less upkeep). Batched upkeep works by 16 x 16 pixel blocks, whose levels
 // 1 to 3 fit in registers. Good: a query costs at most four loads at the
-// level where the rectangle spans two cells a side, and updates climb only
-// while values change. Bad: up to a third again of the depth buffer's
-// memory, and bounds are conservative (a query reads whole cells, which may
-// reach past the rectangle).
+// level where the rectangle spans two cells a side (max_over; the batches'
+// queries read 3 x 3 cells of a fine level, max_over_at, and the trees' up
+// to 16 x 16, max_over_cells), and updates climb only while values change.
+// Bad: up to a third again of the depth buffer's memory, and bounds are
+// conservative (a query reads whole cells, which may reach past the
+// rectangle).
 class ZPyramid {
  public:
   // A pyramid over the (width x height) depth buffer `depth`, whose rows
