@@ -32,15 +32,6 @@ inline size_t id_run_starts(const int32_t* ids, size_t count, int32_t left, int3
   }
 #elif defined(ZBUFFER_AVX2)
   if (count >= 9) {
-    static const auto kPack = [] {
-      struct Table {
-        int32_t lanes[256][8];
-      } t{};
-      for (int m = 0; m < 256; ++m)
-        for (int b = 0, k = 0; b < 8; ++b)
-          if (m >> b & 1) t.lanes[m][k++] = b;
-      return t;
-    }();
     if (ids[0] != left && ids[0] >= 0) out[n++] = ids[0];
     auto load = [](const int32_t* q) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q)); };
     for (p = 1; p + 8 <= count; p += 8) {
@@ -49,7 +40,7 @@ inline size_t id_run_starts(const int32_t* ids, size_t count, int32_t left, int3
                                                 _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1)));
       const unsigned bits = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(start)));
       _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + n),
-                          _mm256_permutevar8x32_epi32(f, load(kPack.lanes[bits])));
+                          _mm256_permutevar8x32_epi32(f, load(simd::kCompress8.lanes[bits])));
       n += size_t(__builtin_popcount(bits));
     }
   }

@@ -325,10 +325,9 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
   if (vector_setup) {
     simd::Setup16 s;
     simd::setup16(f, box, s);
-    // The records (ScanPolygon's 22 fields, one vector per field, a face
+    // The records (ScanPolygon's kScanPolygonInts fields, one vector per field, a face
     // per lane), transposed into a record per register and stored whole,
     // the faces of vector_setup in order.
-    static_assert(sizeof(ScanPolygon) == 22 * 4, "ScanPolygon: 22 int32 fields");
     constexpr auto field = [](size_t offset) { return int(offset / 4); };
     __m512i r[32];
     r[field(offsetof(ScanPolygon, x_min))] = box.i0;
@@ -349,7 +348,7 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
     r[field(offsetof(ScanPolygon, z_hi))] = _mm512_castps_si512(s.hi);
     r[field(offsetof(ScanPolygon, id))] = simd::ids16(mesh, first, f.live);
     r[field(offsetof(ScanPolygon, large))] = _mm512_set1_epi32(-1);  // every edge value fits int32
-    for (int k = 22; k < 32; ++k) r[k] = _mm512_setzero_si512();
+    for (int k = kScanPolygonInts; k < 32; ++k) r[k] = _mm512_setzero_si512();
     transpose16(r);
     transpose16(r + 16);
     const __mmask16 m = vector_setup;
@@ -357,7 +356,7 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
     const size_t base = polys_.size();
     polys_.resize(base + size_t(n));
     int32_t* rec = reinterpret_cast<int32_t*>(polys_.data() + base);
-    for (unsigned left = m; left; left &= left - 1, rec += 22) {
+    for (unsigned left = m; left; left &= left - 1, rec += kScanPolygonInts) {
       const int lane = __builtin_ctz(left);
       _mm512_storeu_si512(rec, r[lane]);
       _mm512_mask_storeu_epi32(rec + 16, __mmask16(0x3F), r[16 + lane]);
@@ -432,11 +431,10 @@ void ScanlineTables::add_8_faces(const MeshView& mesh, const double* mvp, const 
   if (vector_setup) {
     simd::Setup8 s;
     simd::setup8(f, box, s);
-    // ScanPolygon's 22 fields, a row per field and a column per lane; the
+    // ScanPolygon's kScanPolygonInts fields, a row per field and a column per lane; the
     // edges' biases and the vertices' y for the edge table.
-    static_assert(sizeof(ScanPolygon) == 22 * 4, "ScanPolygon: 22 int32 fields");
     constexpr auto field = [](size_t offset) { return int(offset / 4); };
-    alignas(32) int32_t rec[22][8], bias[3][8], ys[3][8];
+    alignas(32) int32_t rec[kScanPolygonInts][8], bias[3][8], ys[3][8];
     auto put = [](int32_t* row, __m256i v) { _mm256_store_si256(reinterpret_cast<__m256i*>(row), v); };
     auto put_f = [&](int32_t* row, __m256 v) { put(row, _mm256_castps_si256(v)); };
     put(rec[field(offsetof(ScanPolygon, x_min))], box.i0);
@@ -461,8 +459,8 @@ void ScanlineTables::add_8_faces(const MeshView& mesh, const double* mvp, const 
     put(rec[field(offsetof(ScanPolygon, large))], _mm256_set1_epi32(-1));  // every edge value fits int32
     for (unsigned m = vector_setup; m; m &= m - 1) {
       const int lane = __builtin_ctz(m);
-      int32_t record[22];
-      for (int q = 0; q < 22; ++q) record[q] = rec[q][lane];
+      int32_t record[kScanPolygonInts];
+      for (int q = 0; q < kScanPolygonInts; ++q) record[q] = rec[q][lane];
       const int32_t poly = int32_t(polys_.size());
       std::memcpy(&polys_.emplace_back(), record, sizeof record);
       const ScanPolygon& p = polys_.back();
@@ -613,10 +611,9 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
 #ifdef ZBUFFER_AVX512
   const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
-  // A record is 22 int32 fields; 16 records are loaded whole (their first
+  // A record is kScanPolygonInts int32 fields; 16 records are loaded whole (their first
   // 16 fields, then the other 6) and transposed into a field per register.
-  static_assert(sizeof(ScanPolygon) == 22 * 4, "ScanPolygon: 22 int32 fields");
-  constexpr int kRecord = int(sizeof(ScanPolygon) / 4);
+  constexpr int kRecord = kScanPolygonInts;
   constexpr auto field = [](size_t offset) { return int(offset / 4); };
   constexpr int kXMinF = field(offsetof(ScanPolygon, x_min)), kYMaxF = field(offsetof(ScanPolygon, y_max)),
                 kWF = field(offsetof(ScanPolygon, w)), kSxF = field(offsetof(ScanPolygon, step_x)),
@@ -826,7 +823,6 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
 void ScanlineTables::enter_edges(int y, int32_t begin, int32_t end) {
 #ifdef ZBUFFER_AVX512
   static_assert(sizeof(EdgeEntry) == 3 * sizeof(int32_t), "entries are read as 3 ints");
-  static_assert(sizeof(ScanPolygon) == 22 * sizeof(int32_t), "records are gathered as 22 ints");
   const int32_t* table = reinterpret_cast<const int32_t*>(edge_table_.data());
   const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
   constexpr int kWOff = offsetof(ScanPolygon, w) / 4, kSxOff = offsetof(ScanPolygon, step_x) / 4,
@@ -841,7 +837,7 @@ void ScanlineTables::enter_edges(int y, int32_t begin, int32_t end) {
     __m512i field[3];
     simd::deinterleave16(table + 3 * size_t(i), count, field);
     const __m512i poly = field[0], last = field[1], k = field[2];
-    const __m512i rec = _mm512_mullo_epi32(poly, _mm512_set1_epi32(22));
+    const __m512i rec = _mm512_mullo_epi32(poly, _mm512_set1_epi32(kScanPolygonInts));
     const __m512i large = _mm512_mask_i32gather_epi32(
         zero, live, _mm512_add_epi32(rec, _mm512_set1_epi32(kLargeOff)), recs, 4);
     const __mmask16 vec = _mm512_mask_cmplt_epi32_mask(live, large, zero);

@@ -44,20 +44,6 @@ ZBUFFER_INLINE unsigned bits8_64(__m256i lo, __m256i hi) {
          (unsigned(_mm256_movemask_pd(_mm256_castsi256_pd(hi))) << 4);
 }
 
-// Lane permutations that move the lanes of a bit mask to the front, in
-// order (what AVX-512's compress does).
-struct Compress8 {
-  alignas(32) int32_t lanes[256][8];
-  constexpr Compress8() : lanes{} {
-    for (int m = 0; m < 256; ++m) {
-      int n = 0;
-      for (int lane = 0; lane < 8; ++lane)
-        if (m & (1 << lane)) lanes[m][n++] = lane;
-      while (n < 8) lanes[m][n++] = 0;
-    }
-  }
-};
-inline constexpr Compress8 kCompress8{};
 
 ZBUFFER_INLINE __m256i compress8(unsigned bits, __m256i v) {
   return _mm256_permutevar8x32_epi32(

@@ -53,6 +53,21 @@ inline void prefetch(const void* p) {
 
 namespace simd {
 
+// Lane permutations that move the lanes of a bit mask to the front, in
+// order (what AVX-512's compress does).
+struct Compress8 {
+  alignas(32) int32_t lanes[256][8];
+  constexpr Compress8() : lanes{} {
+    for (int m = 0; m < 256; ++m) {
+      int n = 0;
+      for (int lane = 0; lane < 8; ++lane)
+        if (m & (1 << lane)) lanes[m][n++] = lane;
+      while (n < 8) lanes[m][n++] = 0;
+    }
+  }
+};
+inline constexpr Compress8 kCompress8{};
+
 #ifdef ZBUFFER_AVX512
 // The vertex stage's transform (vertex_stage.h: transform_point) for 8
 // points: clip = mvp * (p, 1), each row summed left to right.

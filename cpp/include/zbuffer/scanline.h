@@ -120,6 +120,11 @@ struct ScanPolygon {
   int32_t id;
   int32_t large;  // index into the full setups, or -1 for the int32 form
 };
+// A record's fields, all 4 bytes: the vector paths move records as rows of
+// this many int32.
+constexpr int kScanPolygonInts = 22;
+static_assert(sizeof(ScanPolygon) == kScanPolygonInts * sizeof(int32_t),
+              "ScanPolygon: kScanPolygonInts fields of 4 bytes");
 
 // A polygon face drawn natively (docs/rasterization.md, "Polygons"): its
 // coverage is the even-odd rule over its snapped edges, its depth the plane
