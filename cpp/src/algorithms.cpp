@@ -102,7 +102,7 @@ void render(const Algorithm& algorithm, const RenderInput& input,
   if (stats.depth_storage_bytes == 0)
     stats.depth_storage_bytes = int64_t(target.width) * target.height * int64_t(sizeof(float));
   const auto stop = std::chrono::steady_clock::now();
-  stats.total_ms += std::chrono::duration<double, std::milli>(stop - start).count();
+  stats.render_ms += std::chrono::duration<double, std::milli>(stop - start).count();
 }
 
 }  // namespace zbuffer
