@@ -128,9 +128,7 @@ Planes allocate_planes(int width, int height) {
   uint8_t* base = block.mutable_data();
   const size_t depth_at = (64 - reinterpret_cast<uintptr_t>(base) % 64) % 64;
   const uintptr_t depth_addr = reinterpret_cast<uintptr_t>(base) + depth_at;
-  const uintptr_t ids_min = depth_addr + 4 * n;
-  const uintptr_t want = (depth_addr + 2048) % 4096;
-  const uintptr_t ids_addr = ids_min + (want - ids_min % 4096 + 4096) % 4096;
+  const uintptr_t ids_addr = zbuffer::id_plane_address(depth_addr, depth_addr + 4 * n);
   const std::vector<py::ssize_t> shape = {height, width};
   const std::vector<py::ssize_t> strides = {py::ssize_t(4) * pitch, 4};
   py::array_t<float> depth(shape, strides, reinterpret_cast<float*>(depth_addr), block);

@@ -76,12 +76,9 @@ PlacedIds::PlacedIds(const DepthTarget& target, bool allow_scratch)
   Buffer<int32_t>& scratch = id_scratch;
   constexpr size_t kSlack = 4096 / sizeof(int32_t);  // ids, room for the placement below
   if (scratch.size() < pixels_ + kSlack) scratch.resize(pixels_ + kSlack);
-  // The first id 2 KiB past the depth plane's start, modulo 4 KiB (both
-  // are 4-byte aligned).
-  const uintptr_t depth = reinterpret_cast<uintptr_t>(target.depth);
-  const uintptr_t base = reinterpret_cast<uintptr_t>(scratch.data());
-  const uintptr_t skip = (depth + 2048 - base) % 4096;
-  plane_ = scratch.data() + skip / sizeof(int32_t);
+  // (Both planes are 4-byte aligned: the placed plane is too.)
+  plane_ = reinterpret_cast<int32_t*>(id_plane_address(
+      reinterpret_cast<uintptr_t>(target.depth), reinterpret_cast<uintptr_t>(scratch.data())));
 }
 
 void PlacedIds::finish() const {

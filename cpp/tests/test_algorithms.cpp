@@ -251,6 +251,13 @@ void test_ids_are_placed_apart_from_depth() {
   CHECK(!planes_share_cache_sets(target(1024, 8192 + 2048)));
   CHECK(!planes_share_cache_sets(target(1000, 8192)));
   CHECK(!planes_share_cache_sets(target(512, 8192)));
+  // id_plane_address: the first address from `from` on, 2 KiB past the
+  // depth plane modulo 4 KiB.
+  for (uintptr_t depth : {uintptr_t(0x10000), uintptr_t(0x10040), uintptr_t(0x10ffc)})
+    for (uintptr_t from = depth; from < depth + 3 * 4096; from += 4) {
+      const uintptr_t at = id_plane_address(depth, from);
+      CHECK(at >= from && at < from + 4096 && (at - depth) % 4096 == 2048);
+    }
   for (int width : {1024, 2048}) {
     const DepthTarget t = target(width, size_t(width) * 2 * sizeof(float));
     const PlacedIds kept(t, /*allow_scratch=*/false);

@@ -81,6 +81,16 @@ inline int padded_pitch(int width) {
   return width >= 1024 && width % 512 == 0 ? width + 16 : width;
 }
 
+// Where an id plane goes beside the depth plane at address `depth`: the
+// first address at or after `from` that lies 2 KiB past `depth` modulo
+// 4 KiB, so that a pixel's id and its depth never share an L1 cache set
+// (algorithms.h, planes_share_cache_sets). For the planes the binding
+// allocates and the scratch plane of PlacedIds.
+inline uintptr_t id_plane_address(uintptr_t depth, uintptr_t from) {
+  const uintptr_t want = (depth + 2048) % 4096;
+  return from + (want - from % 4096 + 4096) % 4096;
+}
+
 // Polygon faces, for the algorithms that draw polygons natively (the
 // scanline; see Algorithm::polygons). Polygon p has the vertices
 // indices[offsets[p] .. offsets[p + 1]) (at least 3), and its triangulation
