@@ -85,6 +85,15 @@ def test_pyvista_colours_are_kept():
     mesh = zbuffer.as_mesh(poly)
     assert len(mesh.faces) == 3
     np.testing.assert_array_equal(mesh.face_colors, [[1, 0, 0], [0, 1, 0], [0, 1, 0]])
+    # Triangles and a strip: VTK's triangle filter given both loses the
+    # triangles' cell data; the strip's triangles come last.
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [3, 0, 0], [3, 1, 0],
+                       [4, 0, 0], [4, 1, 0]], float)
+    poly = pv.PolyData(points, faces=[3, 0, 1, 2, 3, 1, 3, 2], strips=[4, 4, 5, 6, 7])
+    poly.cell_data["RGB"] = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255]], np.uint8)
+    mesh = zbuffer.as_mesh(poly)
+    np.testing.assert_array_equal(mesh.faces[:2], [[0, 1, 2], [1, 3, 2]])
+    np.testing.assert_array_equal(mesh.face_colors, [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]])
 
 
 def test_scene_is_concatenated_with_colours():

@@ -231,23 +231,43 @@ def _has_content(path: str) -> bool:
     return False
 
 
-def _pyvista_colors(poly, n_faces: int) -> dict:
-    """The vertex or face colours of a triangulated pyvista.PolyData, as
-    Mesh's keyword arguments: its active scalars when they are uint8 with 3
-    or 4 components (RGB or RGBA, as pyvista reads them from PLY files and
-    plots them); other scalars are data, not colours, and are not kept."""
-    name = poly.active_scalars_name
-    if name is None:
-        return {}
-    association = poly.active_scalars_info.association.name
-    values = np.asarray(poly.active_scalars)
-    if values.dtype != np.uint8 or values.ndim != 2 or values.shape[1] not in (3, 4):
-        return {}
-    if association == "POINT" and len(values) == poly.n_points:
-        return {"vertex_colors": values}
-    if association == "CELL" and len(values) == poly.n_cells == n_faces:
-        return {"face_colors": values}
-    return {}
+def _pyvista_mesh(poly) -> Mesh:
+    """A Mesh of a pyvista.PolyData's polygons and strips, triangulated (in
+    VTK's order: the polygons' triangles, then the strips'), with its
+    colours: its active scalars when they are uint8 with 3 or 4 components
+    (RGB or RGBA, as pyvista reads them from PLY files and plots them), per
+    point or per cell; other scalars are data, not colours, and are not
+    kept. Point and line cells draw nothing."""
+    import pyvista
+
+    # Polygons and strips are triangulated apart, each triangle tagged with
+    # its cell: VTK's triangle filter can misplace cell data (colours) when
+    # it gets them together, or beside point and line cells.
+    n_verts_lines = poly.n_verts + poly.n_lines  # (cells are numbered these first)
+    n_polys = poly.n_cells - n_verts_lines - poly.n_strips
+    points = np.asarray(poly.points, dtype=np.float64)
+    faces, cells = [np.zeros((0, 3), np.int64)], [np.zeros(0, np.int64)]
+    for first, part in ((n_verts_lines, dict(faces=poly.faces) if n_polys else None),
+                        (n_verts_lines + n_polys, dict(strips=poly.strips) if poly.n_strips else None)):
+        if part is None:
+            continue
+        piece = pyvista.PolyData(points, **part)
+        piece.cell_data["cell"] = first + np.arange(piece.n_cells)
+        triangles = piece.triangulate()
+        if triangles.n_cells:
+            faces.append(np.asarray(triangles.regular_faces, dtype=np.int64))
+            cells.append(np.asarray(triangles.cell_data["cell"], dtype=np.int64))
+    faces, cells = np.concatenate(faces), np.concatenate(cells)
+    colors = {}
+    values = None if poly.active_scalars_name is None else np.asarray(poly.active_scalars)
+    if (values is not None and values.dtype == np.uint8 and values.ndim == 2
+            and values.shape[1] in (3, 4)):
+        association = poly.active_scalars_info.association.name
+        if association == "POINT" and len(values) == poly.n_points:
+            colors = {"vertex_colors": values}
+        elif association == "CELL" and len(values) == poly.n_cells:
+            colors = {"face_colors": values[cells]}
+    return Mesh(points, faces, **colors)
 
 
 def as_mesh(obj) -> Mesh:
@@ -282,18 +302,7 @@ def as_mesh(obj) -> Mesh:
                 obj = obj.extract_surface(algorithm="dataset_surface")
             except TypeError:
                 obj = obj.extract_surface()
-        points_and_lines = obj.n_verts + obj.n_lines  # (cells numbered these first, then polygons)
-        if points_and_lines and obj.n_cells > points_and_lines:
-            # Nothing to draw; and VTK's triangle filter can misplace the
-            # polygons' cell data (colours) when they are there.
-            obj = obj.remove_cells(np.arange(points_and_lines))
-        poly = obj.triangulate()  # quads, polygons and strips to triangles
-        if poly.faces.size:
-            faces = np.asarray(poly.regular_faces)
-        else:  # only points or lines: nothing to render
-            faces = np.zeros((0, 3), np.int32)
-        return Mesh(np.asarray(poly.points, dtype=np.float64), faces,
-                    **_pyvista_colors(poly, len(faces)))
+        return _pyvista_mesh(obj)
     if isinstance(obj, (tuple, list)) and len(obj) == 2:
         return Mesh(obj[0], obj[1])
     raise TypeError(
