@@ -91,7 +91,7 @@ py::dict stats_dict(const zbuffer::RenderStats& s) {
   d["vertex_ms"] = s.vertex_ms;
   d["raster_ms"] = s.raster_ms;
   d["pyramid_ms"] = s.pyramid_ms;
-  d["render_ms"] = s.render_ms;  // the C++ call; Python adds total_ms
+  d["render_ms"] = s.total_ms;  // the C++ call; Python adds total_ms
   return d;
 }
 

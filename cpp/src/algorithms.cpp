@@ -99,7 +99,7 @@ void render(const Algorithm& algorithm, const RenderInput& input,
   if (stats.depth_storage_bytes == 0)
     stats.depth_storage_bytes = int64_t(target.width) * target.height * int64_t(sizeof(float));
   const auto stop = std::chrono::steady_clock::now();
-  stats.render_ms += std::chrono::duration<double, std::milli>(stop - start).count();
+  stats.total_ms += std::chrono::duration<double, std::milli>(stop - start).count();
 }
 
 }  // namespace zbuffer

@@ -906,7 +906,7 @@ void render_tree_frame(const ObjectTree& tree, const RenderInput& input, DepthTa
   draw_cleared(target, /*allow_scratch=*/true, [&](DepthTarget& drawn) {
     render_object_tree(tree, input, drawn, stats, frame, temporal);
   });
-  stats.render_ms += ms_between(start, Clock::now());
+  stats.total_ms += ms_between(start, Clock::now());
 }
 
 void render_built_per_frame(const RenderInput& input, DepthTarget& target, RenderStats& stats,

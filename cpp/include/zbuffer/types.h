@@ -170,7 +170,7 @@ struct RenderStats {
   double vertex_ms = 0.0;          // per-vertex transform and snapping
   double raster_ms = 0.0;          // assembly, clipping, setup, rasterization
   double pyramid_ms = 0.0;         // Z-pyramid upkeep (part of raster_ms)
-  double render_ms = 0.0;          // the whole C++ render call
+  double total_ms = 0.0;           // the whole C++ render call
 };
 
 }  // namespace zbuffer
