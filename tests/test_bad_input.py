@@ -395,8 +395,10 @@ def test_odd_inputs_get_clear_messages(tmp_path):
     with pytest.raises(TypeError, match="merge_vertices must be a bool"):
         zbuffer.load(tmp_path / "any.ply", merge_vertices="no")
     from zbuffer.viz import most_culling_cells
-    with pytest.raises(ValueError, match="n must be an integer >= 0"):
+    with pytest.raises(ValueError, match="n must be at least 0, got -1"):
         most_culling_cells(np.ones((2, 2), np.int64), -1)
+    with pytest.raises(TypeError, match="n must be an integer, got 5.0"):
+        most_culling_cells(np.ones((2, 2), np.int64), 5.0)
     with pytest.raises(ValueError, match="n must be at least 1"):
         scenes.tessellated_square(0)
     with pytest.raises(ValueError, match="n_lat must be at least 2"):

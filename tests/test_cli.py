@@ -168,16 +168,19 @@ def test_bench_checks_its_arguments_before_running(args, message, monkeypatch, t
 
 def test_render_takes_up_on_the_built_in_scene():
     # --up used to be ignored for the built-in scene's default camera; it
-    # turns that view, and changes nothing else about it.
+    # turns that view, which is framed again: the whole scene in the picture.
     from zbuffer.cli import build_parser, render_camera
 
     mesh = zbuffer.scenes.default_scene()
-    for up in [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 2.0, 0.0)]:
+    for up in [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 2.0, 0.0), (1.0, 1.0, 1.0)]:
         args = build_parser().parse_args(["render", "--up", ",".join(map(str, up))])
         camera = render_camera(args, mesh, 800, 600)
         expected = zbuffer.scenes.default_camera(800 / 600, up=up)
         assert camera == expected and camera.up == tuple(up)
-        assert camera.eye == zbuffer.scenes.default_camera(800 / 600).eye
+        mvp = camera.resolve(mesh).mvp(800, 600)
+        clip = np.c_[mesh.vertices, np.ones(len(mesh.vertices))] @ mvp.T
+        extent = np.abs(clip[:, :2] / clip[:, 3:]).max(axis=0)
+        assert extent.max() == pytest.approx(0.9, abs=0.01) and extent.min() <= 0.9 + 1e-9
 
 
 @pytest.mark.parametrize("option", [["--fov", "45"], ["--projection", "perspective"],

@@ -161,7 +161,8 @@ def wall(z):
     v = np.stack([grid_coord(gx.ravel()), grid_coord(gy.ravel()), np.full(gx.size, z)], 1)
     at = lambda i, j: i * (n + 1) + j  # noqa: E731
     f = [q for i in range(n) for j in range(n)
-         for q in ([at(i, j), at(i, j + 1), at(i + 1, j + 1)], [at(i, j), at(i + 1, j + 1), at(i + 1, j)])]
+         for q in ([at(i, j), at(i, j + 1), at(i + 1, j + 1)],
+                   [at(i, j), at(i + 1, j + 1), at(i + 1, j)])]
     return v, np.array(f, np.int32)
 
 
@@ -184,7 +185,8 @@ def test_heavy_occlusion_and_exact_ties(tris, wall_z, seed):
     ref_depth, ref_ids, _ = render_reference(v, by_id)
     behind = tf[(tv[:, 2].reshape(-1, 3) > wall_z).all(axis=1)] + len(wv)
     # (those covering a pixel centre: a box between centres is not tested)
-    covering_behind = sum((render_reference(v, behind[[k]])[1] >= 0).any() for k in range(len(behind)))
+    covering_behind = sum((render_reference(v, behind[[k]])[1] >= 0).any()
+                          for k in range(len(behind)))
     for algo in HIERARCHICAL:
         depth, got, stats = _core.render(v, v_faces, MVP, SIZE, SIZE, algo, False, ids)
         np.testing.assert_array_equal(got, ref_ids, err_msg=algo)

@@ -271,12 +271,14 @@ def claimed(arrays):
                 del _CLAIMED[next(k for k, b in enumerate(_CLAIMED) if b is a)]
 
 
-def check_algorithm(algo) -> None:
+def check_algorithm(algo, takes_camera: bool = True) -> None:
     """ValueError unless ``algo`` names a registered algorithm (TypeError
-    for what is not a name at all)."""
+    for what is not a name at all). ``takes_camera``: whether the caller
+    has a ``camera=`` to point a misplaced Camera to."""
     if isinstance(algo, Camera):  # render(mesh, cam): Scene.render takes the camera first
-        raise TypeError("algo must be an algorithm name, got a Camera: pass it as camera=... "
-                        "(render's second argument is algo)")
+        raise TypeError("algo must be an algorithm name, got a Camera"
+                        + (": pass it as camera=... (render's second argument is algo)"
+                           if takes_camera else ""))
     if not isinstance(algo, str):
         raise TypeError(f"algo must be an algorithm name (a str), got {type(algo).__name__}")
     if algo not in _ALGORITHMS:

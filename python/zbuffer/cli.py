@@ -276,8 +276,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="WIDTHxHEIGHT (default %dx%d)" % DEFAULT_SIZE)
     r.add_argument("--out", default="render.png",
                    help="shaded image to write (default render.png); 'none' to skip")
-    r.add_argument("--depth", default=None, help="also write the depth map (distance along the view axis) as a 16-bit PNG, "
-                   "scaled per image: nearest white, farthest dark grey, nothing drawn black")
+    r.add_argument("--depth", default=None,
+                   help="also write the depth map (distance along the view axis) as a 16-bit "
+                        "PNG, scaled per image: nearest white, farthest dark grey, nothing "
+                        "drawn black")
     r.add_argument("--shading", choices=["flat", "smooth"], default="flat",
                    help="Lambert shading from face normals (flat, default) or interpolated "
                         "vertex normals (smooth)")

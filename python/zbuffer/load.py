@@ -247,8 +247,9 @@ def _pyvista_mesh(poly) -> Mesh:
     n_polys = poly.n_cells - n_verts_lines - poly.n_strips
     points = np.asarray(poly.points, dtype=np.float64)
     faces, cells = [np.zeros((0, 3), np.int64)], [np.zeros(0, np.int64)]
+    strips_first = n_verts_lines + n_polys
     for first, part in ((n_verts_lines, dict(faces=poly.faces) if n_polys else None),
-                        (n_verts_lines + n_polys, dict(strips=poly.strips) if poly.n_strips else None)):
+                        (strips_first, dict(strips=poly.strips) if poly.n_strips else None)):
         if part is None:
             continue
         piece = pyvista.PolyData(points, **part)

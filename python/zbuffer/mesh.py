@@ -32,8 +32,11 @@ def unit_rgb(c: np.ndarray, what: str) -> np.ndarray:
     the rest). For the mesh's colours and the render's ``color`` and
     ``background``."""
     def values() -> str:
-        return (f"{c.tolist()!r}" if c.size <= 4
-                else f"values from {c.min().item()!r} to {c.max().item()!r}")
+        if c.size <= 4:
+            return f"{c.tolist()!r}"
+        if not np.isfinite(c).all():
+            return "a NaN or infinite value"
+        return f"values from {c.min().item()!r} to {c.max().item()!r}"
 
     if np.issubdtype(c.dtype, np.integer) and c.dtype != np.bool_:
         if c.size and (c.min() < 0 or c.max() > 255):

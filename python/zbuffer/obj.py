@@ -48,7 +48,9 @@ def read_obj(path: str) -> PolygonData:
     corners: List[int] = []
     vertex_lines: List[int] = []  # the line each v record starts on (for messages)
     face_lines: List[int] = []    # and each f record
-    lines = text.splitlines()
+    # Lines end at \n, \r\n or \r, as editors count them (not at the other
+    # characters str.splitlines breaks at: form feeds, \x85, \u2028, ...).
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     number = 0
     while number < len(lines):
         line = lines[number].lstrip()
@@ -117,9 +119,19 @@ def read_obj(path: str) -> PolygonData:
             idx = starts[rows, None] + np.arange(c)
             table[rows, :c] = values[idx]
     vertices = np.ascontiguousarray(table[:, :3]) if n else np.zeros((0, 3))
+    bad = ~np.isfinite(vertices).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"line {vertex_lines[k]}: a vertex coordinate is NaN or infinite, "
+                         f"got {vertices[k].tolist()}")
     colors = None
     if n and (counts == 6).all():
         colors = np.ascontiguousarray(table[:, 3:6])
+        bad = ~(np.isfinite(colors) & (colors >= 0.0) & (colors <= 255.0)).all(axis=1)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise ValueError(f"line {vertex_lines[k]}: a vertex colour must lie in 0-255 (or "
+                             f"0-1), got {colors[k].tolist()}")
         if colors.max(initial=0.0) > 1.0:  # some exporters write 0-255
             colors = colors / 255.0
 

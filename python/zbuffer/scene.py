@@ -72,7 +72,8 @@ class Scene:
     def __init__(self, mesh, *, leaf_size: Optional[int] = None,
                  max_depth: Optional[int] = None, octree_rule: str = "smallest"):
         self._mesh = as_mesh(mesh)
-        self.leaf_size = None if leaf_size is None else check_int("leaf_size", leaf_size, 1, _INT32_MAX)
+        self.leaf_size = (None if leaf_size is None
+                          else check_int("leaf_size", leaf_size, 1, _INT32_MAX))
         self.max_depth = check_int("max_depth", _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None
                                    else max_depth, 1, _core.MAX_OCTREE_DEPTH)
         if octree_rule not in OCTREE_RULES:

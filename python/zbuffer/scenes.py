@@ -133,13 +133,12 @@ def default_scene() -> Mesh:
 
 def default_camera(aspect: float = 4.0 / 3.0, up=(0.0, 1.0, 0.0)):
     """A camera looking at :func:`default_scene` from the front, above and right
-    (``up``: the world direction shown upwards; it turns the view about the
-    same eye and target)."""
+    (``up``: the world direction shown upwards), the scene filling 90% of
+    the picture's width or height."""
     from .camera import Camera
 
     mesh = default_scene()
-    y_up = (0.0, 1.0, 0.0)
-    camera = Camera.fit(mesh, direction=(0.45, 0.55, 1.0), up=y_up, aspect=aspect)
+    camera = Camera.fit(mesh, direction=(0.45, 0.55, 1.0), up=up, aspect=aspect)
     # Fitted to the bounding sphere, the scene (low and wide) would sit in
     # the lower part of the picture: aim at the middle of its projection and
     # come closer until its larger extent spans 90% of the picture, in a few
@@ -154,15 +153,15 @@ def default_camera(aspect: float = 4.0 / 3.0, up=(0.0, 1.0, 0.0)):
         eye, target = np.array(camera.eye), np.array(camera.target)
         back = eye - target
         distance = float(np.linalg.norm(back))
-        right = np.cross(y_up, back)
+        right = np.cross(np.asarray(camera.up), back)
         right /= np.linalg.norm(right)
-        upward = np.cross(back, right) / distance
+        upward = np.cross(back, right) / distance  # (the picture's up, unit)
         tan = np.tan(np.radians(camera.fov_y) / 2)
         shift = distance * tan * (centre[0] * aspect * right + centre[1] * upward)
         target = target + shift
         eye = target + back * (half / 0.9)
-        camera = Camera.look_at(tuple(eye), tuple(target), up=y_up, fov_y=camera.fov_y)
-    return Camera.look_at(camera.eye, camera.target, up=up, fov_y=camera.fov_y)
+        camera = Camera.look_at(tuple(eye), tuple(target), up=camera.up, fov_y=camera.fov_y)
+    return camera
 
 
 # Test Scenes
@@ -243,9 +242,13 @@ def instance_grid(mesh, counts=(5, 5, 10), spacing: float = 1.1) -> Mesh:
     camera on +z looking down the long axis sees the front layer and little
     else). Faces are numbered copy by copy."""
     mesh = as_mesh(mesh)
-    if len(counts) != 3:
+    try:
+        given = tuple(counts)
+    except TypeError:
+        raise TypeError(f"counts must be three positive integers, got {counts!r}") from None
+    if len(given) != 3:
         raise ValueError(f"counts must be three positive integers, got {counts!r}")
-    counts = tuple(check_int(f"counts[{k}]", c, 1) for k, c in enumerate(counts))
+    counts = tuple(check_int(f"counts[{k}]", c, 1) for k, c in enumerate(given))
     if len(mesh.vertices) == 0:
         raise ValueError("instance_grid needs a mesh with vertices (its extent spaces the copies)")
     n_copies = counts[0] * counts[1] * counts[2]

@@ -65,11 +65,11 @@ class Viewer:
 
     def __init__(self, mesh, algo: str = "hiz_octree", width: int = 800, height: int = 600,
                  shading: str = "flat"):
-        self.scene = Scene(as_mesh(mesh))
-        check_algorithm(algo)
+        check_algorithm(algo, takes_camera=False)
         check_shading(shading)
-        self.algo = algo
         self.width, self.height = check_size(width, height)
+        self.scene = Scene(as_mesh(mesh))
+        self.algo = algo
         self.shading = shading
         self.overlay = "none"     # "none", "depth", "pyramid", "tree"
         self.pyramid_level = 0

@@ -19,6 +19,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Union
 import numpy as np
 
 from . import _core
+from .checks import check_index, check_int
 from .result import RenderResult
 
 __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms", "depth_grey",
@@ -215,8 +216,12 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
         k for k, level in enumerate(pyramid) if k == 0 or min(pyramid[k - 1].shape) > 4]
     if not chosen:
         raise ValueError("levels: no level to show")
-    for k in chosen:
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(pyramid):
+    for i, k in enumerate(chosen):
+        try:
+            chosen[i] = check_index("levels", k)
+        except TypeError:
+            chosen[i] = -1  # (refused below)
+        if not 0 <= chosen[i] < len(pyramid):
             raise ValueError(f"levels: {k!r} is not a level of this pyramid "
                              f"(0 .. {len(pyramid) - 1})")
     shown = [depth_for_display(pyramid[k]) for k in chosen]
@@ -253,15 +258,7 @@ def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
     """(k, 2) int array of (row, column) of the at most ``n`` cells of one
     level of :attr:`RenderResult.culls` with the highest counts, highest
     first (cells that culled nothing are left out; ties by position)."""
-    from .checks import check_index
-
-    try:
-        count = check_index("n", n)
-    except TypeError:
-        count = -1  # (refused below, as a negative count is)
-    if count < 0:
-        raise ValueError(f"n must be an integer >= 0, got {n!r}")
-    n = count
+    n = check_int("n", n, 0)
     flat = np.asarray(counts).ravel()
     order = np.argsort(-flat, kind="stable")[:n]
     order = order[flat[order] > 0]
