@@ -22,10 +22,10 @@ from . import _core
 from .checks import check_index, check_int
 from .result import RenderResult
 
-__all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms", "depth_grey",
+__all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms",
            "show_tree", "tree_grid", "frustum_grid", "id_colors", "depth_for_display",
-           "most_culling_cells", "load_benchmark", "plot_grid_times", "plot_grid_culling",
-           "plot_models"]
+           "depth_grey", "most_culling_cells", "load_benchmark", "plot_grid_times",
+           "plot_grid_culling", "plot_models"]
 
 
 def _pyvista():
