@@ -40,15 +40,35 @@ def test_render_a_file_with_options(tmp_path):
     assert skimage.io.imread(out).shape == (30, 40, 3)
 
 
+def test_render_writes_depth_and_ids_exactly_or_as_pictures(tmp_path):
+    # .npy: the values the API returns; .png: pictures of them.
+    from zbuffer import scenes
+    from zbuffer.viz import id_colors
+
+    files = {k: str(tmp_path / k) for k in ("d.npy", "i.npy", "d.png", "i.png")}
+    for depth, ids in (("d.npy", "i.npy"), ("d.png", "i.png")):
+        assert main(["render", "--size", "64x48", "--out", "none", "--algo", "hiz",
+                     "--depth", files[depth], "--ids", files[ids]]) == 0
+    res = zbuffer.render(scenes.default_scene(), camera=scenes.default_camera(64 / 48),
+                         width=64, height=48, shading="none")
+    np.testing.assert_array_equal(np.load(files["i.npy"]), res.triangle_id)
+    np.testing.assert_array_equal(np.load(files["d.npy"]), res.eye_depth())
+    assert np.load(files["i.npy"]).dtype == np.int32
+    np.testing.assert_array_equal(skimage.io.imread(files["i.png"]), id_colors(res.triangle_id))
+    grey = skimage.io.imread(files["d.png"])
+    assert grey.dtype == np.uint16 and ((grey == 0) == ~res.mask).all()
+
+
 @pytest.mark.parametrize("args, message", [
     (["render", "missing.obj"], "no such mesh file"),
+    (["render", "--out", "none", "--ids", "ids.jpg"], "must end in .png, .npy"),
     (["render", "--algo", "painter", "--out", "none"], "unknown algorithm 'painter'"),
     (["render", "--fov", "0", "--out", "none"], "fov_y must be in (0, 180)"),
     (["render", "--out", ""], "is not a file name"),
     (["render", "--out", "."], "is not a file name"),
     (["render", "--out", "picture.xyz"], "must end in .png"),
     (["render", "--out", "no/such/folder/t.png"], "no folder"),
-    (["render", "--out", "none", "--depth", "d.jpg"], "must end in .png"),
+    (["render", "--out", "none", "--depth", "d.jpg"], "must end in .png, .npy"),
     (["render", "--out", "none", "--target", "1,1,1"], "--target needs --eye"),
     (["render", "--out", "none", "--near", "0.5"], "--near and --far need --eye"),
     (["render", "--out", "none", "--eye", "0,0,3", "--near", "2", "--far", "1"], "near"),

@@ -2,6 +2,7 @@
 
     zbuffer render                              # the built-in scene -> render.png
     zbuffer render bunny.obj --algo zbuffer --size 1024x768 --out bunny.png --depth bunny_depth.png
+    zbuffer render bunny.obj --out none --depth depth.npy --ids ids.npy   # exact arrays
     zbuffer view bunny.obj --algo hiz_octree        # a live window (see zbuffer.viewer)
     zbuffer view --screenshot frame.png             # one frame offscreen, then exit
     zbuffer algorithms
@@ -39,7 +40,8 @@ def _size(text: str):
 # What the images can be written as: any 8-bit RGB format for the image, a
 # 16-bit PNG for the depth map.
 _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
-_DEPTH_SUFFIXES = (".png",)
+_DEPTH_SUFFIXES = (".png", ".npy")  # (.npy: the exact values)
+_IDS_SUFFIXES = (".png", ".npy")
 
 
 def _check_output(path: str, what: str, suffixes) -> None:
@@ -87,15 +89,32 @@ def save_image(path: str, image: np.ndarray) -> None:
 
 
 def save_depth(path: str, depth: np.ndarray) -> None:
-    """Write a depth map as a 16-bit greyscale image: the nearest drawn depth
-    is white, the farthest dark grey, empty (+inf) pixels black. Pass
+    """Write a depth map: to a .npy file as it is (exact; +inf where nothing
+    was drawn), else as a 16-bit greyscale image -- the nearest drawn depth
+    white, the farthest dark grey, empty (+inf) pixels black. Pass
     ``RenderResult.eye_depth()`` for a map linear in distance."""
     import skimage.io
+
+    if path.lower().endswith(".npy"):
+        np.save(path, np.ascontiguousarray(depth))
+        return
 
     from .viz import depth_grey
 
     skimage.io.imsave(path, depth_grey(depth, 65535, 8192).astype(np.uint16),
                       check_contrast=False)
+
+
+def save_ids(path: str, triangle_id: np.ndarray) -> None:
+    """Write a triangle-id map: to a .npy file as int32 ids (exact; -1 where
+    nothing was drawn), else as an RGB image in false colour (each id its
+    own colour, :func:`zbuffer.viz.id_colors`; nothing drawn black)."""
+    if path.lower().endswith(".npy"):
+        np.save(path, np.ascontiguousarray(triangle_id))
+        return
+    from .viz import id_colors
+
+    save_image(path, id_colors(triangle_id))
 
 
 def _print_stats(stats: dict, out) -> None:
@@ -149,6 +168,8 @@ def _cmd_render(args) -> int:
         _check_output(args.out, "--out", _IMAGE_SUFFIXES)
     if args.depth is not None:
         _check_output(args.depth, "--depth", _DEPTH_SUFFIXES)
+    if args.ids is not None:
+        _check_output(args.ids, "--ids", _IDS_SUFFIXES)
     mesh = default_scene() if args.mesh is None else zbuffer.load(args.mesh)
     camera = render_camera(args, mesh, width, height)
     shading = "none" if args.out is None else args.shading
@@ -164,6 +185,9 @@ def _cmd_render(args) -> int:
     if args.depth is not None:
         _write(args.depth, "the depth map", lambda p: save_depth(p, result.eye_depth()))
         print(f"wrote {args.depth}")
+    if args.ids is not None:
+        _write(args.ids, "the triangle ids", lambda p: save_ids(p, result.triangle_id))
+        print(f"wrote {args.ids}")
     return 0
 
 
@@ -277,9 +301,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default="render.png",
                    help="shaded image to write (default render.png); 'none' to skip")
     r.add_argument("--depth", default=None,
-                   help="also write the depth map (distance along the view axis) as a 16-bit "
-                        "PNG, scaled per image: nearest white, farthest dark grey, nothing "
-                        "drawn black")
+                   help="also write the depth map (distance along the view axis): .npy, the "
+                        "exact float64 values (inf where nothing was drawn), or a 16-bit PNG "
+                        "scaled per image (nearest white, farthest dark grey, nothing black)")
+    r.add_argument("--ids", default=None,
+                   help="also write the triangle ids: .npy, the exact int32 ids (-1 where "
+                        "nothing was drawn), or a PNG in false colour (nothing drawn black)")
     r.add_argument("--shading", choices=["flat", "smooth"], default="flat",
                    help="Lambert shading from face normals (flat, default) or interpolated "
                         "vertex normals (smooth)")
