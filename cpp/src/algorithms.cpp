@@ -12,7 +12,8 @@ namespace zbuffer {
 
 const std::vector<Algorithm>& algorithms() {
   static const std::vector<Algorithm> registry = {
-      {"zbuffer", "plain Z-buffer: every triangle, every pixel of its box (exact spans for large ones)",
+      {"zbuffer",
+       "plain Z-buffer: every triangle, every pixel of its box (exact spans for large ones)",
        &render_zbuffer},
       {"hiz", "hierarchical Z-buffer: triangles and 8x8 tiles tested against a Z-pyramid",
        &render_hiz, /*polygons=*/false, /*pyramid=*/true},

@@ -3,10 +3,10 @@
 // Transcriptions of docs/rasterization.md section 3: a scalar loop, AVX-512
 // loops that evaluate 16 pixels at once with int32 edge values (or 8 with
 // int64 ones for huge triangles), and AVX2 loops of 8 pixels with int32
-// edge values (rasterize_rect_avx2_i32, SpanRun8). They perform the same IEEE operations
-// per pixel (integer -> float32 conversion, two products, two sums, clamp),
-// so they produce the same bits; tests hold the vector loops to the scalar
-// one, and every build's loops to the numpy reference.
+// edge values (rasterize_rect_avx2_i32, SpanRun8). They perform the same
+// IEEE operations per pixel (integer -> float32 conversion, two products,
+// two sums, clamp), so they produce the same bits; tests hold the vector
+// loops to the scalar one, and every build's loops to the numpy reference.
 #include "zbuffer/raster.h"
 
 #include "simd.h"

@@ -325,9 +325,9 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
   if (vector_setup) {
     simd::Setup16 s;
     simd::setup16(f, box, s);
-    // The records (ScanPolygon's kScanPolygonInts fields, one vector per field, a face
-    // per lane), transposed into a record per register and stored whole,
-    // the faces of vector_setup in order.
+    // The records (ScanPolygon's kScanPolygonInts fields, one vector per
+    // field, a face per lane), transposed into a record per register and
+    // stored whole, the faces of vector_setup in order.
     constexpr auto field = [](size_t offset) { return int(offset / 4); };
     __m512i r[32];
     r[field(offsetof(ScanPolygon, x_min))] = box.i0;
@@ -431,8 +431,8 @@ void ScanlineTables::add_8_faces(const MeshView& mesh, const double* mvp, const 
   if (vector_setup) {
     simd::Setup8 s;
     simd::setup8(f, box, s);
-    // ScanPolygon's kScanPolygonInts fields, a row per field and a column per lane; the
-    // edges' biases and the vertices' y for the edge table.
+    // ScanPolygon's kScanPolygonInts fields, a row per field and a column
+    // per lane; the edges' biases and the vertices' y for the edge table.
     constexpr auto field = [](size_t offset) { return int(offset / 4); };
     alignas(32) int32_t rec[kScanPolygonInts][8], bias[3][8], ys[3][8];
     auto put = [](int32_t* row, __m256i v) { _mm256_store_si256(reinterpret_cast<__m256i*>(row), v); };
@@ -611,8 +611,9 @@ inline void ScanlineTables::draw_span(const ScanPolygon& p, int y, int lo, int h
 void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
 #ifdef ZBUFFER_AVX512
   const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
-  // A record is kScanPolygonInts int32 fields; 16 records are loaded whole (their first
-  // 16 fields, then the other 6) and transposed into a field per register.
+  // A record is kScanPolygonInts int32 fields; 16 records are loaded whole
+  // (their first 16 fields, then the other 6) and transposed into a field
+  // per register.
   constexpr int kRecord = kScanPolygonInts;
   constexpr auto field = [](size_t offset) { return int(offset / 4); };
   constexpr int kXMinF = field(offsetof(ScanPolygon, x_min)), kYMaxF = field(offsetof(ScanPolygon, y_max)),

@@ -28,10 +28,11 @@ namespace zbuffer {
 // covers past the box is masked off at an address of the box's own (AVX2
 // builds skip it). Any other triangle keeps its full TriangleSetup and goes
 // through rasterize_rect. With AVX-512, sixteen faces are assembled and set
-// up per instruction (eight with AVX2). Good: no branch mispredicted per triangle (a
-// per-triangle box loop has a varying trip count, and in a detailed mesh
-// about half the faces are front faces and half back faces), and setting up
-// one triangle never waits for the previous one to be drawn. Bad: triangles
+// up per instruction (eight with AVX2). Good: no branch mispredicted per
+// triangle (a per-triangle box loop has a varying trip count, and in a
+// detailed mesh about half the faces are front faces and half back faces),
+// and setting up one triangle never waits for the previous one to be
+// drawn. Bad: triangles
 // are drawn in another order than they come in -- harmless for depth and
 // ids, but pixels_written depends on it -- and a batch holds about 56 KB.
 class TriangleBatch {
