@@ -22,8 +22,8 @@ namespace zbuffer {
 // fixed length with int32 edge values: triangles less than 8 pixels wide by
 // passes of 8 x 2 pixels, less than 16 pixels wide by passes of 16 x 1, in
 // both cases with boxes up to 16 rows tall, grouped by their number of row
-// pairs. A box whose passes' columns lie in the image (all but those at
-// its right edge) needs no masks of its own: a pixel centre outside it is
+// pairs. A box whose passes' columns lie in the image (all but those at its
+// right edge) needs no masks of its own: a pixel centre outside it is
 // outside the triangle, so coverage alone masks the lanes; a row a pass
 // covers past the box is masked off at an address of the box's own (AVX2
 // builds skip it). Any other triangle keeps its full TriangleSetup and goes
@@ -31,10 +31,10 @@ namespace zbuffer {
 // up per instruction (eight with AVX2). Good: no branch mispredicted per
 // triangle (a per-triangle box loop has a varying trip count, and in a
 // detailed mesh about half the faces are front faces and half back faces),
-// and setting up one triangle never waits for the previous one to be
-// drawn. Bad: triangles
-// are drawn in another order than they come in -- harmless for depth and
-// ids, but pixels_written depends on it -- and a batch holds about 56 KB.
+// and setting up one triangle never waits for the previous one to be drawn.
+// Bad: triangles are drawn in another order than they come in -- harmless
+// for depth and ids, but pixels_written depends on it -- and a batch holds
+// about 56 KB.
 class TriangleBatch {
  public:
   static constexpr int kCapacity = 512;
