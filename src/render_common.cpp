@@ -95,25 +95,28 @@ py::dict stats_dict(const zbuffer::RenderStats& s) {
   return d;
 }
 
-std::unique_ptr<zbuffer::CullMap> attach_cull_map(bool record_culls, int width, int height,
-                                                  zbuffer::RenderInput& input) {
+std::unique_ptr<CullRecording> attach_cull_map(bool record_culls, int width, int height,
+                                               zbuffer::RenderInput& input) {
   if (!record_culls) return nullptr;
-  auto map = std::make_unique<zbuffer::CullMap>(width, height);
-  input.culls = map.get();
-  return map;
+  auto recording = std::make_unique<CullRecording>();
+  std::vector<int> widths, heights;
+  zbuffer::pyramid_level_sizes(width, height, widths, heights);
+  std::vector<int64_t*> cells;
+  for (size_t k = 0; k < widths.size(); ++k) {  // the result's own arrays, zeroed: no copy
+    py::array_t<int64_t> level({py::ssize_t(heights[k]), py::ssize_t(widths[k])});
+    std::fill_n(level.mutable_data(), size_t(widths[k]) * size_t(heights[k]), int64_t(0));
+    cells.push_back(level.mutable_data());
+    recording->levels.append(level);
+  }
+  recording->map = std::make_unique<zbuffer::CullMap>(width, height, cells);
+  input.culls = recording->map.get();
+  return recording;
 }
 
 py::tuple render_result(py::array_t<float> depth, py::array_t<int32_t> ids,
-                        const zbuffer::RenderStats& stats, const zbuffer::CullMap* culls) {
+                        const zbuffer::RenderStats& stats, const CullRecording* culls) {
   if (!culls) return py::make_tuple(depth, ids, stats_dict(stats));
-  py::list levels;
-  for (int k = 0; k < culls->levels(); ++k) {
-    py::array_t<int64_t> level({py::ssize_t(culls->height(k)), py::ssize_t(culls->width(k))});
-    std::copy_n(culls->level(k), size_t(culls->width(k)) * size_t(culls->height(k)),
-                level.mutable_data());
-    levels.append(level);
-  }
-  return py::make_tuple(depth, ids, stats_dict(stats), levels);
+  return py::make_tuple(depth, ids, stats_dict(stats), culls->levels);
 }
 
 // Both planes in one block, their rows padded at widths where rows would

@@ -30,15 +30,22 @@ void read_mvp(py::handle mvp_obj, double* out);
 // Every counter and time of a render, by name.
 py::dict stats_dict(const zbuffer::RenderStats& s);
 
-// With record_culls, a CullMap for a width x height render, attached to
-// `input` (null otherwise).
-std::unique_ptr<zbuffer::CullMap> attach_cull_map(bool record_culls, int width, int height,
-                                                  zbuffer::RenderInput& input);
+// A render's cull counts (record_culls): the result's (h, w) int64 arrays,
+// one per pyramid level, and the CullMap that counts into them.
+struct CullRecording {
+  py::list levels;
+  std::unique_ptr<zbuffer::CullMap> map;
+};
 
-// What a render binding returns: (depth, triangle_id, stats), and with a cull
-// map a fourth item, its levels as (h, w) int64 arrays.
+// With record_culls, a CullRecording for a width x height render, its map
+// attached to `input` (null otherwise). Made with the GIL held.
+std::unique_ptr<CullRecording> attach_cull_map(bool record_culls, int width, int height,
+                                               zbuffer::RenderInput& input);
+
+// What a render binding returns: (depth, triangle_id, stats), and with cull
+// counts a fourth item, their arrays.
 py::tuple render_result(py::array_t<float> depth, py::array_t<int32_t> ids,
-                        const zbuffer::RenderStats& stats, const zbuffer::CullMap* culls);
+                        const zbuffer::RenderStats& stats, const CullRecording* culls);
 
 // The (H, W) depth and id planes a render writes, and the pixels from one
 // row's start to the next's in both (DepthTarget.pitch).

@@ -157,20 +157,32 @@ class ZPyramid {
 // (record_culls): the hot loops test one pointer and otherwise do nothing.
 class CullMap {
  public:
+  // Counts in arrays of its own, zeroed.
   CullMap(int width, int height) {
     pyramid_level_sizes(width, height, widths_, heights_);
-    for (size_t k = 0; k < widths_.size(); ++k)
-      counts_.emplace_back(size_t(widths_[k]) * size_t(heights_[k]), 0);
+    std::vector<size_t> start;
+    size_t total = 0;
+    for (size_t k = 0; k < widths_.size(); ++k) {
+      start.push_back(total);
+      total += size_t(widths_[k]) * size_t(heights_[k]);
+    }
+    owned_.assign(total, 0);
+    for (size_t at : start) cells_.push_back(owned_.data() + at);
   }
-  int levels() const { return int(counts_.size()); }
+  // Counts in the caller's zeroed arrays, level k's (height(k) x width(k),
+  // row-major) at levels[k] (a binding's result arrays: no copy).
+  CullMap(int width, int height, const std::vector<int64_t*>& levels) : cells_(levels) {
+    pyramid_level_sizes(width, height, widths_, heights_);
+  }
+  int levels() const { return int(widths_.size()); }
   int width(int level) const { return widths_[level]; }
   int height(int level) const { return heights_[level]; }
-  const int64_t* level(int k) const { return counts_[size_t(k)].data(); }
+  const int64_t* level(int k) const { return cells_[size_t(k)]; }
 
   // `triangles` culled by a test that read the cells of `level` covering
   // pixels [x0, x1] x [y0, y1].
   void add(int level, int x0, int y0, int x1, int y1, int64_t triangles) {
-    int64_t* cells = counts_[size_t(level)].data();
+    int64_t* cells = cells_[size_t(level)];
     const int w = widths_[size_t(level)];
     for (int j = y0 >> level; j <= (y1 >> level); ++j)
       for (int i = x0 >> level; i <= (x1 >> level); ++i) cells[size_t(j) * w + i] += triangles;
@@ -178,7 +190,8 @@ class CullMap {
 
  private:
   std::vector<int> widths_, heights_;
-  std::vector<std::vector<int64_t>> counts_;
+  std::vector<int64_t> owned_;   // (empty when counting into the caller's arrays)
+  std::vector<int64_t*> cells_;  // level k's cells
 };
 
 inline void ZPyramid::count_culled(int level, int x0, int y0, int x1, int y1,
