@@ -7,10 +7,9 @@
 // before Zen 4, Intel's client cores) gets 8-lane loops for the vertex
 // stage, face setup (the scanline's too), rasterization and shading (the
 // scanline's row walk and the per-frame trees' face pass stay scalar
-// there); any other build gets the
-// scalar loops. All perform the same IEEE operations per pixel and per
-// vertex, so they produce the same bits; tests hold the vector loops to the
-// scalar ones.
+// there); any other build gets the scalar loops. All perform the same IEEE
+// operations per pixel and per vertex, so they produce the same bits; tests
+// hold the vector loops to the scalar ones.
 #pragma once
 
 #if defined(__AVX512F__) && defined(__AVX512DQ__) && defined(__AVX512VL__) && \

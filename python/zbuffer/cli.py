@@ -23,7 +23,7 @@ from .options import DEFAULT_SIZE
 from .scene import TREE_ALGORITHMS
 from .shading import SHADINGS
 
-__all__ = ["main", "save_image", "save_depth"]
+__all__ = ["main", "save_image", "save_depth", "save_ids"]
 
 
 def _size(text: str):

@@ -143,8 +143,9 @@ def read_off(path: str) -> PolygonData:
         face_lines.append(number)
 
     vertex_colors = _colors(vertex_colour_rows, "vertex", vertex_lines) if colours else None
-    return PolygonData(vertices, np.array(sizes, dtype=np.int64), np.array(corners, dtype=np.int64),
-                   vertex_colors, _colors(face_colour_rows, "face", face_lines))
+    return PolygonData(vertices, np.array(sizes, dtype=np.int64),
+                       np.array(corners, dtype=np.int64), vertex_colors,
+                       _colors(face_colour_rows, "face", face_lines))
 
 
 def is_binary_off(path: str) -> bool:

@@ -310,4 +310,4 @@ def _read_ply(path: str) -> PolygonData:
     scalar_names = [p[0] for p in props if p[2] is None]
     scalar_kinds = [p[1] for p in props if p[2] is None]
     return PolygonData(vertices, sizes, indices, vertex_colours,
-                   _colours(scalars, scalar_names, scalar_kinds, "face"))
+                       _colours(scalars, scalar_names, scalar_kinds, "face"))

@@ -23,7 +23,8 @@ from .conventions import (GUARD_BAND_PX, HALF_PIXEL, MAX_CLIP_VERTICES, MIN_CLIP
 from .checks import check_flag
 from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
-from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, shade_numpy
+from .shading import (DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE, shade_numpy,
+                      vertex_normals)
 
 __all__ = ["render", "vertex_stage", "rasterize", "render_polygons", "ScreenTriangles",
            "vertex_normals"]
@@ -585,34 +586,7 @@ def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
         stats.update(pixel_stats)
     image = None
     if params.mode != "none":
-        normals = vertex_normals(mesh.vertices, mesh.faces) if params.mode == "smooth" else None
-        image = shade_numpy(mesh, triangle_id, camera, mvp, params, vertex_normals=normals)
+        image = shade_numpy(mesh, triangle_id, camera, mvp, params)
     stats["total_ms"] = (time.perf_counter() - start) * 1e3
     return RenderResult(image=image, depth=depth, triangle_id=triangle_id, stats=stats,
                         camera=camera, mvp=mvp, algo="reference")
-
-
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(N, 3) float64 area-weighted unit vertex normals, zero for unused
-    vertices (and where the sum vanishes): each vertex sums the cross
-    products (b - a) x (c - a) of the faces (a, b, c) it is a corner of,
-    first corners in face order, then second, then third (``np.bincount``
-    adds in the order of its input), and is divided by the sum's length.
-    ``Mesh.vertex_normals`` computes the same bits in the compiled core."""
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    # Coordinates whose largest magnitude lies outside [2**-200, 2**200]:
-    # scaled by the power of two that brings it into [1, 2) (exact; the
-    # same weights), so that nothing below overflows or underflows.
-    finite = vertices[np.isfinite(vertices)]
-    big = float(np.abs(finite).max(initial=0.0))
-    if big > 0.0 and (big < 2.0**-200 or big > 2.0**200):
-        vertices = np.ldexp(vertices, 1 - np.frexp(big)[1])
-    p = vertices[faces]
-    area_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    corners = faces.T.ravel()
-    acc = np.stack([np.bincount(corners, weights=np.tile(area_normals[:, c], 3),
-                                minlength=len(vertices)) for c in range(3)],
-                   axis=1).astype(np.float64, copy=False)  # (int64 without faces)
-    length = np.linalg.norm(acc, axis=1, keepdims=True)
-    return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)

@@ -12,9 +12,9 @@ import numpy as np
 from . import _core
 from .api import check_algorithm, claimed, finish, output_arrays, render_visibility
 from .camera import Camera
+from .checks import check_flag, check_int
 from .load import as_mesh
 from .mesh import _INT32_MAX, Mesh
-from .checks import check_flag, check_int
 from .options import DEFAULT_SIZE, prepare
 from .result import RenderResult
 from .shading import DEFAULT_AMBIENT, DEFAULT_BACKGROUND, DEFAULT_DIFFUSE

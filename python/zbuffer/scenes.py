@@ -35,15 +35,10 @@ def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
     return c + corners * s, faces
 
 
-def _count(value, name: str, least: int) -> int:
-    """An integer parameter of a scene, at least ``least``."""
-    return check_int(name, value, least)
-
-
 def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:
     """A latitude-longitude sphere with poles on the y axis (n_lat >= 2
     bands of latitude, n_lon >= 3 of longitude)."""
-    n_lat, n_lon = _count(n_lat, "n_lat", 2), _count(n_lon, "n_lon", 3)
+    n_lat, n_lon = check_int("n_lat", n_lat, 2), check_int("n_lon", n_lon, 3)
     theta = np.linspace(0.0, np.pi, n_lat + 1)[1:-1]
     phi = np.linspace(0.0, 2.0 * np.pi, n_lon, endpoint=False)
     t, p = np.meshgrid(theta, phi, indexing="ij")
@@ -215,7 +210,7 @@ def random_soup(n: int = 200, seed: int = 0, scale: float = 0.5) -> Mesh:
 def tessellated_square(n: int = 8, jitter: float = 0.0, seed: int = 0) -> Mesh:
     """The square [-1, 1]^2 at z = 0 cut into 2 n^2 triangles (n >= 1); inner
     grid vertices may be jittered (the square stays covered exactly once)."""
-    n = _count(n, "n", 1)
+    n = check_int("n", n, 1)
     rng = np.random.default_rng(seed)
     g = np.linspace(-1.0, 1.0, n + 1)
     x, y = np.meshgrid(g, g, indexing="ij")

@@ -18,7 +18,7 @@ import numpy as np
 from .camera import _number, _reals, _unit
 from .mesh import unit_rgb
 
-__all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy"]
+__all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy", "vertex_normals"]
 
 SHADINGS = ("flat", "smooth", "none")
 DEFAULT_COLOR = (0.8, 0.8, 0.8)
@@ -135,12 +135,37 @@ def face_normal_directions(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
     return ng
 
 
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(N, 3) float64 area-weighted unit vertex normals, zero for unused
+    vertices (and where the sum vanishes): each vertex sums the cross
+    products (b - a) x (c - a) of the faces (a, b, c) it is a corner of,
+    first corners in face order, then second, then third (``np.bincount``
+    adds in the order of its input), and is divided by the sum's length.
+    ``Mesh.vertex_normals`` computes the same bits in the compiled core."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    # Coordinates whose largest magnitude lies outside [2**-200, 2**200]:
+    # scaled by the power of two that brings it into [1, 2) (exact; the
+    # same weights), so that nothing below overflows or underflows.
+    finite = vertices[np.isfinite(vertices)]
+    big = float(np.abs(finite).max(initial=0.0))
+    if big > 0.0 and (big < 2.0**-200 or big > 2.0**200):
+        vertices = np.ldexp(vertices, 1 - np.frexp(big)[1])
+    p = vertices[faces]
+    area_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    corners = faces.T.ravel()
+    acc = np.stack([np.bincount(corners, weights=np.tile(area_normals[:, c], 3),
+                                minlength=len(vertices)) for c in range(3)],
+                   axis=1).astype(np.float64, copy=False)  # (int64 without faces)
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+
+
 def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
-                params: ShadingParams, vertex_normals=None) -> np.ndarray:
+                params: ShadingParams) -> np.ndarray:
     """The shading pass in numpy: (H, W, 3) uint8 image of a visibility
-    result. ``vertex_normals``: the mesh's, for smooth shading (default:
-    ``mesh.vertex_normals``, computed by the compiled core; the reference
-    passes its own numpy ones, the same bits)."""
+    result (smooth shading from :func:`vertex_normals`, the bits
+    ``Mesh.vertex_normals`` computes in the compiled core)."""
     height, width = triangle_id.shape
     image = np.empty((height, width, 3), np.uint8)
     image[...] = params.background
@@ -202,7 +227,7 @@ def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
 
     n = ng
     if smooth:
-        vn = mesh.vertex_normals if vertex_normals is None else vertex_normals
+        vn = vertex_normals(mesh.vertices, mesh.faces)
         ns = (b0[:, None] * vn[idx[:, 0]] + b1[:, None] * vn[idx[:, 1]]
               + b2[:, None] * vn[idx[:, 2]])
         n = np.where((_dot(ns, ns) > 0.0)[:, None], ns, ng)

@@ -153,24 +153,13 @@ class ZPyramid {
 // maximum of several cells (up to 3 x 3 for a small triangle, 2 x 2 for a
 // large one) counts in each of them, a tree node culled whole counts its
 // triangles in each of the up to 16 x 16 cells it was tested against. Filled
-// only when a render asks for it
-// (record_culls): the hot loops test one pointer and otherwise do nothing.
+// only when a render asks for it (record_culls): the hot loops test one
+// pointer and otherwise do nothing.
 class CullMap {
  public:
-  // Counts in arrays of its own, zeroed.
-  CullMap(int width, int height) {
-    pyramid_level_sizes(width, height, widths_, heights_);
-    std::vector<size_t> start;
-    size_t total = 0;
-    for (size_t k = 0; k < widths_.size(); ++k) {
-      start.push_back(total);
-      total += size_t(widths_[k]) * size_t(heights_[k]);
-    }
-    owned_.assign(total, 0);
-    for (size_t at : start) cells_.push_back(owned_.data() + at);
-  }
   // Counts in the caller's zeroed arrays, level k's (height(k) x width(k),
-  // row-major) at levels[k] (a binding's result arrays: no copy).
+  // row-major, as pyramid_level_sizes gives them) at levels[k] -- the
+  // binding's result arrays: no copy.
   CullMap(int width, int height, const std::vector<int64_t*>& levels) : cells_(levels) {
     pyramid_level_sizes(width, height, widths_, heights_);
   }
@@ -190,7 +179,6 @@ class CullMap {
 
  private:
   std::vector<int> widths_, heights_;
-  std::vector<int64_t> owned_;   // (empty when counting into the caller's arrays)
   std::vector<int64_t*> cells_;  // level k's cells
 };
 
