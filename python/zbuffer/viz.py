@@ -346,10 +346,16 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
     # (record_culls: for the algorithms with a Z-pyramid; the others have none to record)
     record = render_options.pop("record_culls", False)
     with_pyramid = set(_core.pyramid_algorithms())
-    results = {name: render(mesh, algo=name, camera=camera, width=width, height=height,
-                            record_culls=record if name in with_pyramid else False,
-                            **render_options)
-               for name in names}
+    # The window first: where none can open, say so before rendering anything.
+    plotter = _plotter(pv, (2, len(names)), (400 * len(names), 720), screenshot)
+    try:
+        results = {name: render(mesh, algo=name, camera=camera, width=width, height=height,
+                                record_culls=record if name in with_pyramid else False,
+                                **render_options)
+                   for name in names}
+    except BaseException:
+        plotter.close()
+        raise
     first = results[names[0]]
     same = np.where(np.isfinite(first.depth), first.depth, 0.0)
     diffs = []
@@ -359,7 +365,6 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
         diff[res.triangle_id != first.triangle_id] = 1.0
         diffs.append(diff)
     clim = (0.0, max(max(float(d.max()) for d in diffs), 1e-12))  # one scale, one bar
-    plotter = _plotter(pv, (2, len(names)), (400 * len(names), 720), screenshot)
     for k, (name, diff) in enumerate(zip(names, diffs)):
         res = results[name]
         plotter.subplot(0, k)

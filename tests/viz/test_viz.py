@@ -72,6 +72,12 @@ def test_no_window_where_none_can_open(monkeypatch):
         res.show()
     with pytest.raises(RuntimeError, match="no display to open a window on"):
         zbuffer.viewer.run(zbuffer.viewer.Viewer(scenes.default_scene(), width=40, height=30))
+    # compare_algorithms says so before it renders anything
+    rendered = []
+    monkeypatch.setattr(zbuffer.api, "render", lambda *a, **k: rendered.append(k["algo"]))
+    with pytest.raises(RuntimeError, match="no display to open a window on"):
+        viz.compare_algorithms(scenes.default_scene(), width=40, height=30)
+    assert rendered == []
     monkeypatch.setattr(pv, "OFF_SCREEN", True)  # pyvista told to draw offscreen: no error
     assert res.show() is not None
 
