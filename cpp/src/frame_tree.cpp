@@ -261,7 +261,11 @@ void set_bounds(TreeNode& node, const VertexGrid& grid, const uint32_t* lo, cons
 
 int32_t add_cluster(ObjectTree& tree, int32_t node, int64_t b, int64_t e) {
   const int32_t c = int32_t(tree.clusters.size());
-  tree.clusters.push_back({b, e, 0, 0, node});
+  TriangleCluster cluster;
+  cluster.face_begin = b;
+  cluster.face_end = e;
+  cluster.node = node;
+  tree.clusters.push_back(cluster);
   tree.nodes[size_t(node)].cluster = c;
   return c;
 }

@@ -32,9 +32,9 @@ struct TreeNode {
 
 // The triangles one node owns, drawn as one unit.
 struct TriangleCluster {
-  int64_t face_begin, face_end;      // rows of ObjectTree::faces and ids
-  int64_t vertex_begin, vertex_end;  // rows of ObjectTree::positions (0, 0 if indexed)
-  int32_t node;
+  int64_t face_begin = 0, face_end = 0;      // rows of ObjectTree::faces and ids
+  int64_t vertex_begin = 0, vertex_end = 0;  // rows of ObjectTree::positions (0, 0 if indexed)
+  int32_t node = -1;
   // A per-frame octree's cluster may also be drawn from the mesh's own
   // arrays: the faces range_begin .. range_end - 1 whose
   // ObjectTree::face_bucket is in bucket_begin .. bucket_end - 1 are exactly
