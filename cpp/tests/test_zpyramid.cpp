@@ -150,7 +150,40 @@ void test_max_over_cells_reads_exactly_its_rectangle() {
 
 }  // namespace
 
+// A cull map counts a culled test's triangles in exactly the cells of the
+// level it read that cover the test's rectangle, into the caller's arrays,
+// and a pyramid with no map records nothing.
+void test_cull_map_counts_the_cells_read() {
+  const int w = 37, h = 21;  // odd sizes: partial cells at the edges
+  std::vector<int> widths, heights;
+  pyramid_level_sizes(w, h, widths, heights);
+  std::vector<std::vector<int64_t>> counts;
+  std::vector<int64_t*> levels;
+  for (size_t k = 0; k < widths.size(); ++k) counts.emplace_back(size_t(widths[k]) * heights[k], 0);
+  for (auto& c : counts) levels.push_back(c.data());
+  CullMap map(w, h, levels);
+  CHECK(map.levels() == int(widths.size()) && map.width(2) == widths[2] && map.level(1) == levels[1]);
+
+  std::vector<float> depth(size_t(w) * h, 0.5f);
+  ZPyramid pyramid(depth.data(), w, h, 1);
+  pyramid.count_culled(2, 5, 3, 13, 9, 7);  // no map yet: nothing
+  pyramid.record_culls(&map);
+  CHECK(pyramid.recording_culls());
+  pyramid.count_culled(2, 5, 3, 13, 9, 7);   // cells 1..3 x 0..2 of level 2
+  pyramid.count_culled(0, 36, 20, 36, 20, 1);  // the last pixel
+  pyramid.count_culled(2, 12, 8, 15, 11, 2);   // cells 3 x 2: overlaps the first
+  for (size_t k = 0; k < counts.size(); ++k)
+    for (int j = 0; j < heights[k]; ++j)
+      for (int i = 0; i < widths[k]; ++i) {
+        int64_t expected = 0;
+        if (k == 2) expected = (i >= 1 && i <= 3 && j >= 0 && j <= 2 ? 7 : 0) + (i == 3 && j == 2 ? 2 : 0);
+        if (k == 0 && i == w - 1 && j == h - 1) expected = 1;
+        CHECK(counts[k][size_t(j) * widths[k] + i] == expected);
+      }
+}
+
 int main() {
+  test_cull_map_counts_the_cells_read();
   test_updates_keep_every_cell_the_max_of_its_children();
   test_block_updates_keep_every_cell_the_max_of_its_children();
   test_max_over_cells_reads_exactly_its_rectangle();
