@@ -196,7 +196,7 @@ def _cmd_view(args) -> int:
 
     from .scenes import default_scene
     from .viewer import Viewer, run
-    from .viz import _can_open_window
+    from .viz import can_open_window
 
     width, height = args.size
     if args.screenshot is not None:
@@ -208,7 +208,7 @@ def _cmd_view(args) -> int:
         if viewer.overlay != args.overlay:
             raise ValueError(f"overlay {args.overlay!r} needs a tree algorithm "
                              f"({', '.join(TREE_ALGORITHMS)})")
-    if args.screenshot is None and not _can_open_window():
+    if args.screenshot is None and not can_open_window():
         raise ValueError("no display to open a window on; use --screenshot FILE")
     run(viewer, screenshot=args.screenshot)
     if args.screenshot is not None:

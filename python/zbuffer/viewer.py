@@ -38,8 +38,8 @@ from .options import check_size
 from .result import RenderResult
 from .scene import NODE_FATES, TREE_ALGORITHMS, Scene
 from .shading import SHADINGS, check_shading
-from .viz import (FATE_COLORS, _check_window, _image_plane, _pyvista, depth_for_display,
-                  depth_grey, id_colors)
+from .viz import (FATE_COLORS, check_window, depth_for_display, depth_grey, id_colors,
+                  image_plane, require_pyvista)
 
 __all__ = ["Viewer", "run"]
 
@@ -215,16 +215,16 @@ def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
 def run(viewer: Viewer, screenshot: Optional[str] = None):
     """Show the viewer in a window (or, with ``screenshot``, render one frame
     offscreen into that PNG file and return the picture)."""
-    pv = _pyvista()
+    pv = require_pyvista()
     offscreen = screenshot is not None
     plotter = pv.Plotter(off_screen=True if offscreen else None,  # None: pyvista.OFF_SCREEN
                          window_size=(viewer.width, viewer.height),
                          border=False, title="zbuffer view")
-    _check_window(plotter)
+    check_window(plotter)
     plotter.set_background("black")
 
     def show():
-        grid = _image_plane(pv, viewer.frame())
+        grid = image_plane(pv, viewer.frame())
         plotter.add_mesh(grid, scalars="values", rgb=True, show_scalar_bar=False, name="frame",
                          lighting=False)  # the frame's own colours (viz._add_image)
         plotter.add_text(viewer.status(), position="upper_left", font_size=9, color="white",

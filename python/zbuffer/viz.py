@@ -28,7 +28,13 @@ __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorit
            "plot_grid_culling", "plot_models"]
 
 
-def _pyvista():
+# (require_pyvista, image_plane, can_open_window and check_window are not
+# in __all__: they are the package's own, shared with viewer.py and cli.py.)
+
+
+def require_pyvista():
+    """pyvista, imported (ImportError naming the extra to install if it is
+    missing)."""
     try:
         import pyvista as pv
     except ImportError as err:  # pragma: no cover - pyvista is in the test extra
@@ -71,7 +77,7 @@ def depth_for_display(depth: np.ndarray) -> np.ndarray:
     return d
 
 
-def _image_plane(pv, values: np.ndarray):
+def image_plane(pv, values: np.ndarray):
     """An ImageData with one cell per pixel, row 0 at the top."""
     h, w = values.shape[:2]
     grid = pv.ImageData(dimensions=(w + 1, h + 1, 1))
@@ -82,7 +88,7 @@ def _image_plane(pv, values: np.ndarray):
 
 def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
                scalar_bar=True, bar_title=None):
-    grid = _image_plane(pv, values)
+    grid = image_plane(pv, values)
     # Unlit: a picture shows its own colours (lit, the white background of a
     # render came out (200, 197, 189)).
     if rgb:
@@ -115,17 +121,17 @@ def _finish(plotter, screenshot):
     return plotter
 
 
-def _can_open_window() -> bool:
+def can_open_window() -> bool:
     """Whether a window can be opened here (a display, or a desktop system)."""
     return sys.platform in ("win32", "darwin") or bool(os.environ.get("DISPLAY")
                                                        or os.environ.get("WAYLAND_DISPLAY"))
 
 
-def _check_window(plotter) -> None:
+def check_window(plotter) -> None:
     """RuntimeError (the plotter closed) for a plotter that would open a
     window where none can open -- no display, not offscreen, not in a
     notebook -- rather than pyvista's warning and nothing shown."""
-    if plotter.off_screen or plotter.notebook or _can_open_window():
+    if plotter.off_screen or plotter.notebook or can_open_window():
         return
     plotter.close()
     raise RuntimeError("no display to open a window on: pass screenshot='picture.png' to write "
@@ -137,7 +143,7 @@ def _plotter(pv, shape, window_size, screenshot):
     # (None: pyvista's own setting, pyvista.OFF_SCREEN)
     plotter = pv.Plotter(shape=shape, off_screen=True if offscreen else None,
                          window_size=window_size, border=False)
-    _check_window(plotter)
+    check_window(plotter)
     plotter.set_background("white")
     return plotter
 
@@ -159,7 +165,7 @@ def show_result(result: RenderResult, screenshot: Union[str, bool, None] = None,
     -------
     (H, W, 3|4) uint8 array of the screenshot, or the pyvista Plotter shown.
     """
-    pv = _pyvista()
+    pv = require_pyvista()
     panels = []
     if result.image is not None:
         panels.append(("image", result.image, dict(rgb=True)))
@@ -206,7 +212,7 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
         give each level's total in its title. Needs a render made with
         ``record_culls=True`` (:attr:`RenderResult.culls`).
     """
-    pv = _pyvista()
+    pv = require_pyvista()
     pyramid = _levels(source)
     top = _highlight_count(highlight_culls)
     if top and (not isinstance(source, RenderResult) or source.culls is None):
@@ -287,7 +293,7 @@ def show_pyramid_stack(source: Union[RenderResult, Sequence[np.ndarray]],
     """The pyramid as a 3D stack of planes: level 0 (the depth map) at the
     bottom, each coarser level above it, all at the image's scale, so a cell
     sits right over the pixels it bounds."""
-    pv = _pyvista()
+    pv = require_pyvista()
     pyramid = _levels(source)
     h, w = pyramid[0].shape
     shown = [depth_for_display(level) for level in pyramid]
@@ -339,7 +345,7 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
     """
     from .api import algorithms, render
 
-    pv = _pyvista()
+    pv = require_pyvista()
     names = list(algos) if algos is not None else algorithms()
     if not names:
         raise ValueError("algos: give at least one algorithm to compare")
@@ -406,7 +412,7 @@ def tree_grid(scene, algo: str = "hiz_octree", level: Optional[int] = None):
     level : int, optional
         Only the nodes at this depth in the tree (root 0); default all.
     """
-    pv = _pyvista()
+    pv = require_pyvista()
     nodes = scene.nodes(algo)
     keep = np.ones(len(nodes["depth"]), bool) if level is None else nodes["depth"] == level
     lo, hi = nodes["lo"][keep], nodes["hi"][keep]
@@ -423,7 +429,7 @@ def tree_grid(scene, algo: str = "hiz_octree", level: Optional[int] = None):
 def frustum_grid(result: RenderResult):
     """The view volume of a render (its camera's near-to-far frustum) as one
     hexahedron, from the inverse of the result's MVP."""
-    pv = _pyvista()
+    pv = require_pyvista()
     inv = np.linalg.inv(result.mvp)
     ndc = np.where(_HEX_CORNERS, 1.0, -1.0)
     clip = np.hstack([ndc, np.ones((8, 1))]) @ inv.T
@@ -466,7 +472,7 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
 
     if color_by not in ("fate", "depth"):
         raise ValueError(f"color_by must be 'fate' or 'depth', got {color_by!r}")
-    pv = _pyvista()
+    pv = require_pyvista()
     plotter = _plotter(pv, (1, 1), window_size, screenshot)
     mesh = scene.mesh
     if len(mesh.faces):
