@@ -77,7 +77,7 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         A name from :func:`zbuffer.algorithms`. Every algorithm gives the same
         depth and triangle ids; they differ in speed, memory and statistics.
         The exception: ``"scanline"`` draws the polygon faces of a mesh that
-        has them (OBJ files with quads or n-gons) natively, as
+        has them (OBJ, OFF or PLY files with quads or n-gons) natively, as
         docs/rasterization.md defines them, and
         ``zbuffer.reference.render(..., polygons=True)`` reproduces it.
     camera : Camera, optional

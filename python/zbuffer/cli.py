@@ -292,8 +292,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"zbuffer {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    r = sub.add_parser("render", help="render a mesh file (or the built-in scene) to PNG")
-    r.add_argument("mesh", nargs="?", help="mesh file (any format trimesh reads); "
+    r = sub.add_parser("render", help="render a mesh file (or the built-in scene) to an image")
+    r.add_argument("mesh", nargs="?", help="mesh file (any format zbuffer.load reads); "
                    "omitted: the built-in default scene")
     r.add_argument("--algo", default="zbuffer", help="depth algorithm (see 'zbuffer algorithms')")
     r.add_argument("--size", type=_size, default=DEFAULT_SIZE,

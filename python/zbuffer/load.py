@@ -36,7 +36,7 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         ``polygon_indices``: the scanline algorithm draws them natively) and
         triangulated exactly for the other algorithms (fans for convex
         polygons, ear clipping for concave ones); ``face_polygon`` maps
-        triangles to them; trimesh fan-triangulates other formats' polygons;
+        triangles to them (None when every face is a triangle); trimesh fan-triangulates other formats' polygons;
         scenes are concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
         rendering.
 

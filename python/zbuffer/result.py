@@ -22,8 +22,9 @@ class RenderResult:
         The shaded image; None with ``shading="none"``.
     depth : (H, W) float32
         Window depth in [0, 1] (smaller is nearer), +inf where nothing was drawn.
-        At widths that are multiples of 512 from 1024 up, a view of rows 16
-        pixels longer (docs/api.md: rows 4 KiB apart slow the drawing).
+        At widths that are multiples of 512 from 1024 up, compiled renders
+        return a view of rows 16 pixels longer (docs/api.md: rows 4 KiB apart
+        slow the drawing).
     triangle_id : (H, W) int32
         Index into the input faces of the visible triangle, -1 where nothing
         was drawn. Laid out as ``depth``.
