@@ -29,6 +29,9 @@ def render(request):
     (np.array([["a", "b", "c"]]), [[0, 0, 0]], TypeError, "vertices must be numbers"),
     (V, F.astype(float), TypeError, "faces must be integer"),
     (V, F.astype(bool), TypeError, "faces must be integer"),
+    # timedelta64, which numpy counts among its integers, is not a number here
+    (V, F.astype("m8[D]"), TypeError, "faces must be integer"),
+    (V.astype("m8[s]"), F, TypeError, "vertices must be numbers"),
     (V, F[:, :2], ValueError, r"faces must have shape \(M, 3\)"),
     (V, np.vstack([F, [[0, 1, 8]]]), ValueError, r"face 12 has vertex index 8, outside \[0, 8\)"),
     (V, np.vstack([F, [[0, -1, 2]]]), ValueError, r"face 12 has vertex index -1"),
@@ -172,6 +175,8 @@ def test_bad_options(render):
     rgba[3, 3] = 7.0
     with pytest.raises(ValueError, match=r"float vertex_colors must lie in \[0, 1\]"):
         zbuffer.Mesh(V, F, vertex_colors=rgba)
+    with pytest.raises(TypeError, match="vertex_colors must be integers"):
+        zbuffer.Mesh(V, F, vertex_colors=np.zeros((len(V), 3), "m8[s]"))
     with pytest.raises(TypeError, match="cannot render a dict"):
         render({"vertices": V})
 

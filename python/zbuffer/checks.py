@@ -10,7 +10,7 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["check_flag", "check_index", "check_int"]
+__all__ = ["check_flag", "check_index", "check_int", "integer_dtype", "number_dtype"]
 
 
 def check_flag(name: str, value) -> bool:
@@ -43,3 +43,15 @@ def check_int(name: str, value, least: Optional[int] = None, most: Optional[int]
     if most is not None and n > most:
         raise ValueError(f"{name} must be at most {most}, got {n}")
     return n
+
+
+def integer_dtype(dtype) -> bool:
+    """Whether arrays of ``dtype`` hold integers: signed or unsigned, not
+    bools and not timedelta64 (which numpy counts among its integers)."""
+    return np.dtype(dtype).kind in "iu"
+
+
+def number_dtype(dtype) -> bool:
+    """Whether arrays of ``dtype`` hold real numbers: integers
+    (:func:`integer_dtype`) or floats."""
+    return np.dtype(dtype).kind in "iuf"

@@ -7,6 +7,8 @@ from typing import NamedTuple, Optional, Tuple
 
 import numpy as np
 
+from .checks import integer_dtype, number_dtype
+
 __all__ = ["Mesh", "Visit", "unit_rgb"]
 
 _INT32_MAX = np.iinfo(np.int32).max
@@ -38,11 +40,11 @@ def unit_rgb(c: np.ndarray, what: str) -> np.ndarray:
             return "a NaN or infinite value"
         return f"values from {c.min().item()!r} to {c.max().item()!r}"
 
-    if np.issubdtype(c.dtype, np.integer) and c.dtype != np.bool_:
+    if integer_dtype(c.dtype):
         if c.size and (c.min() < 0 or c.max() > 255):
             raise ValueError(f"integer {what} must lie in 0-255, got {values()}")
         return c[..., :3].astype(np.float32) / np.float32(255.0)
-    if not np.issubdtype(c.dtype, np.floating):
+    if c.dtype.kind != "f":
         raise TypeError(f"{what} must be integers (0-255) or floats (0-1), got dtype {c.dtype}")
     if c.size and (not np.all(np.isfinite(c)) or c.min() < 0.0 or c.max() > 1.0):
         raise ValueError(f"float {what} must lie in [0, 1], got {values()}")
@@ -162,8 +164,7 @@ class Mesh:
                  name: Optional[str] = None, face_polygon=None, polygons=None):
         v = _array(vertices, "vertices")
         f = _array(faces, "faces")
-        if v.dtype == object or not (np.issubdtype(v.dtype, np.floating)
-                                     or np.issubdtype(v.dtype, np.integer)):
+        if not number_dtype(v.dtype):
             raise TypeError(f"vertices must be numbers, got dtype {v.dtype}")
         if v.size == 0 and v.ndim < 2:
             v = v.reshape(0, 3)
@@ -171,7 +172,7 @@ class Mesh:
             raise ValueError(f"vertices must have shape (N, 3), got {v.shape}")
         if f.size == 0 and f.ndim < 2:
             f = f.reshape(0, 3).astype(np.int32)
-        if not np.issubdtype(f.dtype, np.integer) or f.dtype == np.bool_:
+        if not integer_dtype(f.dtype):
             raise TypeError(f"faces must be integer vertex indices, got dtype {f.dtype}")
         if f.ndim != 2 or f.shape[1] != 3:
             raise ValueError(
@@ -230,7 +231,7 @@ class Mesh:
         for a, what in ((sizes, "polygon sizes"), (indices, "polygon indices")):
             if a.ndim != 1:
                 raise ValueError(f"{what} must be one-dimensional, got shape {a.shape}")
-            if a.size and (not np.issubdtype(a.dtype, np.integer) or a.dtype == np.bool_):
+            if a.size and not integer_dtype(a.dtype):
                 raise TypeError(f"{what} must be integers, got dtype {a.dtype}")
         sizes = sizes.astype(np.int64)
         if sizes.size and sizes.min() < 3:
