@@ -170,6 +170,13 @@ def _cmd_render(args) -> int:
         _check_output(args.depth, "--depth", _DEPTH_SUFFIXES)
     if args.ids is not None:
         _check_output(args.ids, "--ids", _IDS_SUFFIXES)
+    outputs = [(what, path) for what, path in
+               (("--out", args.out), ("--depth", args.depth), ("--ids", args.ids)) if path]
+    for k, (what, path) in enumerate(outputs):
+        for other, other_path in outputs[k + 1:]:
+            if os.path.realpath(path) == os.path.realpath(other_path):
+                raise ValueError(f"{what} and {other} name the same file {path!r}: "
+                                 f"one would overwrite the other")
     mesh = default_scene() if args.mesh is None else zbuffer.load(args.mesh)
     camera = render_camera(args, mesh, width, height)
     shading = "none" if args.out is None else args.shading
