@@ -404,14 +404,34 @@ def test_odd_inputs_get_clear_messages(tmp_path):
         most_culling_cells(np.ones((2, 2), np.int64), -1)
     with pytest.raises(TypeError, match="n must be an integer, got 5.0"):
         most_culling_cells(np.ones((2, 2), np.int64), 5.0)
-    with pytest.raises(ValueError, match="n must be at least 1"):
+    with pytest.raises(ValueError, match="n must be in 1 .. "):
         scenes.tessellated_square(0)
-    with pytest.raises(ValueError, match="n_lat must be at least 2"):
+    with pytest.raises(ValueError, match="n_lat must be in 2 .. "):
         scenes.uv_sphere(n_lat=1)
     with pytest.raises(ValueError, match="needs a mesh with vertices"):
         scenes.instance_grid((np.zeros((0, 3)), np.zeros((0, 3), int)), (2, 2, 2))
     with pytest.raises(TypeError, match="n must be an integer"):
         scenes.tessellated_square(True)
+    # Every count is checked and bounded, every size finite (a fuzzing round:
+    # empty parts, numpy's messages, NaN vertices, and a loop without end).
+    for make, match in [(lambda: scenes.torus(n_major=0), "n_major must be in 3 .. "),
+                        (lambda: scenes.grid(n=(-1, 5)), r"n\[0\] must be in 1 .. "),
+                        (lambda: scenes.random_soup(-5), "n must be in 1 .. "),
+                        (lambda: scenes.fan(2), "n must be in 3 .. "),
+                        (lambda: scenes.overlapping_boxes(10**9), "n must be in 1 .. 67108864"),
+                        (lambda: scenes.tessellated_square(10**5), "would make 20,000,000,000 tri"),
+                        (lambda: scenes.uv_sphere(radius=np.nan), "radius must be finite"),
+                        (lambda: scenes.tessellated_square(4, jitter=np.nan), "jitter must be finite"),
+                        (lambda: scenes.tessellated_square(4, jitter=0.5), r"jitter must be in \[0, 0.5\)"),
+                        (lambda: scenes.box(center=(1, 2)), "center must be 3 numbers"),
+                        (lambda: scenes.instance_grid(scenes.fan(), (1, 1, 2), spacing=np.inf),
+                         "spacing must be finite")]:
+        with pytest.raises(ValueError, match=match):
+            make()
+    with pytest.raises(TypeError, match="size must be 3 numbers, got 'a'"):
+        scenes.box(size="a")
+    with pytest.raises(TypeError, match="n must be two positive integers, got 5"):
+        scenes.grid(n=5)
     # (numpy integers and 0-d integer arrays are integers)
     assert len(scenes.tessellated_square(np.array(2)).faces) == 8
     assert len(scenes.uv_sphere(n_lat=np.int64(2), n_lon=np.array(3))[1]) == 6

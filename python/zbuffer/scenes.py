@@ -22,10 +22,45 @@ __all__ = [
 
 Part = Tuple[np.ndarray, np.ndarray]
 
+# The most triangles one call may make (about 1.6 GB of faces and vertices
+# at its largest): a bound on what a typo in a count can ask for.
+_MAX_TRIANGLES = 2**26
+
+
+def _count(name: str, value, least: int) -> int:
+    """A count: an integer of at least ``least`` (checks.check_int) that
+    alone would not pass _MAX_TRIANGLES."""
+    return check_int(name, value, least, _MAX_TRIANGLES)
+
+
+def _triangles(what: str, n: int) -> None:
+    """ValueError if ``what`` would make more than _MAX_TRIANGLES triangles."""
+    if n > _MAX_TRIANGLES:
+        raise ValueError(f"{what} would make {n:,} triangles; at most {_MAX_TRIANGLES:,}")
+
+
+def _numbers(name: str, value, size: int = 1) -> np.ndarray:
+    """``value`` as ``size`` finite floats (one: a 0-d array); TypeError for
+    what is not numbers, ValueError for the wrong count or a NaN or
+    infinite one."""
+    try:
+        if isinstance(value, (str, bytes)):
+            raise TypeError
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be {'a number' if size == 1 else f'{size} numbers'}, "
+                        f"got {value!r}") from None
+    if a.size != size or (size > 1 and a.ndim != 1):
+        raise ValueError(f"{name} must be {'a number' if size == 1 else f'{size} numbers'}, "
+                         f"got {value!r}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return a.reshape(()) if size == 1 else a
+
 
 def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
     """An axis-aligned box, 12 triangles wound counter-clockwise seen from outside."""
-    c, s = np.asarray(center, float), np.asarray(size, float) * 0.5
+    c, s = _numbers("center", center, 3), _numbers("size", size, 3) * 0.5
     corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float)
     faces = np.array([
         [0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6],  # -z, +z
@@ -38,12 +73,14 @@ def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
 def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:
     """A latitude-longitude sphere with poles on the y axis (n_lat >= 2
     bands of latitude, n_lon >= 3 of longitude)."""
-    n_lat, n_lon = check_int("n_lat", n_lat, 2), check_int("n_lon", n_lon, 3)
+    n_lat, n_lon = _count("n_lat", n_lat, 2), _count("n_lon", n_lon, 3)
+    _triangles(f"uv_sphere(n_lat={n_lat}, n_lon={n_lon})", 2 * (n_lat - 1) * n_lon)
+    center, radius = _numbers("center", center, 3), _numbers("radius", radius)
     theta = np.linspace(0.0, np.pi, n_lat + 1)[1:-1]
     phi = np.linspace(0.0, 2.0 * np.pi, n_lon, endpoint=False)
     t, p = np.meshgrid(theta, phi, indexing="ij")
     ring = np.stack([np.sin(t) * np.cos(p), np.cos(t), -np.sin(t) * np.sin(p)], -1).reshape(-1, 3)
-    v = np.vstack([[0, 1, 0], ring, [0, -1, 0]]) * radius + np.asarray(center, float)
+    v = np.vstack([[0, 1, 0], ring, [0, -1, 0]]) * radius + center
     faces = []
     south = len(v) - 1
     for k in range(n_lon):
@@ -61,7 +98,11 @@ def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:
 
 
 def torus(center=(0.0, 0.0, 0.0), major=1.0, minor=0.3, n_major=32, n_minor=16) -> Part:
-    """A torus around the y axis."""
+    """A torus around the y axis (n_major, n_minor >= 3 segments)."""
+    n_major, n_minor = _count("n_major", n_major, 3), _count("n_minor", n_minor, 3)
+    _triangles(f"torus(n_major={n_major}, n_minor={n_minor})", 2 * n_major * n_minor)
+    center = _numbers("center", center, 3)
+    major, minor = _numbers("major", major), _numbers("minor", minor)
     u = np.linspace(0.0, 2.0 * np.pi, n_major, endpoint=False)
     w = np.linspace(0.0, 2.0 * np.pi, n_minor, endpoint=False)
     uu, ww = np.meshgrid(u, w, indexing="ij")
@@ -75,15 +116,24 @@ def torus(center=(0.0, 0.0, 0.0), major=1.0, minor=0.3, n_major=32, n_minor=16) 
             c = ((i + 1) % n_major) * n_minor + (j + 1) % n_minor
             d = i * n_minor + (j + 1) % n_minor
             faces += [[a, b, c], [a, c, d]]
-    return v + np.asarray(center, float), np.array(faces)
+    return v + center, np.array(faces)
 
 
 def grid(center=(0.0, 0.0, 0.0), size=(4.0, 4.0), n=(8, 8)) -> Part:
     """A flat rectangle in the xz plane (normal +y), n[0] x n[1] quads."""
+    try:
+        given = tuple(n)
+    except TypeError:
+        raise TypeError(f"n must be two positive integers, got {n!r}") from None
+    if len(given) != 2:
+        raise ValueError(f"n must be two positive integers, got {n!r}")
+    n = (_count("n[0]", given[0], 1), _count("n[1]", given[1], 1))
+    _triangles(f"grid(n={n})", 2 * n[0] * n[1])
+    center, size = _numbers("center", center, 3), _numbers("size", size, 2)
     xs = np.linspace(-0.5, 0.5, n[0] + 1) * size[0]
     zs = np.linspace(-0.5, 0.5, n[1] + 1) * size[1]
     x, z = np.meshgrid(xs, zs, indexing="ij")
-    v = np.stack([x, np.zeros_like(x), z], -1).reshape(-1, 3) + np.asarray(center, float)
+    v = np.stack([x, np.zeros_like(x), z], -1).reshape(-1, 3) + center
     faces = []
     m = n[1] + 1
     for i in range(n[0]):
@@ -163,6 +213,8 @@ def default_camera(aspect: float = 4.0 / 3.0, up=(0.0, 1.0, 0.0)):
 
 def overlapping_boxes(n: int = 6, seed: int = 0) -> Mesh:
     """n boxes of random size and position, overlapping each other."""
+    n = _count("n", n, 1)
+    _triangles(f"overlapping_boxes({n})", 12 * n)
     rng = np.random.default_rng(seed)
     parts = [box(rng.uniform(-1, 1, 3), rng.uniform(0.3, 1.2, 3)) for _ in range(n)]
     return combine(parts, name=f"overlapping_boxes({n}, seed={seed})")
@@ -191,7 +243,8 @@ def coplanar_faces() -> Mesh:
 
 def fan(n: int = 24, tilt: float = 0.3) -> Mesh:
     """A triangle fan around a centre vertex: n thin triangles meeting at one
-    point, every inner edge shared by two of them."""
+    point, every inner edge shared by two of them (n >= 3)."""
+    n, tilt = _count("n", n, 3), _numbers("tilt", tilt)
     a = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
     rim = np.stack([np.cos(a), np.sin(a), tilt * np.cos(3 * a)], -1)
     v = np.vstack([[0.0, 0.0, 0.0], rim])
@@ -201,6 +254,7 @@ def fan(n: int = 24, tilt: float = 0.3) -> Mesh:
 
 def random_soup(n: int = 200, seed: int = 0, scale: float = 0.5) -> Mesh:
     """n independent random triangles in the unit cube (any sizes, orientations)."""
+    n, scale = _count("n", n, 1), _numbers("scale", scale)
     rng = np.random.default_rng(seed)
     centres = rng.uniform(-1, 1, (n, 1, 3))
     v = (centres + rng.normal(0, scale, (n, 3, 3))).reshape(-1, 3)
@@ -209,8 +263,13 @@ def random_soup(n: int = 200, seed: int = 0, scale: float = 0.5) -> Mesh:
 
 def tessellated_square(n: int = 8, jitter: float = 0.0, seed: int = 0) -> Mesh:
     """The square [-1, 1]^2 at z = 0 cut into 2 n^2 triangles (n >= 1); inner
-    grid vertices may be jittered (the square stays covered exactly once)."""
-    n = check_int("n", n, 1)
+    grid vertices may be jittered by up to ``jitter`` (0 <= jitter < 0.5) of
+    a cell in x and y (the square stays covered exactly once)."""
+    n = _count("n", n, 1)
+    _triangles(f"tessellated_square({n})", 2 * n * n)
+    jitter = float(_numbers("jitter", jitter))
+    if not 0.0 <= jitter < 0.5:
+        raise ValueError(f"jitter must be in [0, 0.5), got {jitter!r}")
     rng = np.random.default_rng(seed)
     g = np.linspace(-1.0, 1.0, n + 1)
     x, y = np.meshgrid(g, g, indexing="ij")
@@ -244,6 +303,7 @@ def instance_grid(mesh, counts=(5, 5, 10), spacing: float = 1.1) -> Mesh:
     if len(given) != 3:
         raise ValueError(f"counts must be three positive integers, got {counts!r}")
     counts = tuple(check_int(f"counts[{k}]", c, 1) for k, c in enumerate(given))
+    spacing = _numbers("spacing", spacing)
     if len(mesh.vertices) == 0:
         raise ValueError("instance_grid needs a mesh with vertices (its extent spaces the copies)")
     n_copies = counts[0] * counts[1] * counts[2]
