@@ -264,7 +264,9 @@ def random_soup(n: int = 200, seed: int = 0, scale: float = 0.5) -> Mesh:
 def tessellated_square(n: int = 8, jitter: float = 0.0, seed: int = 0) -> Mesh:
     """The square [-1, 1]^2 at z = 0 cut into 2 n^2 triangles (n >= 1); inner
     grid vertices may be jittered by up to ``jitter`` (0 <= jitter < 0.5) of
-    a cell in x and y (the square stays covered exactly once)."""
+    a cell in x and y. Under 0.25 every triangle keeps its orientation, so
+    the square stays covered exactly once; from 0.25 a triangle may fold
+    over (with a seed's bad luck)."""
     n = _count("n", n, 1)
     _triangles(f"tessellated_square({n})", 2 * n * n)
     jitter = float(_numbers("jitter", jitter))
