@@ -132,7 +132,7 @@ def test_bad_image_size(render, width, height, error, match):
     (dict(eye=(0, 0, 3), fov_y=180), r"fov_y must be in \(0, 180\)"),
     (dict(eye=(0, 0, np.nan)), "eye must be finite"),
     (dict(eye=(0, 0)), "eye must be 3 numbers"),
-    (dict(eye=(0, 0, 3), projection="fisheye"), "projection must be one of"),
+    (dict(eye=(0, 0, 3), projection="fisheye"), "unknown projection 'fisheye'; valid values"),
     (dict(eye=(0, 0, 3), projection="orthographic", ortho_height=0.0), "ortho_height must be positive"),
 ])
 def test_degenerate_camera(kwargs, match):
@@ -159,6 +159,8 @@ def test_a_camera_in_algos_place_says_where_it_goes():
 def test_bad_options(render):
     with pytest.raises(ValueError, match="unknown shading 'phong'"):
         render((V, F), shading="phong")
+    with pytest.raises(TypeError, match="shading must be one of 'flat', 'smooth', 'none', got None"):
+        render((V, F), shading=None)
     with pytest.raises(ValueError, match="light_dir must not be the zero vector"):
         render((V, F), light_dir=(0, 0, 0))
     with pytest.raises(ValueError, match="ambient must be a finite number"):

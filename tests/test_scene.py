@@ -228,6 +228,8 @@ def test_bad_arguments():
         zbuffer.Scene(mesh, max_depth=True)
     with pytest.raises(ValueError, match="unknown octree_rule 'loose'"):
         zbuffer.Scene(mesh, octree_rule="loose")
+    with pytest.raises(TypeError, match="octree_rule must be one of 'smallest', 'greene', got None"):
+        zbuffer.Scene(mesh, octree_rule=None)
     scene = zbuffer.Scene(mesh)
     # A Scene's mesh and a Mesh's arrays are fixed (a tree over other faces
     # than those shaded read out of bounds: a fuzzer's find).

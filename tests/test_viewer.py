@@ -105,7 +105,7 @@ def test_bad_arguments():
         Viewer(scenes.default_scene(), algo="fast")
     with pytest.raises(ValueError, match="unknown shading .phong.; valid values are .flat."):
         Viewer(scenes.default_scene(), shading="phong")
-    with pytest.raises(ValueError, match="unknown overlay 'normals'; valid names are 'depth'"):
+    with pytest.raises(ValueError, match="unknown overlay 'normals'; valid values are 'depth'"):
         Viewer(scenes.default_scene()).toggle("normals")
 
 

@@ -14,7 +14,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .checks import check_index
+from .checks import check_choice, check_index
 
 __all__ = ["Camera"]
 
@@ -177,11 +177,7 @@ class Camera:
         object.__setattr__(self, "eye", tuple(float(x) for x in eye))
         object.__setattr__(self, "target", tuple(float(x) for x in target))
         object.__setattr__(self, "up", tuple(float(x) for x in up))
-        if self.projection not in PROJECTIONS:
-            raise ValueError(
-                f"projection must be one of {', '.join(map(repr, PROJECTIONS))}, "
-                f"got {self.projection!r}"
-            )
+        check_choice("projection", self.projection, PROJECTIONS)
         forward, dist = _unit(target - eye)
         if dist == 0.0:
             raise ValueError("degenerate camera: eye and target are the same point")

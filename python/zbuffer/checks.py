@@ -10,7 +10,19 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["check_flag", "check_index", "check_int", "integer_dtype", "number_dtype"]
+__all__ = ["check_choice", "check_flag", "check_index", "check_int", "integer_dtype",
+           "number_dtype"]
+
+
+def check_choice(name: str, value, choices) -> str:
+    """``value``, one of the strings ``choices``: TypeError for what is not a
+    string, ValueError for another string, both listing the choices."""
+    valid = ", ".join(map(repr, choices))
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be one of {valid}, got {value!r}")
+    if value not in choices:
+        raise ValueError(f"unknown {name} {value!r}; valid values are {valid}")
+    return value
 
 
 def check_flag(name: str, value) -> bool:

@@ -12,7 +12,7 @@ import numpy as np
 from . import _core
 from .api import check_algorithm, claimed, finish, output_arrays, render_visibility
 from .camera import Camera
-from .checks import check_flag, check_int
+from .checks import check_choice, check_flag, check_int
 from .load import as_mesh
 from .mesh import _INT32_MAX, Mesh
 from .options import DEFAULT_SIZE, prepare
@@ -76,10 +76,7 @@ class Scene:
                           else check_int("leaf_size", leaf_size, 1, _INT32_MAX))
         self.max_depth = check_int("max_depth", _core.DEFAULT_OCTREE_MAX_DEPTH if max_depth is None
                                    else max_depth, 1, _core.MAX_OCTREE_DEPTH)
-        if octree_rule not in OCTREE_RULES:
-            raise ValueError(f"unknown octree_rule {octree_rule!r}; valid rules are "
-                             f"{', '.join(map(repr, OCTREE_RULES))}")
-        self.octree_rule = octree_rule
+        self.octree_rule = check_choice("octree_rule", octree_rule, OCTREE_RULES)
         self._trees: Dict[str, object] = {}
         self._lock = threading.Lock()
 

@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from .camera import _number, _reals, _unit
+from .checks import check_choice
 from .mesh import unit_rgb
 
 __all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy", "vertex_normals"]
@@ -47,11 +48,9 @@ def _rgb_float(value, name: str) -> np.ndarray:
 
 
 def check_shading(shading) -> None:
-    """ValueError unless ``shading`` is one of :data:`SHADINGS`."""
-    if shading not in SHADINGS:
-        raise ValueError(
-            f"unknown shading {shading!r}; valid values are {', '.join(map(repr, SHADINGS))}"
-        )
+    """ValueError unless ``shading`` is one of :data:`SHADINGS` (TypeError
+    for what is not a string)."""
+    check_choice("shading", shading, SHADINGS)
 
 
 def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAULT_AMBIENT,

@@ -33,6 +33,7 @@ import numpy as np
 
 from .api import algorithms, check_algorithm
 from .camera import Camera
+from .checks import check_choice
 from .load import as_mesh
 from .options import check_size
 from .result import RenderResult
@@ -124,9 +125,7 @@ class Viewer:
     def toggle(self, overlay: str) -> None:
         """Switch an overlay on (or off, if it is on). "pyramid" steps one
         level coarser each call instead, and off after the last level."""
-        if overlay not in ("depth", "pyramid", "tree"):
-            raise ValueError(f"unknown overlay {overlay!r}; valid names are 'depth', 'pyramid', "
-                             "'tree'")
+        check_choice("overlay", overlay, ("depth", "pyramid", "tree"))
         if overlay == "pyramid":
             levels = _pyramid_levels(self.width, self.height)
             if self.overlay != "pyramid":
