@@ -119,7 +119,12 @@ def test_vertex_and_face_colours_together_keep_the_vertices(tmp_path):
     ((b"0 128 255", b"0 128 255 7"), "malformed PLY record '3 0 1 6 0 128 255 7'"),
     ((b"5 255 0 0", b"5 255 2.5 0"), "property 'green' has an integer type, but a record holds 2.5"),
     ((b"list uchar int", b"list float int"), "a list's count must have an integer type"),
+    # a float property's text beyond float32 (numpy's overflow warning, then
+    # "a NaN or infinite coordinate" for a finite number)
+    ((b"\n3 3 1\n", b"\n3 1e39 1\n"),
+     "property 'y' is a float (32-bit), but a record holds 1e+39, beyond its range"),
 ])
+@pytest.mark.filterwarnings("error")
 def test_malformed_files_are_refused_plainly(tmp_path, change, message):
     path = tmp_path / "bad.ply"
     data = ascii_ply()

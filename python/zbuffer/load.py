@@ -76,6 +76,16 @@ def load(path, merge_vertices: bool = True) -> Mesh:
             return _merged(_polygon_mesh(path, data), merge_vertices).prepare()
     import trimesh  # (only here: importing it takes about 0.3 s)
 
+    formats = trimesh.available_formats()
+    if not any(path.lower().endswith("." + f) for f in formats):
+        # (trimesh's own message shows the path lower-cased)
+        suffix = os.path.splitext(path)[1]
+        raise ValueError(f"could not read a mesh from {path!r}: "
+                         + (f"unknown file suffix {suffix!r}" if suffix else "no file suffix")
+                         + " (zbuffer reads .obj, .off and .ply files, and through trimesh "
+                         + ", ".join("." + f for f in sorted(formats)
+                                     if f not in ("obj", "off", "ply", "stl_ascii"))
+                         + ")")
     try:
         tm = trimesh.load(path, force="mesh", process=False)
     except Exception as err:  # trimesh raises many types for bad files

@@ -151,7 +151,12 @@ def _as_declared(scalars: np.ndarray, props) -> np.ndarray:
     kinds = [p[1] for p in props if p[2] is None]
     for c, kind in enumerate(kinds):
         if kind == "f":
-            scalars[:, c] = scalars[:, c].astype(np.float32)
+            column = scalars[:, c]
+            big = np.isfinite(column) & (np.abs(column) > np.finfo(np.float32).max)
+            if big.any():
+                raise ValueError(f"property {names[c]!r} is a float (32-bit), but a record "
+                                 f"holds {float(column[big][0])!r}, beyond its range")
+            scalars[:, c] = column.astype(np.float32)
         elif kind != "d" and (scalars[:, c] != np.round(scalars[:, c])).any():
             bad = scalars[:, c][scalars[:, c] != np.round(scalars[:, c])][0]
             raise ValueError(f"property {names[c]!r} has an integer type, but a record holds "
