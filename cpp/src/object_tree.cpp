@@ -658,9 +658,11 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     throw std::invalid_argument("temporal coherence needs a tree whose ids are the face indices");
   const Viewport vp(target.width, target.height);
 
-  // Frame state: one more frame; stamps are reset only when the counter wraps.
+  // Frame state: one more frame; stamps are reset only when the counter wraps
+  // (or the state was sized for another tree).
   if (frame.node_fate.size() != tree.nodes.size() ||
       frame.cluster_stamp.size() != tree.clusters.size() ||
+      frame.face_stamp.size() != (tree.shared ? size_t(tree.n_input_faces) : 0) ||
       frame.frame == std::numeric_limits<uint32_t>::max()) {
     frame.frame = 0;
     frame.cluster_stamp.assign(tree.clusters.size(), 0);

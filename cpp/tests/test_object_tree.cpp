@@ -255,6 +255,24 @@ void test_greene_draws_each_face_once() {
           stats.rasterized + stats.culled_hidden + stats.culled_degenerate);
     CHECK(stats.rasterized > 2500);
   }
+  // One frame state for two shared trees of as many nodes and clusters (a
+  // root leaf each) over different numbers of faces: the face stamps are
+  // sized for the second (indexed past their end before; ASan builds caught it).
+  p.leaf_size = 1 << 20;
+  Soup fewer = soup;
+  fewer.pos.resize(fewer.pos.size() / 2 - fewer.pos.size() / 2 % 9);
+  fewer.faces.resize(fewer.pos.size() / 3);
+  const ObjectTree small = build_octree(fewer.view(), p), large = build_octree(soup.view(), p);
+  CHECK(small.nodes.size() == 1 && large.nodes.size() == 1 && small.shared && large.shared);
+  TreeFrame shared_frame;
+  for (const ObjectTree* t : {&small, &large}) {
+    std::fill(depth.begin(), depth.end(), std::numeric_limits<float>::infinity());
+    std::fill(ids.begin(), ids.end(), -1);
+    RenderStats stats;
+    render_object_tree(*t, input, target, stats, shared_frame);
+    CHECK(shared_frame.face_stamp.size() == size_t(t->n_input_faces));
+    CHECK(stats.rasterized + stats.culled_hidden + stats.culled_degenerate == t->n_input_faces);
+  }
 }
 
 // Per-frame trees: indexed clusters over the mesh's own vertices, each face
