@@ -146,3 +146,19 @@ def test_bounding_sphere_is_its_whole_array_definition():
         if radius == 0.0:
             radius = max(1e-6, float(np.abs(center).max()) * 1e-6)
         assert got_radius == radius
+
+
+def test_framing_ignores_vertices_no_face_uses():
+    # (OBJ files with stray v records are common: the object would shrink.)
+    v, f = scenes.box()
+    stray = np.vstack([v, [[100.0, 0, 0]]])
+    a = zbuffer.render((v, f), width=32, height=24, shading="none")
+    b = zbuffer.render((stray, f), width=32, height=24, shading="none")
+    assert a.camera == b.camera
+    np.testing.assert_array_equal(a.triangle_id, b.triangle_id)
+
+
+def test_far_is_fitted_beyond_a_near_given_alone():
+    v, f = scenes.box()
+    cam = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0), near=10.0).resolve(zbuffer.Mesh(v, f))
+    assert cam.near == 10.0 and cam.far > 10.0

@@ -256,3 +256,34 @@ def test_bench_knows_the_harness_suites():
     finally:
         sys.path.remove(str(folder))
     assert BENCH_SUITES == tuple(run.SUITES)
+
+
+def test_options_reach_the_render_and_depth_pngs_are_nearest_white(tmp_path, capsys):
+    # (test_render_a_file_with_options checks only the picture's shape.)
+    soup = zbuffer.scenes.random_soup(200, seed=5)
+    path = tmp_path / "soup.obj"
+    path.write_text("".join("v %r %r %r\n" % tuple(map(float, p)) for p in soup.vertices)
+                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in soup.faces))
+    ids, depth = tmp_path / "ids.npy", tmp_path / "d.png"
+    assert main(["render", str(path), "--algo", "scanline", "--size", "40x30", "--out", "none",
+                 "--projection", "orthographic", "--view-dir", "0,1,1", "--cull-backfaces",
+                 "--ids", str(ids), "--depth", str(depth)]) == 0
+    assert "algo=scanline" in capsys.readouterr().out
+    mesh = zbuffer.load(path)
+    cam = zbuffer.Camera.fit(mesh, direction=(0, 1, 1), projection="orthographic", aspect=40 / 30)
+    res = zbuffer.render(mesh, camera=cam, width=40, height=30, cull_backfaces=True,
+                         shading="none")
+    assert res.stats["culled_backface"] > 0
+    np.testing.assert_array_equal(np.load(ids), res.triangle_id)
+    grey = skimage.io.imread(depth).astype(int)
+    eye = res.eye_depth()
+    assert grey[np.unravel_index(np.argmin(eye), eye.shape)] == 65535
+    assert grey[np.unravel_index(np.argmax(np.where(res.mask, eye, -1)), eye.shape)] == 8192
+
+
+def test_an_eye_without_a_target_looks_at_the_mesh_centre():
+    from zbuffer.cli import build_parser, render_camera
+
+    mesh = zbuffer.Mesh(*zbuffer.scenes.box((5, 6, 7), (1, 1, 1)))
+    args = build_parser().parse_args(["render", "x.obj", "--eye", "0,0,0"])
+    assert render_camera(args, mesh, 64, 48).target == (5.0, 6.0, 7.0)

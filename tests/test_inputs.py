@@ -104,6 +104,48 @@ def test_scene_is_concatenated_with_colours():
     scene = trimesh.Scene([a, b])
     mesh = zbuffer.as_mesh(scene)
     assert len(mesh.faces) == len(a.faces) + len(b.faces)
+    # the box's faces red, the sphere's not (their order: the scene's)
+    red = (mesh.face_colors == [1, 0, 0]).all(axis=1)
+    assert red.sum() == len(a.faces)
+    assert red[:len(a.faces)].all() or red[-len(a.faces):].all()
+
+
+def test_trimesh_vertex_colours_are_kept():
+    s = trimesh.creation.icosphere(subdivisions=2)
+    s.visual.vertex_colors = np.tile([0, 255, 0, 255], (len(s.vertices), 1))
+    np.testing.assert_array_equal(zbuffer.as_mesh(s).vertex_colors,
+                                  np.tile([0, 1, 0], (len(s.vertices), 1)))
+    image = zbuffer.render(s, width=32, height=32, ambient=1.0, diffuse=0.0).image
+    assert (image[16, 16] == [0, 255, 0]).all()
+
+
+def test_merged_keeps_vertices_that_differ_in_colour():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0], [1, 0, 0], [0, -1, 0]], float)
+    f = np.array([[0, 1, 2], [3, 5, 4]])
+    colours = np.array([[1, 0, 0]] * 3 + [[0, 0, 1]] * 3, np.float32)
+    merged = zbuffer.Mesh(v, f, vertex_colors=colours).merged()
+    assert len(merged.vertices) == 6
+    np.testing.assert_array_equal(merged.vertex_colors[merged.faces], colours[f])
+    assert len(zbuffer.Mesh(v, f).merged().vertices) == 4
+
+
+def test_load_merges_repeated_positions_except_in_obj_files(tmp_path):
+    # (An OBJ file's v records stay its vertices; other formats' corners
+    # are shared -- a speed matter, and the same triangles either way.)
+    v, f = scenes.box()
+    split = v[f].reshape(-1, 3)
+    faces = np.arange(len(split)).reshape(-1, 3)
+    for ext in ("ply", "off", "stl", "obj"):
+        path = tmp_path / f"b.{ext}"
+        trimesh.Trimesh(split, faces, process=False).export(path)
+        if ext == "obj":  # (by hand: a v record for every corner)
+            path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in split)
+                            + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+        merged = zbuffer.load(path)
+        kept = zbuffer.load(path, merge_vertices=False)
+        assert len(kept.vertices) == 36
+        assert len(merged.vertices) == (36 if ext == "obj" else 8), ext
+        np.testing.assert_array_equal(merged.vertices[merged.faces], kept.vertices[kept.faces])
 
 
 @pytest.mark.parametrize("ext", ["obj", "ply", "stl", "off", "glb"])

@@ -177,3 +177,16 @@ def test_concave_plane_is_not_triangulated_as_a_fan():
     fan_area = 0.5 * np.linalg.norm(np.cross(fan_tri[:, 1] - fan_tri[:, 0],
                                              fan_tri[:, 2] - fan_tri[:, 0]), axis=1).sum()
     assert fan_area > polygon * 1.01
+
+
+def test_vertex_colours_written_0_255_and_records_of_mixed_lengths(tmp_path):
+    path = tmp_path / "a.obj"
+    path.write_text("v 0 0 0 255 0 0\nv 1 0 0 0 255 0\nv 0 1 0 0 0 51\nf 1 2 3\n")
+    np.testing.assert_allclose(read_obj(str(path)).vertex_colors,
+                               [[1, 0, 0], [0, 1, 0], [0, 0, 0.2]])
+    # x y z, x y z r g b, x y z w: the positions, and no colours (not every
+    # record has them)
+    path.write_text("v 0 0 0\nv 1 2 3 0.5 0.5 0.5\nv 4 5 6 1\nv 7 8 9\nf 1 2 3\nf 2 3 4\n")
+    data = read_obj(str(path))
+    np.testing.assert_array_equal(data.vertices, [[0, 0, 0], [1, 2, 3], [4, 5, 6], [7, 8, 9]])
+    assert data.vertex_colors is None

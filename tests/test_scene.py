@@ -290,3 +290,20 @@ def test_scene_draws_polygon_faces_as_render_does(algo):
     once = zbuffer.render(mesh, algo=algo, **kwargs)
     for key in ("rasterized", "polygons_inserted", "pixels_tested"):
         assert ours.stats.get(key) == once.stats.get(key), key
+
+
+@pytest.mark.parametrize("algo", TREE_ALGORITHMS)
+def test_scene_render_culls_backfaces(algo):
+    # (Scene.render passing cull_backfaces on to the trees was untested: the
+    # suite passed with it dropped -- a test-gap review.)
+    mesh = scenes.random_soup(300, seed=2)
+    cam = zbuffer.Camera.fit(mesh, direction=(0.3, 0.4, 1.0), aspect=4 / 3)
+    scene = zbuffer.Scene(mesh)
+    kw = dict(camera=cam, width=96, height=72, shading="none")
+    ids = {}
+    for cull in (False, True):
+        got = scene.render(algo=algo, cull_backfaces=cull, **kw)
+        assert_same_visibility(got, zbuffer.reference.render(mesh, cull_backfaces=cull, **kw))
+        assert (got.stats["culled_backface"] > 0) == cull
+        ids[cull] = got.triangle_id
+    assert not np.array_equal(ids[False], ids[True])

@@ -360,3 +360,19 @@ def test_the_reference_calls_no_compiled_code(monkeypatch, tmp_path, shading):
         np.testing.assert_array_equal(res.depth, exp.depth)
         if shading != "none":
             np.testing.assert_array_equal(res.image, exp.image)
+
+
+def test_color_overrides_the_mesh_colours_in_either_scale():
+    v = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    cam = zbuffer.Camera.look_at((0, 0, 6), (0, 0, 0), fov_y=30)
+    kw = dict(camera=cam, width=20, height=20, ambient=1.0, diffuse=0.0)
+    for colours in ({"face_colors": [[255, 0, 0], [255, 0, 0]]},
+                    {"vertex_colors": np.tile([1.0, 0, 0], (4, 1))}):
+        mesh = zbuffer.Mesh(v, f, **colours)
+        for color in [(0, 0, 255), (0.0, 0.0, 1.0)]:
+            res = zbuffer.render(mesh, color=color, **kw)
+            assert (res.image[res.mask] == [0, 0, 255]).all()
+    res = zbuffer.render((v, f), background=(0.0, 0.5, 1.0), **kw)
+    assert (~res.mask).any() and (res.image[~res.mask] == [0, 128, 255]).all()
+    assert (res.image[res.mask] == 204).all()  # the default albedo, 0.8 grey
