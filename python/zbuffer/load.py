@@ -148,10 +148,9 @@ def _polygon_mesh(path: str, data) -> Mesh:
 def _declares_no_faces(path: str) -> bool:
     """True if the file says, in its format's own terms and nothing else,
     that it holds no faces: a PLY header whose only elements are its
-    vertices and, if any, ``face 0``; an OFF header (``OFF``, ``COFF``,
-    ``NOFF`` or ``CNOFF``) counting 0 faces; an ASCII STL that is only
-    ``solid ...`` and ``endsolid ...``; a binary STL of exactly 84 bytes that
-    counts 0 triangles."""
+    vertices and, if any, ``face 0``; an ASCII STL that is only ``solid
+    ...`` and ``endsolid ...``; a binary STL of exactly 84 bytes that counts
+    0 triangles. (For the files trimesh reads: OFF files never get here.)"""
     suffix = os.path.splitext(path)[1].lower()
     if suffix == ".ply":
         with open(path, "rb") as fh:
@@ -160,13 +159,6 @@ def _declares_no_faces(path: str) -> bool:
             e[:1] == [b"vertex"] or e == [b"face", b"0"] for e in header[1])
     with open(path, "rb") as fh:
         head = fh.read(1 << 16)
-    if suffix == ".off":
-        records = [line.split(b"#", 1)[0].split() for line in head.splitlines()]
-        records = [r for r in records if r]
-        if not records or records[0][0] not in (b"OFF", b"COFF", b"NOFF", b"CNOFF"):
-            return False
-        counts = records[0][1:] or (records[1] if len(records) > 1 else [])
-        return len(counts) == 3 and counts[1] == b"0"
     if suffix == ".stl":
         if len(head) == 84:
             return head[80:84] == b"\0\0\0\0"
