@@ -438,7 +438,7 @@ def test_odd_inputs_get_clear_messages(tmp_path):
             make()
     with pytest.raises(TypeError, match="size must be 3 numbers, got 'a'"):
         scenes.box(size="a")
-    with pytest.raises(TypeError, match="n must be two positive integers, got 5"):
+    with pytest.raises(TypeError, match="n must be 2 positive integers, got 5"):
         scenes.grid(n=5)
     # (numpy integers and 0-d integer arrays are integers)
     assert len(scenes.tessellated_square(np.array(2)).faces) == 8

@@ -33,6 +33,17 @@ def _count(name: str, value, least: int) -> int:
     return check_int(name, value, least, _MAX_TRIANGLES)
 
 
+def _counts(name: str, value, k: int, check) -> Tuple[int, ...]:
+    """``value`` as ``k`` counts, each ``check(f"{name}[i]", count)``-ed."""
+    try:
+        given = tuple(value)
+    except TypeError:
+        raise TypeError(f"{name} must be {k} positive integers, got {value!r}") from None
+    if len(given) != k:
+        raise ValueError(f"{name} must be {k} positive integers, got {value!r}")
+    return tuple(check(f"{name}[{i}]", c) for i, c in enumerate(given))
+
+
 def _triangles(what: str, n: int) -> None:
     """ValueError if ``what`` would make more than _MAX_TRIANGLES triangles."""
     if n > _MAX_TRIANGLES:
@@ -121,13 +132,7 @@ def torus(center=(0.0, 0.0, 0.0), major=1.0, minor=0.3, n_major=32, n_minor=16) 
 
 def grid(center=(0.0, 0.0, 0.0), size=(4.0, 4.0), n=(8, 8)) -> Part:
     """A flat rectangle in the xz plane (normal +y), n[0] x n[1] quads."""
-    try:
-        given = tuple(n)
-    except TypeError:
-        raise TypeError(f"n must be two positive integers, got {n!r}") from None
-    if len(given) != 2:
-        raise ValueError(f"n must be two positive integers, got {n!r}")
-    n = (_count("n[0]", given[0], 1), _count("n[1]", given[1], 1))
+    n = _counts("n", n, 2, lambda name, c: _count(name, c, 1))
     _triangles(f"grid(n={n})", 2 * n[0] * n[1])
     center, size = _numbers("center", center, 3), _numbers("size", size, 2)
     xs = np.linspace(-0.5, 0.5, n[0] + 1) * size[0]
@@ -298,13 +303,7 @@ def instance_grid(mesh, counts=(5, 5, 10), spacing: float = 1.1) -> Mesh:
     camera on +z looking down the long axis sees the front layer and little
     else). Faces are numbered copy by copy."""
     mesh = as_mesh(mesh)
-    try:
-        given = tuple(counts)
-    except TypeError:
-        raise TypeError(f"counts must be three positive integers, got {counts!r}") from None
-    if len(given) != 3:
-        raise ValueError(f"counts must be three positive integers, got {counts!r}")
-    counts = tuple(check_int(f"counts[{k}]", c, 1) for k, c in enumerate(given))
+    counts = _counts("counts", counts, 3, lambda name, c: check_int(name, c, 1))
     spacing = _numbers("spacing", spacing)
     if len(mesh.vertices) == 0:
         raise ValueError("instance_grid needs a mesh with vertices (its extent spaces the copies)")
