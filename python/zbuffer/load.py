@@ -36,9 +36,9 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         ``polygon_indices``: the scanline algorithm draws them natively) and
         triangulated exactly for the other algorithms (fans for convex
         polygons, ear clipping for concave ones); ``face_polygon`` maps
-        triangles to them (None when every face is a triangle); trimesh fan-triangulates other formats' polygons;
-        scenes are concatenated. The mesh is :meth:`~Mesh.prepare`-d for fast repeated
-        rendering.
+        triangles to them (None when every face is a triangle); trimesh
+        fan-triangulates other formats' polygons; scenes are concatenated.
+        The mesh is :meth:`~Mesh.prepare`-d for fast repeated rendering.
 
     Raises
     ------
