@@ -64,7 +64,8 @@ def results_markdown(out: Path, record: dict) -> str:
              f"- command: `{record['command']}`",
              "",
              "Written by `benchmarks/run.py` from the JSON of this run (every repeat is in "
-             "`<date>-<host>.json`); each suite's section repeats its own table "
+             "`<date>-<host>.json`, and every run of a suite, kept, in `runs/`); each suite's "
+             "section repeats its own table "
              "(`<suite>.md`). Times are in-process medians; machines like this one are "
              "shared and noisy, so compare algorithms by their ratios within one run.", ""]
     kept = set(record.get("kept_from_earlier_runs", ()))
@@ -123,6 +124,18 @@ def write_figures(out: Path, name: str, report: dict):
     return figures
 
 
+def keep_run(out: Path, name: str, report: dict) -> Path:
+    """A copy of one run of a suite that later runs do not overwrite:
+    <out>/runs/<date>-<HHMM>-<suite>.json (``<suite>.json`` and the dated
+    file hold only the latest run, and the README's ranges span several)."""
+    stamp = report["date"].replace(" UTC", "").replace(":", "").replace(" ", "-")
+    folder = out / "runs"
+    folder.mkdir(exist_ok=True)
+    path = folder / f"{stamp}-{name}.json"
+    path.write_text(json.dumps(report, indent=2) + "\n")
+    return path
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("suites", nargs="*", choices=[[], *SUITES], default=[],
@@ -137,7 +150,9 @@ def main(argv=None) -> int:
     for k, name in enumerate(names, 1):
         print(f"[{k}/{len(names)}] {name} ({time.perf_counter() - started:.0f} s so far)", flush=True)
         SUITES[name].main([*(["--quick"] if args.quick else []), "--out", str(out)])
-        record["suites"][name] = json.loads((out / f"{name}.json").read_text())
+        report = json.loads((out / f"{name}.json").read_text())
+        record["suites"][name] = report
+        keep_run(out, name, report)
     host = platform.node() or "host"
     stamp = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d")
     dated = out / f"{stamp}-{host}.json"
