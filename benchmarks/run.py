@@ -138,11 +138,15 @@ def keep_run(out: Path, name: str, report: dict) -> Path:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("suites", nargs="*", choices=[[], *SUITES], default=[],
-                        help=f"suites to run (default all: {', '.join(SUITES)})")
+    parser.add_argument("suites", nargs="*", default=[], metavar="SUITE",
+                        help=f"suites to run, of {', '.join(SUITES)} (default: all)")
     parser.add_argument("--quick", action="store_true", help="smoke mode: small inputs, few runs")
-    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    parser.add_argument("--out", default=str(HERE / "results"),
+                        help="output folder (default: benchmarks/results, the recorded results)")
     args = parser.parse_args(argv)
+    unknown = [name for name in args.suites if name not in SUITES]
+    if unknown:
+        parser.error(f"unknown suite {unknown[0]!r}; valid suites are {', '.join(SUITES)}")
     names = args.suites or list(SUITES)
     out = Path(args.out)
     record = {**new_report("run.py", argv), "quick": args.quick, "suites": {}}
