@@ -438,6 +438,21 @@ def test_odd_inputs_get_clear_messages(tmp_path):
             make()
     with pytest.raises(TypeError, match="size must be 3 numbers, got 'a'"):
         scenes.box(size="a")
+    # (as Camera's arguments: no bools, no timedelta64, no int beyond float)
+    for make, error, match in [(lambda: scenes.uv_sphere(radius=True), TypeError,
+                                "radius must be a number, got True"),
+                               (lambda: scenes.box(center=(True, False, True)), TypeError,
+                                "center must be 3 numbers"),
+                               (lambda: scenes.fan(tilt=np.timedelta64(3)), TypeError,
+                                "tilt must be a number"),
+                               (lambda: scenes.uv_sphere(radius=10**400), ValueError,
+                                "radius must be finite")]:
+        with pytest.raises(error, match=match):
+            make()
+    with pytest.raises(TypeError, match="fov_y must be a number"):
+        zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0), fov_y=np.timedelta64(45))
+    # one number stands for a box's three
+    np.testing.assert_array_equal(scenes.box(size=2.0)[0], scenes.box(size=(2, 2, 2))[0])
     with pytest.raises(TypeError, match="n must be 2 positive integers, got 5"):
         scenes.grid(n=5)
     # (numpy integers and 0-d integer arrays are integers)

@@ -27,10 +27,11 @@ MIN_NEAR = 1e-290
 
 
 def _number(value, name: str) -> float:
-    """``value``, a real number (Python's or numpy's, not a bool), as a float:
+    """``value``, a real number (Python's or numpy's, not a bool or a
+    timedelta64, which numpy counts among its integers), as a float:
     TypeError otherwise; a Python int beyond float range is inf (callers
     that want finite numbers refuse it with their ValueError)."""
-    if isinstance(value, (bool, np.bool_)) or \
+    if isinstance(value, (bool, np.bool_, np.timedelta64)) or \
             not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name} must be a number, got {value!r}")
     try:

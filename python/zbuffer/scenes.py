@@ -6,10 +6,12 @@ scenes take a seed), so tests and benchmarks run without any model files.
 
 from __future__ import annotations
 
+import math
 from typing import List, Sequence, Tuple
 
 import numpy as np
 
+from .camera import _number, _reals
 from .checks import check_int
 from .load import as_mesh
 from .mesh import Mesh
@@ -50,28 +52,29 @@ def _triangles(what: str, n: int) -> None:
         raise ValueError(f"{what} would make {n:,} triangles; at most {_MAX_TRIANGLES:,}")
 
 
-def _numbers(name: str, value, size: int = 1) -> np.ndarray:
-    """``value`` as ``size`` finite floats (one: a 0-d array); TypeError for
-    what is not numbers, ValueError for the wrong count or a NaN or
-    infinite one."""
-    try:
-        if isinstance(value, (str, bytes)):
-            raise TypeError
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be {'a number' if size == 1 else f'{size} numbers'}, "
-                        f"got {value!r}") from None
-    if a.size != size or (size > 1 and a.ndim != 1):
-        raise ValueError(f"{name} must be {'a number' if size == 1 else f'{size} numbers'}, "
-                         f"got {value!r}")
-    if not np.isfinite(a).all():
+def _numbers(name: str, value, size: int = 1, broadcast: bool = False):
+    """``value`` as a finite float (``size`` 1) or ``size`` finite floats
+    (``broadcast``: one number stands for all), as Camera checks its
+    arguments: TypeError for what is not real numbers (bools among them),
+    ValueError for the wrong count or a NaN or infinite one."""
+    if size == 1:
+        x = _number(value, name)
+        if not math.isfinite(x):
+            raise ValueError(f"{name} must be finite, got {value!r}")
+        return x
+    v = _reals(value, name, f"{size} numbers")
+    if broadcast and v.ndim == 0:
+        v = np.full(size, float(v))
+    if v.shape != (size,):
+        raise ValueError(f"{name} must be {size} numbers, got shape {v.shape}")
+    if not np.isfinite(v).all():
         raise ValueError(f"{name} must be finite, got {value!r}")
-    return a.reshape(()) if size == 1 else a
+    return v
 
 
 def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
     """An axis-aligned box, 12 triangles wound counter-clockwise seen from outside."""
-    c, s = _numbers("center", center, 3), _numbers("size", size, 3) * 0.5
+    c, s = _numbers("center", center, 3, True), _numbers("size", size, 3, True) * 0.5
     corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float)
     faces = np.array([
         [0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6],  # -z, +z
@@ -269,12 +272,13 @@ def random_soup(n: int = 200, seed: int = 0, scale: float = 0.5) -> Mesh:
 def tessellated_square(n: int = 8, jitter: float = 0.0, seed: int = 0) -> Mesh:
     """The square [-1, 1]^2 at z = 0 cut into 2 n^2 triangles (n >= 1); inner
     grid vertices may be jittered by up to ``jitter`` (0 <= jitter < 0.5) of
-    a cell in x and y. Under 0.25 every triangle keeps its orientation, so
-    the square stays covered exactly once; from 0.25 a triangle may fold
-    over (with a seed's bad luck)."""
+    a cell in x and y, so that no vertex reaches a neighbour's place. Under
+    0.25 every triangle also keeps its orientation, so the square stays
+    covered exactly once; from 0.25 a triangle may fold over (with a seed's
+    bad luck)."""
     n = _count("n", n, 1)
     _triangles(f"tessellated_square({n})", 2 * n * n)
-    jitter = float(_numbers("jitter", jitter))
+    jitter = _numbers("jitter", jitter)
     if not 0.0 <= jitter < 0.5:
         raise ValueError(f"jitter must be in [0, 0.5), got {jitter!r}")
     rng = np.random.default_rng(seed)
