@@ -141,7 +141,7 @@ def test_degenerate_camera(kwargs, match):
 
 
 def test_unknown_algorithm_lists_the_valid_names():
-    with pytest.raises(ValueError, match=r"unknown algorithm 'painter'; valid names are 'zbuffer'"):
+    with pytest.raises(ValueError, match=r"unknown algorithm 'painter'; valid values are 'zbuffer'"):
         zbuffer.render((V, F), algo="painter")
     with pytest.raises(ValueError, match="unknown algorithm"):
         _core.render(V, F.astype(np.int32), np.eye(4), 8, 8, "painter")

@@ -282,7 +282,7 @@ def check_algorithm(algo, takes_camera: bool = True) -> None:
         raise TypeError(f"algo must be an algorithm name (a str), got {type(algo).__name__}")
     if algo not in _ALGORITHMS:
         raise ValueError(
-            f"unknown algorithm {algo!r}; valid names are {', '.join(map(repr, _ALGORITHMS))}"
+            f"unknown algorithm {algo!r}; valid values are {', '.join(map(repr, _ALGORITHMS))}"
         )
 
 

@@ -19,7 +19,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Union
 import numpy as np
 
 from . import _core
-from .checks import check_index, check_int
+from .checks import check_choice, check_index, check_int
 from .result import RenderResult
 
 __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorithms",
@@ -470,8 +470,7 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
     """
     from .scene import NODE_FATES
 
-    if color_by not in ("fate", "depth"):
-        raise ValueError(f"color_by must be 'fate' or 'depth', got {color_by!r}")
+    check_choice("color_by", color_by, ("fate", "depth"))
     pv = require_pyvista()
     plotter = _plotter(pv, (1, 1), window_size, screenshot)
     mesh = scene.mesh

@@ -172,8 +172,10 @@ def test_tree_views(algo, tmp_path):
         image = viz.show_tree(scene, algo, result=res, color_by=color_by, level=lvl,
                               screenshot=str(tmp_path / f"{color_by}.png"), window_size=(400, 300))
         assert not_blank(image)
-    with pytest.raises(ValueError, match="color_by must be"):
+    with pytest.raises(ValueError, match="unknown color_by 'size'; valid values are 'fate'"):
         viz.show_tree(scene, algo, color_by="size", screenshot=str(tmp_path / "x.png"))
+    with pytest.raises(TypeError, match="color_by must be one of 'fate', 'depth', got None"):
+        viz.show_tree(scene, algo, color_by=None, screenshot=str(tmp_path / "x.png"))
 
 
 def test_frustum_corners_project_to_the_clip_cube():
