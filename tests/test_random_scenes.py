@@ -72,19 +72,34 @@ def random_case(seed):
 @pytest.mark.parametrize("seed", [489, 593, 827, 1022, 1039, *range(40)])
 def test_random_scene_equals_reference(seed):
     mesh, camera, width, height, cull = random_case(seed)
+    equal_or_refused_alike(mesh, camera, width, height, cull)
+
+
+def equal_or_refused_alike(mesh, camera, width, height, cull) -> bool:
+    """Every algorithm draws the reference's picture, or, where the
+    reference refuses the camera (one the matrices cannot hold), refuses it
+    with the same message; True if it was refused."""
     try:
         ref = zbuffer.reference.render(mesh, camera=camera, width=width, height=height,
                                        cull_backfaces=cull, shading="none")
-    except ValueError as err:  # a camera the matrices cannot hold: refused alike by all
+    except ValueError as err:
         for algo in ALGORITHMS:
             with pytest.raises(ValueError, match=re.escape(str(err))):
                 zbuffer.render(mesh, algo=algo, camera=camera, width=width, height=height,
                                cull_backfaces=cull, shading="none")
-        return
+        return True
     for algo in ALGORITHMS:
         res = zbuffer.render(mesh, algo=algo, camera=camera, width=width, height=height,
                              cull_backfaces=cull, shading="none")
         assert_same_visibility(res, ref)
+    return False
+
+
+def test_cameras_the_matrices_cannot_hold_are_refused_alike():
+    mesh = zbuffer.scenes.random_soup(30, seed=4)
+    for eye in [(0.0, 0.0, 1e200), (1e300, 1e300, 0.0)]:
+        camera = zbuffer.Camera.look_at(eye, (0, 0, 0))
+        assert equal_or_refused_alike(mesh, camera, 17, 9, False)
 
 
 def test_tiny_meshes_far_from_the_origin_equal_reference():
