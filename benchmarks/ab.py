@@ -222,6 +222,8 @@ def main(argv=None) -> int:
         scenes.append(path)
 
     report = new_report("ab.py", argv)
+    # (The runner's loops are those of --march, not the installed package's.)
+    report["machine"]["raster_backend"] = f"the runner's, --march {args.march}"
     report.update({"a": label_a, "b": label_b, "march": args.march, "frames": args.frames,
                    "shading": args.shading, "results": []})
     rows = []

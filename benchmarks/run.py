@@ -126,14 +126,23 @@ def write_figures(out: Path, name: str, report: dict):
 
 def keep_run(out: Path, name: str, report: dict) -> Path:
     """A copy of one run of a suite that later runs do not overwrite:
-    <out>/runs/<date>-<HHMM>-<suite>.json (``<suite>.json`` and the dated
-    file hold only the latest run, and the README's ranges span several)."""
+    <out>/runs/<date>-<HHMM>-<suite>[-quick][-k].json (``<suite>.json`` and
+    the dated file hold only the latest run, and the README's ranges span
+    several; -k numbers runs within one minute)."""
     stamp = report["date"].replace(" UTC", "").replace(":", "").replace(" ", "-")
+    quick = "-quick" if "--quick" in report["command"].split() else ""
     folder = out / "runs"
     folder.mkdir(exist_ok=True)
-    path = folder / f"{stamp}-{name}.json"
-    path.write_text(json.dumps(report, indent=2) + "\n")
-    return path
+    text = json.dumps(report, indent=2) + "\n"
+    for k in range(1, 1000):
+        path = folder / f"{stamp}-{name}{quick}{'' if k == 1 else f'-{k}'}.json"
+        try:
+            with open(path, "x") as fh:
+                fh.write(text)
+            return path
+        except FileExistsError:
+            continue
+    raise RuntimeError(f"too many runs of {name} in one minute in {folder}")
 
 
 def main(argv=None) -> int:

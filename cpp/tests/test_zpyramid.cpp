@@ -15,7 +15,6 @@ using namespace zbuffer;
 
 namespace {
 
-
 // Every cell of every kept level equals the max of the pixels of its block.
 bool consistent(const ZPyramid& p) {
   const float* depth = p.level(0);
@@ -148,8 +147,6 @@ void test_max_over_cells_reads_exactly_its_rectangle() {
   }
 }
 
-}  // namespace
-
 // A cull map counts a culled test's triangles in exactly the cells of the
 // level it read that cover the test's rectangle, into the caller's arrays,
 // and a pyramid with no map records nothing.
@@ -181,6 +178,8 @@ void test_cull_map_counts_the_cells_read() {
         CHECK(counts[k][size_t(j) * widths[k] + i] == expected);
       }
 }
+
+}  // namespace
 
 int main() {
   test_cull_map_counts_the_cells_read();
