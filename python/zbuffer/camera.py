@@ -14,7 +14,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .checks import check_choice, check_index
+from .checks import as_number, as_reals, check_choice, check_index
 
 __all__ = ["Camera"]
 
@@ -26,45 +26,8 @@ PROJECTIONS = ("perspective", "orthographic")
 MIN_NEAR = 1e-290
 
 
-def _number(value, name: str) -> float:
-    """``value``, a real number (Python's or numpy's, not a bool or a
-    timedelta64, which numpy counts among its integers), as a float:
-    TypeError otherwise; a Python int beyond float range is inf (callers
-    that want finite numbers refuse it with their ValueError)."""
-    if isinstance(value, (bool, np.bool_, np.timedelta64)) or \
-            not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number, got {value!r}")
-    try:
-        return float(value)
-    except OverflowError:  # a Python int beyond float range
-        return math.inf
-
-
-def _has_bool(value) -> bool:
-    """Whether ``value`` is a bool or a (nested) list or tuple holding one."""
-    if isinstance(value, (bool, np.bool_)):
-        return True
-    return isinstance(value, (list, tuple)) and any(_has_bool(x) for x in value)
-
-
-def _reals(value, name: str, what: str) -> np.ndarray:
-    """``value`` as a float64 array: TypeError (``name must be what``) unless
-    it is made of real numbers -- no bools (also among numbers: numpy would
-    take (0, True, 0) as integers), no strings; ValueError for a Python int
-    beyond float range."""
-    try:
-        raw = np.asarray(value)
-        if raw.dtype.kind not in "iufO" or _has_bool(value):  # (bools, strings, ...)
-            raise TypeError
-        return np.asarray(raw, dtype=np.float64)
-    except OverflowError:  # a Python int beyond float range
-        raise ValueError(f"{name} must be finite, got {value!r}") from None
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be {what}, got {value!r}") from None
-
-
 def _vec3(value, name: str) -> np.ndarray:
-    v = _reals(value, name, "3 numbers")
+    v = as_reals(name, value, "3 numbers")
     if v.shape != (3,):
         raise ValueError(f"{name} must be 3 numbers, got shape {v.shape}")
     if not np.all(np.isfinite(v)):
@@ -87,7 +50,7 @@ def _unit(v: np.ndarray) -> Tuple[np.ndarray, float]:
 def _fov(value) -> float:
     """A vertical field of view in degrees, in (0, 180): TypeError for a
     non-number, ValueError out of range."""
-    fov = _number(value, "fov_y")
+    fov = as_number("fov_y", value)
     # (Positive but so small that its half in radians is 0: a projection
     # dividing by its tangent would divide by zero.)
     if not 0.0 < fov < 180.0 or math.radians(fov) / 2.0 == 0.0:
@@ -106,7 +69,7 @@ def _tuple3(value, name: str) -> tuple:
 def _positive(value, name: str, allow_none: bool = False) -> Optional[float]:
     if value is None and allow_none:
         return None
-    x = _number(value, name)
+    x = as_number(name, value)
     if not math.isfinite(x) or x <= 0.0:
         raise ValueError(f"{name} must be positive and finite, got {value!r}")
     return x
@@ -118,7 +81,7 @@ def _clip_planes(projection: str, near, far) -> Tuple[Optional[float], Optional[
     front of the eye (``near`` at least MIN_NEAR)."""
     planes = []
     for name, value in (("near", near), ("far", far)):
-        if value is not None and not math.isfinite(_number(value, name)):
+        if value is not None and not math.isfinite(as_number(name, value)):
             raise ValueError(f"{name} must be a finite number, got {value!r}")
         planes.append(None if value is None else float(value))
     near, far = planes

@@ -5,13 +5,14 @@ so every module can use it."""
 
 from __future__ import annotations
 
+import math
 import operator
 from typing import Optional
 
 import numpy as np
 
-__all__ = ["check_choice", "check_flag", "check_index", "check_int", "integer_dtype",
-           "number_dtype"]
+__all__ = ["as_number", "as_reals", "check_choice", "check_flag", "check_index", "check_int",
+           "integer_dtype", "number_dtype"]
 
 
 def check_choice(name: str, value, choices) -> str:
@@ -67,3 +68,40 @@ def number_dtype(dtype) -> bool:
     """Whether arrays of ``dtype`` hold real numbers: integers
     (:func:`integer_dtype`) or floats."""
     return np.dtype(dtype).kind in "iuf"
+
+
+def as_number(name: str, value) -> float:
+    """``value``, a real number (Python's or numpy's, not a bool or a
+    timedelta64, which numpy counts among its integers), as a float:
+    TypeError otherwise; a Python int beyond float range is inf (callers
+    that want finite numbers refuse it with their ValueError)."""
+    if isinstance(value, (bool, np.bool_, np.timedelta64)) or \
+            not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:  # a Python int beyond float range
+        return math.inf
+
+
+def _has_bool(value) -> bool:
+    """Whether ``value`` is a bool or a (nested) list or tuple holding one."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    return isinstance(value, (list, tuple)) and any(_has_bool(x) for x in value)
+
+
+def as_reals(name: str, value, what: str) -> np.ndarray:
+    """``value`` as a float64 array: TypeError (``name must be what``) unless
+    it is made of real numbers -- no bools (also among numbers: numpy would
+    take (0, True, 0) as integers), no strings; ValueError for a Python int
+    beyond float range."""
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "iufO" or _has_bool(value):  # (bools, strings, ...)
+            raise TypeError
+        return np.asarray(raw, dtype=np.float64)
+    except OverflowError:  # a Python int beyond float range
+        raise ValueError(f"{name} must be finite, got {value!r}") from None
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be {what}, got {value!r}") from None

@@ -11,8 +11,7 @@ from typing import List, Sequence, Tuple
 
 import numpy as np
 
-from .camera import _number, _reals
-from .checks import check_int
+from .checks import as_number, as_reals, check_int
 from .load import as_mesh
 from .mesh import Mesh
 
@@ -54,15 +53,16 @@ def _triangles(what: str, n: int) -> None:
 
 def _numbers(name: str, value, size: int = 1, broadcast: bool = False):
     """``value`` as a finite float (``size`` 1) or ``size`` finite floats
-    (``broadcast``: one number stands for all), as Camera checks its
-    arguments: TypeError for what is not real numbers (bools among them),
-    ValueError for the wrong count or a NaN or infinite one."""
+    (``broadcast``: one number stands for all), checked as Camera's are
+    (checks.as_number, as_reals): TypeError for what is not real numbers
+    (bools among them), ValueError for the wrong count or a NaN or infinite
+    one."""
     if size == 1:
-        x = _number(value, name)
+        x = as_number(name, value)
         if not math.isfinite(x):
             raise ValueError(f"{name} must be finite, got {value!r}")
         return x
-    v = _reals(value, name, f"{size} numbers")
+    v = as_reals(name, value, f"{size} numbers")
     if broadcast and v.ndim == 0:
         v = np.full(size, float(v))
     if v.shape != (size,):

@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from .camera import _number, _reals, _unit
-from .checks import check_choice
+from .camera import _unit
+from .checks import as_number, as_reals, check_choice
 from .mesh import unit_rgb
 
 __all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy", "vertex_normals"]
@@ -60,7 +60,7 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
     the light travels along the camera's viewing direction."""
     check_shading(shading)
     for name, value in (("ambient", ambient), ("diffuse", diffuse)):
-        x = _number(value, name)
+        x = as_number(name, value)
         if not (math.isfinite(x) and x >= 0.0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     if shading == "none" and light_dir is None and color is None \
@@ -71,7 +71,7 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
         light = camera.forward()
     else:
         try:
-            light = _reals(light_dir, "light_dir", "3 numbers")
+            light = as_reals("light_dir", light_dir, "3 numbers")
         except ValueError:  # a Python int beyond float range
             raise ValueError(f"light_dir must be 3 finite numbers, got {light_dir!r}") from None
         if light.shape != (3,) or not np.all(np.isfinite(light)):
