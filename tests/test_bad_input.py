@@ -378,6 +378,13 @@ def test_odd_inputs_get_clear_messages(tmp_path):
                 zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, shading=shading, diffuse=value)
         with pytest.raises(ValueError, match="diffuse must be a finite number >= 0"):
             zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, shading=shading, diffuse=-0.5)
+        # beyond float32, the compiled passes' weights were inf: back-lit
+        # pixels came out black (inf * 0), where the reference gave the ambient
+        for name in ("ambient", "diffuse"):
+            message = rf"{name} must be a finite number >= 0 \(at most 3.403e\+38\)"
+            with pytest.raises(ValueError, match=message):
+                zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, shading=shading,
+                               **{name: 1e39})
     for light in ((True, False, True), [1, 2, "3"], "abc"):  # bools and strings are not numbers
         with pytest.raises(TypeError, match="light_dir must be 3 numbers"):
             zbuffer.render((TRI, [[0, 1, 2]]), width=8, height=8, light_dir=light)

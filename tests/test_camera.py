@@ -79,6 +79,15 @@ def test_eye_depth_is_the_distance_along_the_view_axis():
         d = res.eye_depth()
         np.testing.assert_allclose(d[res.mask], 4.0, rtol=1e-5)
         assert np.isinf(d[~res.mask]).all()
+    # far / near past 2^53: drawn pixels at depth 1.0 are at far, not +inf
+    # (a fuzzing round: the old form cancelled to a division by 0)
+    v = np.array([[-10, -10, -50], [10, -10, -50], [0, 10, -50]], float)
+    for near in (1e-15, 1e-12):
+        cam = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), near=near, far=100.0)
+        res = zbuffer.render((v, [[0, 1, 2]]), camera=cam, width=8, height=8, shading="none")
+        d = res.eye_depth()[res.mask]
+        assert res.mask.any() and np.isfinite(d).all() and (d <= 100.0).all()
+        assert (d[res.depth[res.mask] == 1.0] == 100.0).all()
 
 
 def test_mesh_remembers_resolved_cameras_per_camera():

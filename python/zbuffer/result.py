@@ -115,10 +115,13 @@ class RenderResult:
         """(H, W) float64 distance along the viewing direction (eye-space -z),
         +inf where nothing was drawn."""
         n, f = self.camera.near, self.camera.far
-        z_ndc = self.depth.astype(np.float64) * 2.0 - 1.0
-        with np.errstate(invalid="ignore", divide="ignore"):
+        w = self.depth.astype(np.float64)  # window depth, 0 at near and 1 at far
+        # (The projection's inverse in terms of w itself: with z_ndc = 2 w - 1,
+        # (f + n) - z_ndc (f - n) cancelled to 0 near w = 1 once far / near
+        # passed 2^53, and drawn pixels came out +inf.)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             if self.camera.projection == "perspective":
-                d = 2.0 * f * n / ((f + n) - z_ndc * (f - n))
+                d = f * n / (f * (1.0 - w) + n * w)
             else:
-                d = (z_ndc * (f - n) + (f + n)) * 0.5
+                d = n * (1.0 - w) + f * w
         return np.where(self.mask, d, np.inf)

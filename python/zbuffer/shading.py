@@ -53,16 +53,22 @@ def check_shading(shading) -> None:
     check_choice("shading", shading, SHADINGS)
 
 
+_MAX_WEIGHT = float(np.finfo(np.float32).max)
+
+
 def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAULT_AMBIENT,
                     diffuse: float = DEFAULT_DIFFUSE, color=None, background=DEFAULT_BACKGROUND
                     ) -> ShadingParams:
     """Check and normalise shading options. ``light_dir=None`` is a headlight:
     the light travels along the camera's viewing direction."""
     check_shading(shading)
+    # (At most float32's largest: the compiled passes weigh in float32, where
+    # a larger weight is inf, and inf times a back-lit 0 is NaN -- black.)
     for name, value in (("ambient", ambient), ("diffuse", diffuse)):
         x = as_number(name, value)
-        if not (math.isfinite(x) and x >= 0.0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        if not (math.isfinite(x) and 0.0 <= x <= _MAX_WEIGHT):
+            raise ValueError(f"{name} must be a finite number >= 0 (at most {_MAX_WEIGHT:.4g}), "
+                             f"got {value!r}")
     if shading == "none" and light_dir is None and color is None \
             and float(ambient) == DEFAULT_AMBIENT and float(diffuse) == DEFAULT_DIFFUSE \
             and background is DEFAULT_BACKGROUND:
