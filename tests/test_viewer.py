@@ -107,6 +107,27 @@ def test_bad_arguments():
         Viewer(scenes.default_scene(), shading="phong")
     with pytest.raises(ValueError, match="unknown overlay 'normals'; valid values are 'depth'"):
         Viewer(scenes.default_scene()).toggle("normals")
+    # (a fuzzing round: NaN moves were taken, and every later frame failed
+    # on a non-finite eye; strings met Python's operators)
+    viewer = Viewer(scenes.default_scene(), width=16, height=12)
+    for move, error, match in [(lambda: viewer.rotate(float("nan"), 0), ValueError,
+                                "d_azimuth must be finite"),
+                               (lambda: viewer.rotate(0, float("inf")), ValueError,
+                                "d_elevation must be finite"),
+                               (lambda: viewer.zoom(float("nan")), ValueError,
+                                "factor must be finite"),
+                               (lambda: viewer.zoom(0), ValueError, "factor must be > 0"),
+                               (lambda: viewer.zoom("2"), TypeError, "factor must be a number")]:
+        with pytest.raises(error, match=match):
+            move()
+    assert viewer.frame().shape[:2] == (12, 16)  # the view unharmed
+    # A mesh no orbit camera can frame is refused when the viewer is made,
+    # not by every frame with a near plane the user never gave.
+    triangle = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
+    for scale in (1e-300, 1e300):
+        with pytest.raises(ValueError, match=r"the viewer cannot frame this mesh \(coordinates "
+                                             r"up to 1e[-+]300\): .*; scale it"):
+            Viewer(zbuffer.Mesh(triangle * scale, [[0, 1, 2]]), width=16, height=16)
 
 
 def test_viewer_and_viz_are_attributes_of_the_package():

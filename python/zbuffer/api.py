@@ -96,7 +96,7 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         camera's viewing direction (a headlight).
     ambient, diffuse : float
         Lambert weights: colour = albedo * (ambient + diffuse * max(0, n . l));
-        default 0.2 and 0.8.
+        default 0.2 and 0.8 (finite, from 0 to float32's largest).
     color : (3,) array_like, optional
         Uniform albedo (uint8 0-255 or float 0-1) overriding the mesh's own
         vertex or face colours. Default: the mesh's colours, else light grey.

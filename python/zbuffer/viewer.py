@@ -33,14 +33,14 @@ import numpy as np
 
 from .api import algorithms, check_algorithm
 from .camera import Camera
-from .checks import check_choice
+from .checks import as_number, check_choice
 from .load import as_mesh
 from .options import check_size
 from .result import RenderResult
 from .scene import NODE_FATES, TREE_ALGORITHMS, Scene
 from .shading import SHADINGS, check_shading
 from .viz import (FATE_COLORS, check_window, depth_for_display, depth_grey, id_colors,
-                  image_plane, require_pyvista)
+                  image_plane, require_pyvista, take_screenshot)
 
 __all__ = ["Viewer", "run"]
 
@@ -76,7 +76,15 @@ class Viewer:
         self.pyramid_level = 0
         self.result: Optional[RenderResult] = None
         self.frame_ms = 0.0
-        self.reset_view()
+        try:  # (said now, not by every frame)
+            self.reset_view()
+            self.camera().resolve(self.scene.mesh).mvp(self.width, self.height)
+        except ValueError as err:  # (the cause, in the traceback, says which plane or matrix)
+            v = self.scene.mesh.vertices
+            extent = float(np.abs(v).max()) if len(v) else 0.0
+            raise ValueError(f"the viewer cannot frame this mesh (coordinates up to "
+                             f"{extent:.3g}): its orbit camera's clip planes or matrices are "
+                             f"out of double precision's reach; scale it") from err
 
     # Camera
 
@@ -90,11 +98,16 @@ class Viewer:
 
     def rotate(self, d_azimuth: float, d_elevation: float) -> None:
         """Orbit around the target (degrees); elevation stays within +-89."""
+        d_azimuth = _finite("d_azimuth", d_azimuth)
+        d_elevation = _finite("d_elevation", d_elevation)
         self.azimuth = (self.azimuth + d_azimuth) % 360.0
         self.elevation = float(np.clip(self.elevation + d_elevation, -89.0, 89.0))
 
     def zoom(self, factor: float) -> None:
-        """Move towards (factor < 1) or away from the target."""
+        """Move towards (factor < 1) or away from the target (factor > 0)."""
+        factor = _finite("factor", factor)
+        if factor <= 0.0:
+            raise ValueError(f"factor must be > 0, got {factor!r}")
         self.distance = float(np.clip(self.distance * factor, 0.05 * self.radius,
                                       100.0 * self.radius))
 
@@ -182,6 +195,15 @@ class Viewer:
         return line + overlay + f"  shading {self.shading}"
 
 
+def _finite(name: str, value) -> float:
+    """``value`` as a finite float (checks.as_number), else TypeError or
+    ValueError naming it."""
+    x = as_number(name, value)
+    if not math.isfinite(x):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return x
+
+
 def _grey(values: np.ndarray) -> np.ndarray:
     """Depth to grey RGB: nearest white, farthest dark, nothing drawn black."""
     return np.repeat(depth_grey(values, 255, 55).astype(np.uint8)[..., None], 3, axis=-1)
@@ -236,9 +258,7 @@ def run(viewer: Viewer, screenshot: Optional[str] = None):
 
     show()
     if offscreen:
-        image = plotter.screenshot(screenshot)
-        plotter.close()
-        return image
+        return take_screenshot(plotter, screenshot)
 
     # zbuffer's camera, not VTK's: a style that does nothing, and observers.
     from vtkmodules.vtkInteractionStyle import vtkInteractorStyleUser

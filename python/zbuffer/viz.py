@@ -28,8 +28,9 @@ __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorit
            "plot_grid_culling", "plot_models"]
 
 
-# (require_pyvista, image_plane, can_open_window and check_window are not
-# in __all__: they are the package's own, shared with viewer.py and cli.py.)
+# (require_pyvista, image_plane, can_open_window, check_window and
+# take_screenshot are not in __all__: they are the package's own, shared
+# with viewer.py and cli.py.)
 
 
 def require_pyvista():
@@ -110,13 +111,24 @@ def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
     plotter.camera.zoom(1.0)
 
 
+def take_screenshot(plotter, screenshot):
+    """The plotter's picture, also written to the file ``screenshot`` unless
+    it is True (by scikit-image: pyvista refuses a suffix in capitals, such
+    as .PNG); the plotter is closed."""
+    image = plotter.screenshot(None)
+    plotter.close()
+    if screenshot is not True:
+        import skimage.io
+
+        skimage.io.imsave(os.fspath(screenshot), image, check_contrast=False)
+    return image
+
+
 def _finish(plotter, screenshot):
     """Show the plotter, or with ``screenshot`` (a path, or True for no file)
     render it offscreen and return the picture."""
     if screenshot is not None and screenshot is not False:
-        image = plotter.screenshot(None if screenshot is True else screenshot)
-        plotter.close()
-        return image
+        return take_screenshot(plotter, screenshot)
     plotter.show()
     return plotter
 
