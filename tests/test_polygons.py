@@ -392,6 +392,24 @@ def test_polygon_sizes_that_would_wrap_are_refused():
                      np.array([0, 4, 2, 8], np.int64), idx[:8])
 
 
+def test_face_polygon_is_checked():
+    # (a fuzzing round: floats were truncated, bools and negative or
+    # inconsistent polygon numbers taken, strings met numpy's message)
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    quad = np.array([[0, 1, 2], [0, 2, 3]])
+    polygons = ([4], [0, 1, 2, 3])
+    assert zbuffer.Mesh(v, quad, face_polygon=[0, 0], polygons=polygons).face_polygon.tolist() == [0, 0]
+    for value, error, match in [([0.5, 1.7], TypeError, "face_polygon must be integers"),
+                                ([True, False], TypeError, "face_polygon must be integers"),
+                                (["a", "b"], TypeError, "face_polygon must be integers"),
+                                ([-5, 0], ValueError, "face_polygon must be polygon numbers >= 0"),
+                                ([0], ValueError, r"face_polygon must have shape \(2,\)")]:
+        with pytest.raises(error, match=match):
+            zbuffer.Mesh(v, quad, face_polygon=value)
+    with pytest.raises(ValueError, match="face_polygon must give each triangle its polygon"):
+        zbuffer.Mesh(v, quad, face_polygon=[0, 1], polygons=polygons)
+
+
 @pytest.mark.parametrize("algo", sorted(POLYGON_ALGORITHMS))
 def test_polygon_algorithms_are_registered(algo):
     assert algo in ALGORITHMS

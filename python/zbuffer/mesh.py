@@ -121,7 +121,8 @@ class Mesh:
     name : str, optional
     face_polygon : (M,) array_like of int, optional
         For meshes triangulated from polygons: the polygon (in file order)
-        each triangle came from.
+        each triangle came from (numbers >= 0; with ``polygons``, exactly
+        theirs).
     polygons : ((P,) array_like of int, (K,) array_like of int), optional
         The polygon faces as written, as (sizes, concatenated vertex
         indices); ``faces`` must then be their triangulation in polygon order,
@@ -209,13 +210,23 @@ class Mesh:
         self.name = name
         self.face_polygon = None
         if face_polygon is not None:
-            fp = np.asarray(face_polygon, dtype=np.int64)
+            fp = np.asarray(face_polygon)
+            if fp.size and not integer_dtype(fp.dtype):
+                raise TypeError(f"face_polygon must be integers, got dtype {fp.dtype}")
+            fp = fp.astype(np.int64)
             if fp.shape != (f.shape[0],):
                 raise ValueError(f"face_polygon must have shape ({f.shape[0]},), got {fp.shape}")
+            if fp.size and fp.min() < 0:
+                raise ValueError(f"face_polygon must be polygon numbers >= 0, got {int(fp.min())}")
             self.face_polygon = _readonly(fp)
         self.polygon_sizes = self.polygon_indices = self.polygon_offsets = None
         if polygons is not None:
             self._set_polygons(polygons, n, f.shape[0])
+            if self.face_polygon is not None and not np.array_equal(
+                    self.face_polygon, np.repeat(np.arange(len(self.polygon_sizes)),
+                                                 self.polygon_sizes - 2)):
+                raise ValueError("face_polygon must give each triangle its polygon as polygons "
+                                 "has them (size - 2 triangles each, in polygon order)")
         self._renders = 0
         self._visit = None  # Visit: faces in a cache-friendly order, their ids, cells
 
