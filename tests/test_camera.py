@@ -171,3 +171,14 @@ def test_far_is_fitted_beyond_a_near_given_alone():
     v, f = scenes.box()
     cam = zbuffer.Camera.look_at((0, 0, 3), (0, 0, 0), near=10.0).resolve(zbuffer.Mesh(v, f))
     assert cam.near == 10.0 and cam.far > 10.0
+
+
+def test_auto_camera_checks_its_aspect():
+    # (a fuzzing round: a list met the cache's "unhashable type", True was 1)
+    mesh = scenes.fan(8)
+    assert mesh.auto_camera(1.5) == zbuffer.Camera.fit(mesh, aspect=1.5).resolve(mesh)
+    for aspect, error, match in [([1.0], TypeError, "aspect must be a number"),
+                                 (True, TypeError, "aspect must be a number, got True"),
+                                 (0, ValueError, "aspect must be positive and finite")]:
+        with pytest.raises(error, match=match):
+            mesh.auto_camera(aspect)

@@ -223,6 +223,19 @@ def test_prepared_mesh_sees_vertex_colours_set_anew():
                            camera=cam, width=48, height=48, shading="smooth")
     assert not np.array_equal(first.image, fresh.image)
     np.testing.assert_array_equal(again.image, fresh.image)
+    # set anew as the constructor takes them (uint8 met the core's "colors
+    # must have dtype float32"; a wrong length, on a prepared mesh, an
+    # IndexError: a fuzzing round), and never beside face colours
+    mesh.vertex_colors = np.tile(np.uint8([0, 0, 255]), (len(sphere.vertices), 1))
+    again = zbuffer.render(mesh, camera=cam, width=48, height=48, shading="smooth")
+    np.testing.assert_array_equal(again.image, fresh.image)
+    with pytest.raises(ValueError, match=r"vertex_colors must have shape \(2562, 3\)"):
+        mesh.vertex_colors = np.zeros((3, 3), np.float32)
+    with pytest.raises(ValueError, match="not both"):
+        mesh.face_colors = np.zeros((len(mesh.faces), 3))
+    mesh.vertex_colors = None
+    mesh.face_colors = np.zeros((len(mesh.faces), 3))
+    assert mesh.face_colors.dtype == np.float32
 
 
 @pytest.mark.parametrize("shading", ["flat", "smooth"])

@@ -7,7 +7,7 @@ from typing import NamedTuple, Optional, Tuple
 
 import numpy as np
 
-from .checks import integer_dtype, number_dtype
+from .checks import as_number, integer_dtype, number_dtype
 
 __all__ = ["Mesh", "Visit", "unit_rgb"]
 
@@ -205,8 +205,9 @@ class Mesh:
             raise ValueError("give vertex_colors or face_colors, not both")
         self._vertices = _readonly(v)
         self._faces = _readonly(f)
-        self.vertex_colors = _as_colors(vertex_colors, n, "vertex_colors")
-        self.face_colors = _as_colors(face_colors, f.shape[0], "face_colors")
+        self._vertex_colors = self._face_colors = None
+        self.vertex_colors = vertex_colors
+        self.face_colors = face_colors
         self.name = name
         self.face_polygon = None
         if face_polygon is not None:
@@ -279,6 +280,37 @@ class Mesh:
     def faces(self) -> np.ndarray:
         """(M, 3) int32 vertex indices, read-only."""
         return self._faces
+
+    # The colours may be set anew (the prepared copies follow), checked as
+    # the constructor checks them: the core reads float32 RGB of the right
+    # length, and face colours would hide vertex colours set beside them.
+    @property
+    def vertex_colors(self) -> Optional[np.ndarray]:
+        """(N, 3) float32 RGB in [0, 1], or None. Settable: RGB(A) as
+        integers 0-255 or floats 0-1 (as the constructor takes them), or None."""
+        return self._vertex_colors
+
+    @vertex_colors.setter
+    def vertex_colors(self, colors) -> None:
+        c = _as_colors(colors, len(self._vertices), "vertex_colors")
+        if c is not None and getattr(self, "_face_colors", None) is not None:
+            raise ValueError("give vertex_colors or face_colors, not both (set face_colors "
+                             "to None first)")
+        self._vertex_colors = c
+
+    @property
+    def face_colors(self) -> Optional[np.ndarray]:
+        """(M, 3) float32 RGB in [0, 1], or None. Settable as
+        :attr:`vertex_colors` is."""
+        return self._face_colors
+
+    @face_colors.setter
+    def face_colors(self, colors) -> None:
+        c = _as_colors(colors, len(self._faces), "face_colors")
+        if c is not None and getattr(self, "_vertex_colors", None) is not None:
+            raise ValueError("give vertex_colors or face_colors, not both (set vertex_colors "
+                             "to None first)")
+        self._face_colors = c
 
     def __repr__(self) -> str:
         name = f" {self.name!r}" if self.name else ""
@@ -360,6 +392,7 @@ class Mesh:
     def auto_camera(self, aspect: float):
         """The camera ``render(camera=None)`` uses: :meth:`Camera.fit` from
         +z, resolved (cached per aspect ratio)."""
+        aspect = as_number("aspect", aspect)  # (a key for the cache; Camera.fit checks the value)
         cache = self.__dict__.setdefault("_auto_cameras", {})
         camera = cache.get(aspect)
         if camera is None:
