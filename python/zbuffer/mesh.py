@@ -292,11 +292,7 @@ class Mesh:
 
     @vertex_colors.setter
     def vertex_colors(self, colors) -> None:
-        c = _as_colors(colors, len(self._vertices), "vertex_colors")
-        if c is not None and getattr(self, "_face_colors", None) is not None:
-            raise ValueError("give vertex_colors or face_colors, not both (set face_colors "
-                             "to None first)")
-        self._vertex_colors = c
+        self._set_colors("vertex_colors", colors, len(self._vertices), "face_colors")
 
     @property
     def face_colors(self) -> Optional[np.ndarray]:
@@ -306,11 +302,14 @@ class Mesh:
 
     @face_colors.setter
     def face_colors(self, colors) -> None:
-        c = _as_colors(colors, len(self._faces), "face_colors")
-        if c is not None and getattr(self, "_vertex_colors", None) is not None:
-            raise ValueError("give vertex_colors or face_colors, not both (set vertex_colors "
-                             "to None first)")
-        self._face_colors = c
+        self._set_colors("face_colors", colors, len(self._faces), "vertex_colors")
+
+    def _set_colors(self, which: str, colors, n: int, other: str) -> None:
+        c = _as_colors(colors, n, which)
+        if c is not None and getattr(self, "_" + other, None) is not None:
+            raise ValueError(f"give vertex_colors or face_colors, not both (set {other} "
+                             f"to None first)")
+        setattr(self, "_" + which, c)
 
     def __repr__(self) -> str:
         name = f" {self.name!r}" if self.name else ""
