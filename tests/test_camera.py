@@ -81,13 +81,15 @@ def test_eye_depth_is_the_distance_along_the_view_axis():
         assert np.isinf(d[~res.mask]).all()
     # far / near past 2^53: drawn pixels at depth 1.0 are at far, not +inf
     # (a fuzzing round: the old form cancelled to a division by 0)
+    # (and near and far both tiny: near * far is subnormal)
     v = np.array([[-10, -10, -50], [10, -10, -50], [0, 10, -50]], float)
-    for near in (1e-15, 1e-12):
-        cam = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), near=near, far=100.0)
-        res = zbuffer.render((v, [[0, 1, 2]]), camera=cam, width=8, height=8, shading="none")
+    for near, far, scale in ((1e-15, 100.0, 1.0), (1e-12, 100.0, 1.0), (1e-290, 1e-25, 1e-27)):
+        cam = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), near=near, far=far)
+        res = zbuffer.render((v * scale, [[0, 1, 2]]), camera=cam, width=8, height=8,
+                             shading="none")
         d = res.eye_depth()[res.mask]
-        assert res.mask.any() and np.isfinite(d).all() and (d <= 100.0).all()
-        assert (d[res.depth[res.mask] == 1.0] == 100.0).all()
+        assert res.mask.any() and np.isfinite(d).all() and (d <= far).all()
+        assert (d[res.depth[res.mask] == 1.0] == far).all()
 
 
 def test_mesh_remembers_resolved_cameras_per_camera():

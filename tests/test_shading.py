@@ -226,8 +226,13 @@ def test_prepared_mesh_sees_vertex_colours_set_anew():
     # set anew as the constructor takes them (uint8 met the core's "colors
     # must have dtype float32"; a wrong length, on a prepared mesh, an
     # IndexError: a fuzzing round), and never beside face colours
-    mesh.vertex_colors = np.tile(np.uint8([0, 0, 255]), (len(sphere.vertices), 1))
+    green = np.tile(np.uint8([0, 255, 0]), (len(sphere.vertices), 1))
+    mesh.vertex_colors = green
     again = zbuffer.render(mesh, camera=cam, width=48, height=48, shading="smooth")
+    fresh = zbuffer.render(zbuffer.Mesh(sphere.vertices, sphere.faces, vertex_colors=green),
+                           camera=cam, width=48, height=48, shading="smooth")
+    drawn = again.image[again.mask]
+    assert drawn[:, 1].max() > 0 and drawn[:, 2].max() == 0  # green, not blue
     np.testing.assert_array_equal(again.image, fresh.image)
     with pytest.raises(ValueError, match=r"vertex_colors must have shape \(2562, 3\)"):
         mesh.vertex_colors = np.zeros((3, 3), np.float32)

@@ -1,5 +1,7 @@
 """zbuffer.viewer: the state and frames of ``zbuffer view`` (no window)."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -124,10 +126,17 @@ def test_bad_arguments():
     # A mesh no orbit camera can frame is refused when the viewer is made,
     # not by every frame with a near plane the user never gave.
     triangle = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
-    for scale in (1e-300, 1e300):
+    # (1e-160: framed at the start, but zoomed all the way in its clip planes
+    # are out of double precision's reach)
+    for scale in (1e-300, 1e300, 1e-160):
         with pytest.raises(ValueError, match=r"the viewer cannot frame this mesh \(coordinates "
-                                             r"up to 1e[-+]300\): .*; scale it"):
+                                             rf"up to {re.escape(f'{scale:.3g}')}\): .*; scale it"):
             Viewer(zbuffer.Mesh(triangle * scale, [[0, 1, 2]]), width=16, height=16)
+    # at 1e-150 every zoom works
+    viewer = Viewer(zbuffer.Mesh(triangle * 1e-150, [[0, 1, 2]]), width=16, height=16)
+    for factor in (1e-9, 1e9):
+        viewer.zoom(factor)
+        assert viewer.frame().shape[:2] == (16, 16)
 
 
 def test_viewer_and_viz_are_attributes_of_the_package():

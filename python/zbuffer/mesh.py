@@ -211,9 +211,11 @@ class Mesh:
         self.name = name
         self.face_polygon = None
         if face_polygon is not None:
-            fp = np.asarray(face_polygon)
+            fp = _array(face_polygon, "face_polygon")
             if fp.size and not integer_dtype(fp.dtype):
                 raise TypeError(f"face_polygon must be integers, got dtype {fp.dtype}")
+            if fp.size and fp.dtype.kind == "u" and fp.max() > np.iinfo(np.int64).max:
+                raise ValueError(f"face_polygon must be polygon numbers, got {int(fp.max())}")
             fp = fp.astype(np.int64)
             if fp.shape != (f.shape[0],):
                 raise ValueError(f"face_polygon must have shape ({f.shape[0]},), got {fp.shape}")

@@ -121,7 +121,9 @@ class RenderResult:
         # passed 2^53, and drawn pixels came out +inf.)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             if self.camera.projection == "perspective":
-                d = f * n / (f * (1.0 - w) + n * w)
+                # (n / (...) lies in (0, 1], exactly 1 at w = 1: no overflow,
+                # and no subnormal f n where near and far are both tiny)
+                d = f * (n / (f * (1.0 - w) + n * w))
             else:
                 d = n * (1.0 - w) + f * w
         return np.where(self.mask, d, np.inf)

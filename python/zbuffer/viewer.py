@@ -40,7 +40,7 @@ from .result import RenderResult
 from .scene import NODE_FATES, TREE_ALGORITHMS, Scene
 from .shading import SHADINGS, check_shading
 from .viz import (FATE_COLORS, check_window, depth_for_display, depth_grey, id_colors,
-                  image_plane, require_pyvista, take_screenshot)
+                  image_plane, require_pyvista, screenshot_target, take_screenshot)
 
 __all__ = ["Viewer", "run"]
 
@@ -76,9 +76,11 @@ class Viewer:
         self.pyramid_level = 0
         self.result: Optional[RenderResult] = None
         self.frame_ms = 0.0
-        try:  # (said now, not by every frame)
+        try:  # (said now, not by every frame: the start, and the nearest and farthest zoom)
             self.reset_view()
-            self.camera().resolve(self.scene.mesh).mvp(self.width, self.height)
+            for distance in (self.distance, self._NEAREST * self.radius,
+                             self._FARTHEST * self.radius):
+                self.camera(distance).resolve(self.scene.mesh).mvp(self.width, self.height)
         except ValueError as err:  # (the cause, in the traceback, says which plane or matrix)
             v = self.scene.mesh.vertices
             extent = float(np.abs(v).max()) if len(v) else 0.0
@@ -103,23 +105,28 @@ class Viewer:
         self.azimuth = (self.azimuth + d_azimuth) % 360.0
         self.elevation = float(np.clip(self.elevation + d_elevation, -89.0, 89.0))
 
+    # How close to and how far from the target zoom may go, in radii.
+    _NEAREST, _FARTHEST = 0.05, 100.0
+
     def zoom(self, factor: float) -> None:
         """Move towards (factor < 1) or away from the target (factor > 0)."""
-        factor = _finite("factor", factor)
-        if factor <= 0.0:
+        x = _finite("factor", factor)
+        if x <= 0.0:
             raise ValueError(f"factor must be > 0, got {factor!r}")
-        self.distance = float(np.clip(self.distance * factor, 0.05 * self.radius,
-                                      100.0 * self.radius))
+        self.distance = float(np.clip(self.distance * x, self._NEAREST * self.radius,
+                                      self._FARTHEST * self.radius))
 
-    def camera(self) -> Camera:
-        """The orbit camera: ``distance`` from ``target`` at ``azimuth`` and
-        ``elevation`` (degrees), near and far around the mesh's sphere."""
+    def camera(self, distance: Optional[float] = None) -> Camera:
+        """The orbit camera: ``distance`` (default: the current one) from
+        ``target`` at ``azimuth`` and ``elevation`` (degrees), near and far
+        around the mesh's sphere."""
+        d = self.distance if distance is None else distance
         a, e = math.radians(self.azimuth), math.radians(self.elevation)
         offset = np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])
-        eye = self.target + self.distance * offset
+        eye = self.target + d * offset
         return Camera.look_at(eye, self.target, fov_y=45.0,
-                              near=max(self.distance - 1.5 * self.radius, 1e-3 * self.distance),
-                              far=self.distance + 1.5 * self.radius)
+                              near=max(d - 1.5 * self.radius, 1e-3 * d),
+                              far=d + 1.5 * self.radius)
 
     # Modes
 
@@ -238,6 +245,8 @@ def run(viewer: Viewer, screenshot: Optional[str] = None):
     offscreen into that PNG file and return the picture)."""
     pv = require_pyvista()
     offscreen = screenshot is not None
+    if offscreen:
+        screenshot_target(screenshot)  # (a bad file name said before anything is drawn)
     plotter = pv.Plotter(off_screen=True if offscreen else None,  # None: pyvista.OFF_SCREEN
                          window_size=(viewer.width, viewer.height),
                          border=False, title="zbuffer view")

@@ -28,9 +28,9 @@ __all__ = ["show_result", "show_pyramid", "show_pyramid_stack", "compare_algorit
            "plot_grid_culling", "plot_models"]
 
 
-# (require_pyvista, image_plane, can_open_window, check_window and
-# take_screenshot are not in __all__: they are the package's own, shared
-# with viewer.py and cli.py.)
+# (require_pyvista, image_plane, can_open_window, check_window,
+# screenshot_target and take_screenshot are not in __all__: they are the
+# package's own, shared with viewer.py and cli.py.)
 
 
 def require_pyvista():
@@ -111,16 +111,41 @@ def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
     plotter.camera.zoom(1.0)
 
 
+# What a screenshot may be written as (pyvista's choice), by suffix.
+_SCREENSHOT_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".bmp": "BMP",
+                       ".tif": "TIFF", ".tiff": "TIFF"}
+
+
+def screenshot_target(screenshot):
+    """(target, format) for ``screenshot``: True (no file: (None, None)), a
+    file object (PNG), or a path -- ``~`` expanded, ``.png`` added where it
+    has no suffix, any of :data:`_SCREENSHOT_FORMATS`' suffixes in any case;
+    ValueError for another (checked before anything is drawn)."""
+    if screenshot is True:
+        return None, None
+    if hasattr(screenshot, "write"):
+        return screenshot, "PNG"
+    path = os.path.expanduser(os.fspath(screenshot))
+    suffix = os.path.splitext(path)[1].lower()
+    if not suffix:
+        return path + ".png", "PNG"
+    if suffix not in _SCREENSHOT_FORMATS:
+        raise ValueError(f"screenshot {os.fspath(screenshot)!r}: the file name must end in "
+                         f"{', '.join(_SCREENSHOT_FORMATS)}")
+    return path, _SCREENSHOT_FORMATS[suffix]
+
+
 def take_screenshot(plotter, screenshot):
-    """The plotter's picture, also written to the file ``screenshot`` unless
-    it is True (by scikit-image: pyvista refuses a suffix in capitals, such
-    as .PNG); the plotter is closed."""
+    """The plotter's picture, also written to ``screenshot`` unless it is True
+    (:func:`screenshot_target`; by Pillow, which takes a suffix in capitals,
+    as .PNG, where pyvista refused it); the plotter is closed."""
+    target, fmt = screenshot_target(screenshot)
     image = plotter.screenshot(None)
     plotter.close()
-    if screenshot is not True:
-        import skimage.io
+    if target is not None:
+        from PIL import Image  # (Pillow: scikit-image's own image library)
 
-        skimage.io.imsave(os.fspath(screenshot), image, check_contrast=False)
+        Image.fromarray(image).save(target, format=fmt)
     return image
 
 
@@ -152,6 +177,8 @@ def check_window(plotter) -> None:
 
 def _plotter(pv, shape, window_size, screenshot):
     offscreen = screenshot is not None and screenshot is not False
+    if offscreen:
+        screenshot_target(screenshot)  # (a bad file name said before anything is drawn)
     # (None: pyvista's own setting, pyvista.OFF_SCREEN)
     plotter = pv.Plotter(shape=shape, off_screen=True if offscreen else None,
                          window_size=window_size, border=False)

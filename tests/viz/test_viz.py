@@ -88,6 +88,26 @@ def test_show_result_without_image(tmp_path):
     assert not_blank(image)
 
 
+def test_screenshot_files(tmp_path):
+    # What pyvista took before screenshots went through Pillow (a path with
+    # no suffix gets .png, ~ is expanded, a file object gets a PNG), a
+    # suffix in capitals too, and a suffix it cannot write refused before
+    # anything is drawn, leaving no file.
+    import io
+
+    res = zbuffer.render(scenes.default_scene(), width=40, height=30)
+    image = viz.show_result(res, screenshot=str(tmp_path / "plain"), window_size=(300, 100))
+    np.testing.assert_array_equal(viz_image(tmp_path / "plain.png"), image)
+    upper = viz.show_result(res, screenshot=str(tmp_path / "upper.PNG"), window_size=(300, 100))
+    np.testing.assert_array_equal(viz_image(tmp_path / "upper.PNG"), upper)
+    buffer = io.BytesIO()
+    viz.show_result(res, screenshot=buffer, window_size=(300, 100))
+    assert buffer.getvalue()[:4] == b"\x89PNG"
+    with pytest.raises(ValueError, match=r"screenshot '.*x.txt': the file name must end in .png"):
+        viz.show_result(res, screenshot=str(tmp_path / "x.txt"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plain.png", "upper.PNG"]
+
+
 def test_pyramid_views(result, tmp_path):
     flat = viz.show_pyramid(result, screenshot=str(tmp_path / "levels.png"))
     assert not_blank(flat)
