@@ -83,13 +83,18 @@ def test_eye_depth_is_the_distance_along_the_view_axis():
     # (a fuzzing round: the old form cancelled to a division by 0)
     # (and near and far both tiny: near * far is subnormal)
     v = np.array([[-10, -10, -50], [10, -10, -50], [0, 10, -50]], float)
-    for near, far, scale in ((1e-15, 100.0, 1.0), (1e-12, 100.0, 1.0), (1e-290, 1e-25, 1e-27)):
+    for near, far, scale in ((1e-15, 100.0, 1.0), (1e-12, 100.0, 1.0), (1e-290, 1e-25, 1e-27),
+                             (1e-290, 1e100, 1e-290 / 25)):
         cam = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), near=near, far=far)
         res = zbuffer.render((v * scale, [[0, 1, 2]]), camera=cam, width=8, height=8,
                              shading="none")
         d = res.eye_depth()[res.mask]
         assert res.mask.any() and np.isfinite(d).all() and (d <= far).all()
         assert (d[res.depth[res.mask] == 1.0] == far).all()
+        # (near / far subnormal: the distances, not 0 -- the triangle lies
+        # 50 scale from the eye, so within float32 depth's precision of it)
+        if far / near > 1e300:
+            assert np.allclose(d, 50 * scale, rtol=1e-3)
 
 
 def test_mesh_remembers_resolved_cameras_per_camera():

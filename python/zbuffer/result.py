@@ -121,9 +121,15 @@ class RenderResult:
         # passed 2^53, and drawn pixels came out +inf.)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             if self.camera.projection == "perspective":
-                # (n / (...) lies in (0, 1], exactly 1 at w = 1: no overflow,
-                # and no subnormal f n where near and far are both tiny)
-                d = f * (n / (f * (1.0 - w) + n * w))
+                # (n / (...) lies in (0, 1]: no overflow, and no subnormal
+                # f n where near and far are both tiny -- but it is itself
+                # subnormal where near / far is, and then f n comes first)
+                denominator = f * (1.0 - w) + n * w
+                if n / f >= np.finfo(np.float64).tiny:
+                    d = f * (n / denominator)
+                else:
+                    d = (f * n) / denominator
             else:
                 d = n * (1.0 - w) + f * w
+            d = np.where(w == 0.0, n, np.where(w == 1.0, f, d))  # (the planes exactly)
         return np.where(self.mask, d, np.inf)

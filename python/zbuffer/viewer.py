@@ -109,7 +109,7 @@ class Viewer:
     _NEAREST, _FARTHEST = 0.05, 100.0
 
     def zoom(self, factor: float) -> None:
-        """Move towards (factor < 1) or away from the target (factor > 0)."""
+        """Move towards (0 < factor < 1) or away from the target (factor > 1)."""
         x = _finite("factor", factor)
         if x <= 0.0:
             raise ValueError(f"factor must be > 0, got {factor!r}")
@@ -242,7 +242,8 @@ def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
 
 def run(viewer: Viewer, screenshot: Optional[str] = None):
     """Show the viewer in a window (or, with ``screenshot``, render one frame
-    offscreen into that PNG file and return the picture)."""
+    offscreen into that file -- viz.screenshot_target -- and return the
+    picture)."""
     pv = require_pyvista()
     offscreen = screenshot is not None
     if offscreen:

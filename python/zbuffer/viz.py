@@ -120,17 +120,24 @@ def screenshot_target(screenshot):
     """(target, format) for ``screenshot``: True (no file: (None, None)), a
     file object (PNG), or a path -- ``~`` expanded, ``.png`` added where it
     has no suffix, any of :data:`_SCREENSHOT_FORMATS`' suffixes in any case;
-    ValueError for another (checked before anything is drawn)."""
+    ValueError for another suffix, a folder or no name at all, or a folder
+    that does not exist (checked before anything is drawn)."""
     if screenshot is True:
         return None, None
     if hasattr(screenshot, "write"):
         return screenshot, "PNG"
-    path = os.path.expanduser(os.fspath(screenshot))
+    given = os.fsdecode(os.fspath(screenshot))
+    path = os.path.expanduser(given)
+    if not path or path.endswith(("/", os.sep)) or os.path.isdir(path):
+        raise ValueError(f"screenshot {given!r} is not a file name")
+    folder = os.path.dirname(path) or "."
+    if not os.path.isdir(folder):
+        raise ValueError(f"screenshot {given!r}: no folder {folder!r} to write it in")
     suffix = os.path.splitext(path)[1].lower()
     if not suffix:
         return path + ".png", "PNG"
     if suffix not in _SCREENSHOT_FORMATS:
-        raise ValueError(f"screenshot {os.fspath(screenshot)!r}: the file name must end in "
+        raise ValueError(f"screenshot {given!r}: the file name must end in "
                          f"{', '.join(_SCREENSHOT_FORMATS)}")
     return path, _SCREENSHOT_FORMATS[suffix]
 
@@ -145,7 +152,10 @@ def take_screenshot(plotter, screenshot):
     if target is not None:
         from PIL import Image  # (Pillow: scikit-image's own image library)
 
-        Image.fromarray(image).save(target, format=fmt)
+        picture = Image.fromarray(image)
+        if fmt == "JPEG" and picture.mode == "RGBA":  # (a transparent background)
+            picture = picture.convert("RGB")
+        picture.save(target, format=fmt)
     return image
 
 
@@ -196,7 +206,8 @@ def show_result(result: RenderResult, screenshot: Union[str, bool, None] = None,
     ----------
     result : RenderResult
     screenshot : str or True, optional
-        Write a PNG there instead of opening a window (True: render
+        Write the picture there (PNG, or JPEG, BMP or TIFF by the file's
+        suffix) instead of opening a window (True: render
         offscreen and only return the picture).
     window_size : (int, int)
 
@@ -238,7 +249,8 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
         A render (its pyramid is computed) or levels as from
         :meth:`RenderResult.pyramid`.
     screenshot : str or True, optional
-        Write a PNG there instead of opening a window (True: render
+        Write the picture there (PNG, or JPEG, BMP or TIFF by the file's
+        suffix) instead of opening a window (True: render
         offscreen and only return the picture).
     levels : iterable of int, optional
         Which levels to show (default: all down to 4 x 4 cells or less).
@@ -370,7 +382,8 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
         The algorithms, in the order shown (default: ``zbuffer.algorithms()``);
         the depth differences are from the first.
     screenshot : str or True, optional
-        Write a PNG of the figure there instead of opening a window (True:
+        Write a picture of the figure there (PNG, or JPEG, BMP or TIFF by the
+        file's suffix) instead of opening a window (True:
         draw it offscreen only; the results are returned either way).
     **render_options
         Passed on to every :func:`zbuffer.render` (``shading``,
@@ -496,7 +509,8 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
         Show the nodes of one tree depth only. In a window without
         ``level`` or ``screenshot``, a slider picks the depth.
     screenshot : str or True, optional
-        Write a PNG there instead of opening a window (True: render
+        Write the picture there (PNG, or JPEG, BMP or TIFF by the file's
+        suffix) instead of opening a window (True: render
         offscreen and only return the picture).
     window_size : (int, int)
         Pixels of the window or screenshot.

@@ -103,9 +103,18 @@ def test_screenshot_files(tmp_path):
     buffer = io.BytesIO()
     viz.show_result(res, screenshot=buffer, window_size=(300, 100))
     assert buffer.getvalue()[:4] == b"\x89PNG"
-    with pytest.raises(ValueError, match=r"screenshot '.*x.txt': the file name must end in .png"):
-        viz.show_result(res, screenshot=str(tmp_path / "x.txt"))
+    for bad, match in [(tmp_path / "x.txt", r"'.*x.txt': the file name must end in .png"),
+                       ("", "'' is not a file name"), (tmp_path, "'.*' is not a file name"),
+                       (f"{tmp_path}/sub/", "'.*sub/' is not a file name"),
+                       (tmp_path / "nope" / "x.png",
+                        "'.*x.png': no folder '.*nope' to write it in")]:
+        with pytest.raises(ValueError, match="screenshot " + match):
+            viz.show_result(res, screenshot=bad)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plain.png", "upper.PNG"]
+    # (a transparent background's RGBA as JPEG: Pillow cannot write RGBA JPEGs)
+    with _transparent_background():
+        rgba = viz.show_result(res, screenshot=str(tmp_path / "t.jpg"), window_size=(300, 100))
+    assert rgba.shape[2] == 4 and viz_image(tmp_path / "t.jpg").shape[2] == 3
 
 
 def test_pyramid_views(result, tmp_path):
@@ -222,6 +231,17 @@ def test_zbuffer_view_screenshot(tmp_path, capsys):
     upper = tmp_path / "VIEW.PNG"
     assert main(["view", "--size", "160x120", "--overlay", "tree", "--screenshot", str(upper)]) == 0
     np.testing.assert_array_equal(viz_image(upper), image)
+
+
+class _transparent_background:
+    """pyvista's global theme with a transparent background, for a block."""
+
+    def __enter__(self):
+        self.was = pv.global_theme.transparent_background
+        pv.global_theme.transparent_background = True
+
+    def __exit__(self, *exc):
+        pv.global_theme.transparent_background = self.was
 
 
 def viz_image(path):
