@@ -215,6 +215,13 @@ def test_unreadable_and_malformed_files(tmp_path):
     huge.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 100000000000000000000\n")
     with pytest.raises(ValueError, match="line 4: bad face record"):
         zbuffer.load(huge)
+    # trimesh's failures named with their type (a fuzzing round: a broken
+    # glTF's FileNotFoundError named a buffer, an AssertionError said nothing)
+    broken = tmp_path / "broken.gltf"
+    broken.write_text('{"asset":')
+    with pytest.raises(ValueError, match=r"could not read a mesh from .*broken.gltf.: "
+                                         r"trimesh's reader failed \(\w+"):
+        zbuffer.load(broken)
     binary = tmp_path / "garbage.stl"
     binary.write_bytes(bytes(range(256)) * 3)
     with pytest.raises(ValueError):

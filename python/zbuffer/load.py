@@ -89,7 +89,11 @@ def load(path, merge_vertices: bool = True) -> Mesh:
     try:
         tm = trimesh.load(path, force="mesh", process=False)
     except Exception as err:  # trimesh raises many types for bad files
-        reason = unsupported or err  # (zbuffer's reader says it more plainly)
+        # (zbuffer's PLY reader says it more plainly; trimesh's own errors are
+        # named with their type: some say nothing, an AssertionError, or
+        # mislead, a FileNotFoundError naming a buffer a broken glTF lacks)
+        reason = unsupported or (f"trimesh's reader failed ({type(err).__name__}"
+                                 + (f": {err})" if str(err) else ")"))
         raise ValueError(f"could not read a mesh from {path!r}: {reason}") from err
     _check_ascii_ply_records(path)
     if not isinstance(tm, trimesh.Trimesh):
