@@ -124,18 +124,17 @@ def write_figures(out: Path, name: str, report: dict):
     return figures
 
 
-def keep_run(out: Path, name: str, report: dict) -> Path:
-    """A copy of one run of a suite that later runs do not overwrite:
-    <out>/runs/<date>-<HHMM>-<suite>[-quick][-k].json (``<suite>.json`` and
-    the dated file hold only the latest run, and the README's ranges span
-    several; -k numbers runs within one minute)."""
+def keep_run(out: Path, name: str, report: dict, text: str, quick: bool) -> Path:
+    """A copy (``text``, the suite's JSON) of one run of a suite that later
+    runs do not overwrite: <out>/runs/<date>-<HHMM>-<suite>[-quick][-k].json
+    (``<suite>.json`` and the dated file hold only the latest run, and the
+    README's ranges span several; -k numbers runs within one minute)."""
     stamp = report["date"].replace(" UTC", "").replace(":", "").replace(" ", "-")
-    quick = "-quick" if "--quick" in report["command"].split() else ""
     folder = out / "runs"
     folder.mkdir(exist_ok=True)
-    text = json.dumps(report, indent=2) + "\n"
+    base = f"{stamp}-{name}{'-quick' if quick else ''}"
     for k in range(1, 1000):
-        path = folder / f"{stamp}-{name}{quick}{'' if k == 1 else f'-{k}'}.json"
+        path = folder / f"{base}{'' if k == 1 else f'-{k}'}.json"
         try:
             with open(path, "x") as fh:
                 fh.write(text)
@@ -163,9 +162,9 @@ def main(argv=None) -> int:
     for k, name in enumerate(names, 1):
         print(f"[{k}/{len(names)}] {name} ({time.perf_counter() - started:.0f} s so far)", flush=True)
         SUITES[name].main([*(["--quick"] if args.quick else []), "--out", str(out)])
-        report = json.loads((out / f"{name}.json").read_text())
-        record["suites"][name] = report
-        keep_run(out, name, report)
+        text = (out / f"{name}.json").read_text()
+        record["suites"][name] = report = json.loads(text)
+        keep_run(out, name, report, text, args.quick)
     host = platform.node() or "host"
     stamp = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d")
     dated = out / f"{stamp}-{host}.json"

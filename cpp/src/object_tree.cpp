@@ -660,15 +660,16 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
 
   // Frame state: one more frame; stamps are reset only when the counter wraps
   // (or the state was sized for another tree).
+  const size_t stamped_faces = tree.shared ? size_t(tree.n_input_faces) : 0;
   if (frame.node_fate.size() != tree.nodes.size() ||
       frame.cluster_stamp.size() != tree.clusters.size() ||
-      frame.face_stamp.size() != (tree.shared ? size_t(tree.n_input_faces) : 0) ||
+      frame.face_stamp.size() != stamped_faces ||
       frame.frame == std::numeric_limits<uint32_t>::max()) {
     frame.frame = 0;
     frame.cluster_stamp.assign(tree.clusters.size(), 0);
     frame.visible_stamp.assign(tree.clusters.size(), 0);
     frame.reached_rank.assign(tree.clusters.size(), 0);
-    frame.face_stamp.assign(tree.shared ? size_t(tree.n_input_faces) : 0, 0);
+    frame.face_stamp.assign(stamped_faces, 0);
     frame.node_fate.assign(tree.nodes.size(), kNodeNotReached);
     frame.visible_clusters.clear();
     frame.has_visible = false;

@@ -21,6 +21,9 @@ namespace zbuffer {
 namespace {
 
 #ifdef ZBUFFER_AVX512
+// The lanes of a polygon record's fields past its first 16.
+constexpr __mmask16 kRecordTail = __mmask16((1u << (kScanPolygonInts - 16)) - 1);
+
 // Transposes a 16 x 16 matrix of int32 held as 16 rows: afterwards r[j]
 // holds what was column j (element k of r[j] = old element j of r[k]).
 inline void transpose16(__m512i* r) {
@@ -360,7 +363,7 @@ void ScanlineTables::add_16_faces(const MeshView& mesh, const double* mvp, const
     for (unsigned left = m; left; left &= left - 1, rec += kScanPolygonInts) {
       const int lane = __builtin_ctz(left);
       _mm512_storeu_si512(rec, r[lane]);
-      _mm512_mask_storeu_epi32(rec + 16, __mmask16(0x3F), r[16 + lane]);
+      _mm512_mask_storeu_epi32(rec + 16, kRecordTail, r[16 + lane]);
     }
     const __mmask16 first_n = __mmask16((1u << n) - 1);
     poly_row_.resize(base + size_t(n));
@@ -613,9 +616,8 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
 #ifdef ZBUFFER_AVX512
   const int32_t* recs = reinterpret_cast<const int32_t*>(polys_.data());
   // A record is kScanPolygonInts int32 fields; 16 records are loaded whole
-  // (their first 16 fields, then the other 6) and transposed into a field
-  // per register.
-  constexpr int kRecord = kScanPolygonInts;
+  // (their first 16 fields, then the rest: kRecordTail) and transposed into
+  // a field per register.
   constexpr auto field = [](size_t offset) { return int(offset / 4); };
   constexpr int kXMinF = field(offsetof(ScanPolygon, x_min)), kYMaxF = field(offsetof(ScanPolygon, y_max)),
                 kWF = field(offsetof(ScanPolygon, w)), kSxF = field(offsetof(ScanPolygon, step_x)),
@@ -636,9 +638,9 @@ void ScanlineTables::enter_polygons(int32_t begin, int32_t end) {
     _mm512_store_si512(idx, p);
     __m512i f[32];  // fields 0-15 of the 16 records, then fields 16-21 (and zeros)
     for (int k = 0; k < 16; ++k) {
-      const int32_t* rec = recs + size_t(idx[k]) * kRecord;
+      const int32_t* rec = recs + size_t(idx[k]) * kScanPolygonInts;
       f[k] = _mm512_loadu_si512(rec);
-      f[16 + k] = _mm512_maskz_loadu_epi32(__mmask16((1u << (kRecord - 16)) - 1), rec + 16);
+      f[16 + k] = _mm512_maskz_loadu_epi32(kRecordTail, rec + 16);
     }
     transpose16(f);
     transpose16(f + 16);

@@ -44,7 +44,6 @@ ZBUFFER_INLINE unsigned bits8_64(__m256i lo, __m256i hi) {
          (unsigned(_mm256_movemask_pd(_mm256_castsi256_pd(hi))) << 4);
 }
 
-
 ZBUFFER_INLINE __m256i compress8(unsigned bits, __m256i v) {
   return _mm256_permutevar8x32_epi32(
       v, _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress8.lanes[bits])));

@@ -11,7 +11,7 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["as_number", "as_reals", "check_choice", "check_flag", "check_index", "check_int",
+__all__ = ["as_finite", "as_number", "as_reals", "check_choice", "check_flag", "check_index", "check_int",
            "integer_dtype", "number_dtype"]
 
 
@@ -82,6 +82,14 @@ def as_number(name: str, value) -> float:
         return float(value)
     except OverflowError:  # a Python int beyond float range
         return math.inf
+
+
+def as_finite(name: str, value) -> float:
+    """:func:`as_number`, and ValueError for NaN or an infinity."""
+    x = as_number(name, value)
+    if not math.isfinite(x):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return x
 
 
 def _has_bool(value) -> bool:

@@ -6,12 +6,11 @@ scenes take a seed), so tests and benchmarks run without any model files.
 
 from __future__ import annotations
 
-import math
 from typing import List, Sequence, Tuple
 
 import numpy as np
 
-from .checks import as_number, as_reals, check_int
+from .checks import as_finite, as_reals, check_int
 from .load import as_mesh
 from .mesh import Mesh
 
@@ -54,14 +53,11 @@ def _triangles(what: str, n: int) -> None:
 def _numbers(name: str, value, size: int = 1, broadcast: bool = False):
     """``value`` as a finite float (``size`` 1) or ``size`` finite floats
     (``broadcast``: one number stands for all), checked as Camera's are
-    (checks.as_number, as_reals): TypeError for what is not real numbers
+    (checks.as_finite, as_reals): TypeError for what is not real numbers
     (bools among them), ValueError for the wrong count or a NaN or infinite
     one."""
     if size == 1:
-        x = as_number(name, value)
-        if not math.isfinite(x):
-            raise ValueError(f"{name} must be finite, got {value!r}")
-        return x
+        return as_finite(name, value)
     v = as_reals(name, value, f"{size} numbers")
     if broadcast and v.ndim == 0:
         v = np.full(size, float(v))

@@ -33,7 +33,7 @@ import numpy as np
 
 from .api import algorithms, check_algorithm
 from .camera import Camera
-from .checks import as_number, check_choice
+from .checks import as_finite, check_choice
 from .load import as_mesh
 from .options import check_size
 from .result import RenderResult
@@ -100,8 +100,8 @@ class Viewer:
 
     def rotate(self, d_azimuth: float, d_elevation: float) -> None:
         """Orbit around the target (degrees); elevation stays within +-89."""
-        d_azimuth = _finite("d_azimuth", d_azimuth)
-        d_elevation = _finite("d_elevation", d_elevation)
+        d_azimuth = as_finite("d_azimuth", d_azimuth)
+        d_elevation = as_finite("d_elevation", d_elevation)
         self.azimuth = (self.azimuth + d_azimuth) % 360.0
         self.elevation = float(np.clip(self.elevation + d_elevation, -89.0, 89.0))
 
@@ -110,7 +110,7 @@ class Viewer:
 
     def zoom(self, factor: float) -> None:
         """Move towards (0 < factor < 1) or away from the target (factor > 1)."""
-        x = _finite("factor", factor)
+        x = as_finite("factor", factor)
         if x <= 0.0:
             raise ValueError(f"factor must be > 0, got {factor!r}")
         self.distance = float(np.clip(self.distance * x, self._NEAREST * self.radius,
@@ -200,15 +200,6 @@ class Viewer:
         overlay = {"none": "", "depth": "  [depth]", "tree": "  [tree nodes]",
                    "pyramid": f"  [pyramid level {self.pyramid_level}]"}[self.overlay]
         return line + overlay + f"  shading {self.shading}"
-
-
-def _finite(name: str, value) -> float:
-    """``value`` as a finite float (checks.as_number), else TypeError or
-    ValueError naming it."""
-    x = as_number(name, value)
-    if not math.isfinite(x):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return x
 
 
 def _grey(values: np.ndarray) -> np.ndarray:
