@@ -955,14 +955,16 @@ void ScanlineTables::step_edges(int y) {
 void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   const int width = target.width, height = target.height;
   // The tables number polygons and edges in int32 (rows of the sorted
-  // tables, an edge's polygon): past that, refuse before using a number that
-  // wrapped. (Memory runs out first on most machines: 2^31 edges take tens
-  // of GB.)
+  // tables, an edge's polygon, and a triangle's two span bounds at 2 p and
+  // 2 p + 1): past that, refuse before using a number that wrapped. (Memory
+  // runs out first on most machines: 2^30 triangles take tens of GB.)
   constexpr size_t kMaxEntries = size_t(std::numeric_limits<int32_t>::max());
-  if (polys_.size() > kMaxEntries || edges_.size() > kMaxEntries ||
+  constexpr size_t kMaxTriangles = kMaxEntries / 2;  // 2 p + 1 <= kMaxEntries
+  if (polys_.size() > kMaxTriangles || edges_.size() > kMaxEntries ||
       gpolys_.size() > kMaxEntries || gedges_.size() > kMaxEntries)
-    throw std::length_error("the scanline's tables hold at most 2**31 - 1 polygons and as many "
-                            "edges: too many faces for algo='scanline'");
+    throw std::length_error("the scanline's tables hold at most 2**30 - 1 triangles, 2**31 - 1 "
+                            "polygons and 2**31 - 1 edges of each: too many faces for "
+                            "algo='scanline'");
 
   // Sorted Polygon Table and Edge Table
   bucket_by_row(poly_row_, height, poly_start_, position_);
