@@ -67,6 +67,8 @@ py::array_t<T> require_rows(py::handle obj, const char* name, const std::vector<
                             int& pitch) {
   py::array a = typed_array<T>(obj, name, shape);
   const py::ssize_t item = py::ssize_t(sizeof(T)), width = a.shape(1);
+  if (width > std::numeric_limits<int>::max())
+    throw py::value_error(std::string(name) + " has rows of more than 2**31 - 1 elements");
   if (a.flags() & py::array::c_style) {
     pitch = int(width);
   } else if (a.strides(1) == item && a.strides(0) % item == 0 && a.strides(0) >= width * item &&

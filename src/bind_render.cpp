@@ -1,4 +1,6 @@
-// Bindings for the registry and the render entry point (algorithms.h).
+// Bindings for the registry and the render entry point (algorithms.h), the
+// Z-pyramid's levels of a depth plane (zpyramid.h) and the mesh orders
+// (mesh_order.h).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -213,8 +215,9 @@ void bind_render(py::module_& m) {
       [](py::handle depth_obj) {
         int pitch = 0;
         auto depth = require_rows<float>(depth_obj, "depth", {-1, -1}, pitch);
+        if (depth.size() == 0) throw py::value_error("depth must not be empty");
+        check_image_size(depth.shape(1), depth.shape(0));
         const int h = int(depth.shape(0)), w = int(depth.shape(1));
-        if (w <= 0 || h <= 0) throw py::value_error("depth must not be empty");
         py::list levels;
         levels.append(depth);
         std::unique_ptr<zbuffer::ZPyramid> pyramid;

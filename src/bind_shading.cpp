@@ -30,6 +30,7 @@ py::array_t<uint8_t> shade(py::handle ids_obj, py::handle positions_obj, py::han
   auto background = require_array<uint8_t>(background_obj, "background", {3});
   auto uniform = require_array<float>(uniform_color_obj, "uniform_color", {3});
 
+  check_image_size(ids.shape(1), ids.shape(0), /*allow_empty=*/true);
   zbuffer::ShadingInput in;
   in.height = int(ids.shape(0));
   in.width = int(ids.shape(1));

@@ -14,12 +14,12 @@
 
 namespace zbuffer_py {
 
-void check_image_size(int width, int height) {
-  if (width <= 0 || height <= 0)
+void check_image_size(int64_t width, int64_t height, bool allow_empty) {
+  if (width < 0 || height < 0 || (!allow_empty && (width == 0 || height == 0)))
     throw py::value_error("width and height must be positive, got " +
                           std::to_string(width) + "x" + std::to_string(height));
   if (width > zbuffer::kMaxImageSide || height > zbuffer::kMaxImageSide ||
-      int64_t(width) * height > zbuffer::kMaxImagePixels)
+      width * height > zbuffer::kMaxImagePixels)
     throw py::value_error("image " + std::to_string(width) + "x" + std::to_string(height) +
                           " is too large: at most " + std::to_string(zbuffer::kMaxImageSide) +
                           " pixels a side and " + std::to_string(zbuffer::kMaxImagePixels) +

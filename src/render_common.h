@@ -6,7 +6,6 @@
 #include <pybind11/pybind11.h>
 
 #include <memory>
-#include <utility>
 #include <vector>
 
 #include "array_checks.h"
@@ -14,8 +13,9 @@
 
 namespace zbuffer_py {
 
-// Raises ValueError unless 1 <= width, height and the image is not too large.
-void check_image_size(int width, int height);
+// Raises ValueError unless 1 <= width, height (0 too with allow_empty) and
+// the image is not too large (conventions.h: kMaxImageSide, kMaxImagePixels).
+void check_image_size(int64_t width, int64_t height, bool allow_empty = false);
 
 // Raises ValueError naming the first face index outside [0, n_vertices).
 void check_face_indices(const zbuffer::MeshView& mesh);

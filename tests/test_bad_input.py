@@ -102,6 +102,10 @@ def test_compiled_core_checks_on_its_own():
                         ids_below=len(F) + 1)
     ids[4, 6] = 0
     assert shade(ids).shape == (5, 7, 3)
+    # Sides as render() limits them; an empty image shades to an empty one.
+    with pytest.raises(ValueError, match="image 40000x1 is too large"):
+        shade(np.full((1, 40000), -1, np.int32))
+    assert shade(np.zeros((0, 7), np.int32)).shape == (0, 7, 3)
 
 
 @pytest.mark.parametrize("width, height, error, match", [

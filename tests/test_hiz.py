@@ -143,6 +143,11 @@ def test_pyramid_levels_reject_bad_input():
         zbuffer._core.pyramid_levels(np.zeros((4, 4)))
     with pytest.raises(ValueError, match="depth must have shape"):
         zbuffer._core.pyramid_levels(np.zeros(4, np.float32))
+    with pytest.raises(ValueError, match="depth must not be empty"):
+        zbuffer._core.pyramid_levels(np.zeros((0, 4), np.float32))
+    # Sides as render() limits them (the core indexes levels in int).
+    with pytest.raises(ValueError, match="image 40000x1 is too large"):
+        zbuffer._core.pyramid_levels(np.zeros((1, 40000), np.float32))
 
 
 @pytest.mark.parametrize("algo", HIERARCHICAL)
