@@ -99,16 +99,13 @@ std::unique_ptr<CullRecording> attach_cull_map(bool record_culls, int width, int
                                                zbuffer::RenderInput& input) {
   if (!record_culls) return nullptr;
   auto recording = std::make_unique<CullRecording>();
-  std::vector<int> widths, heights;
-  zbuffer::pyramid_level_sizes(width, height, widths, heights);
-  std::vector<int64_t*> cells;
-  for (size_t k = 0; k < widths.size(); ++k) {  // the result's own arrays, zeroed: no copy
-    py::array_t<int64_t> level({py::ssize_t(heights[k]), py::ssize_t(widths[k])});
-    std::fill_n(level.mutable_data(), size_t(widths[k]) * size_t(heights[k]), int64_t(0));
-    cells.push_back(level.mutable_data());
+  // The result's own arrays, zeroed: no copy.
+  recording->map = std::make_unique<zbuffer::CullMap>(width, height, [&](int w, int h) {
+    py::array_t<int64_t> level({py::ssize_t(h), py::ssize_t(w)});
+    std::fill_n(level.mutable_data(), size_t(w) * size_t(h), int64_t(0));
     recording->levels.append(level);
-  }
-  recording->map = std::make_unique<zbuffer::CullMap>(width, height, cells);
+    return level.mutable_data();
+  });
   input.culls = recording->map.get();
   return recording;
 }

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "check.h"
@@ -155,11 +155,16 @@ void test_cull_map_counts_the_cells_read() {
   std::vector<int> widths, heights;
   pyramid_level_sizes(w, h, widths, heights);
   std::vector<std::vector<int64_t>> counts;
-  std::vector<int64_t*> levels;
-  for (size_t k = 0; k < widths.size(); ++k) counts.emplace_back(size_t(widths[k]) * heights[k], 0);
-  for (auto& c : counts) levels.push_back(c.data());
-  CullMap map(w, h, levels);
-  CHECK(map.levels() == int(widths.size()) && map.width(2) == widths[2] && map.level(1) == levels[1]);
+  counts.reserve(widths.size());  // (pointers into them must stay valid)
+  std::vector<std::pair<int, int>> asked;
+  CullMap map(w, h, [&](int level_w, int level_h) {
+    asked.emplace_back(level_w, level_h);
+    return counts.emplace_back(size_t(level_w) * level_h, 0).data();
+  });
+  CHECK(map.levels() == int(widths.size()) && asked.size() == widths.size());
+  for (size_t k = 0; k < widths.size(); ++k)
+    CHECK(asked[k] == std::make_pair(widths[k], heights[k]) && map.width(int(k)) == widths[k] &&
+          map.height(int(k)) == heights[k] && map.level(int(k)) == counts[k].data());
 
   std::vector<float> depth(size_t(w) * h, 0.5f);
   ZPyramid pyramid(depth.data(), w, h, 1);

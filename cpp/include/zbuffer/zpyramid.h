@@ -155,13 +155,21 @@ class ZPyramid {
 // triangles in each of the up to 16 x 16 cells it was tested against. Filled
 // only when a render asks for it (record_culls): the hot loops test one
 // pointer and otherwise do nothing.
+// Design decision: an int64 count per cell of every level, the levels a
+// pyramid skips included, in arrays the caller provides (the binding's
+// result arrays: counted in place, handed to numpy without a copy). Good:
+// a test's counts are added where it read, whatever level that was, and
+// the display needs no conversion. Bad: 8 bytes a cell over all levels,
+// about 11 bytes a pixel of the image, while a render records.
 class CullMap {
  public:
-  // Counts in the caller's zeroed arrays, level k's (height(k) x width(k),
-  // row-major, as pyramid_level_sizes gives them) at levels[k] -- the
-  // binding's result arrays: no copy.
-  CullMap(int width, int height, const std::vector<int64_t*>& levels) : cells_(levels) {
+  // Counts in arrays from `allocate(width, height)`, called once per level k
+  // with its size (as pyramid_level_sizes gives them), returning its cells
+  // (height x width, row-major), zeroed, to outlive the map.
+  template <class Allocate>
+  CullMap(int width, int height, Allocate allocate) {
     pyramid_level_sizes(width, height, widths_, heights_);
+    for (size_t k = 0; k < widths_.size(); ++k) cells_.push_back(allocate(widths_[k], heights_[k]));
   }
   int levels() const { return int(widths_.size()); }
   int width(int level) const { return widths_[level]; }
