@@ -3,8 +3,6 @@
 #include "zbuffer/bvh.h"
 
 #include <algorithm>
-#include <cmath>
-#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>

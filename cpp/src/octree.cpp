@@ -2,8 +2,6 @@
 #include "zbuffer/octree.h"
 
 #include <algorithm>
-#include <cmath>
-#include <limits>
 #include <stdexcept>
 #include <vector>
 

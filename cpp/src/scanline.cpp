@@ -3,7 +3,6 @@
 #include "zbuffer/scanline.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -300,15 +299,9 @@ template <class Lanes, class Faces>
 void ScanlineTables::add_left_over(const Faces& f, unsigned large, const MeshView& mesh,
                                    const double* mvp, const Viewport& vp, const ScreenVertices& sv,
                                    int64_t first, bool cull_backfaces, RenderStats& stats) {
-  if (large) {
-    const Lanes lanes(f);
-    for (unsigned m = large; m; m &= m - 1) {
-      const int lane = __builtin_ctz(m);
-      add_triangle(lanes.triangle(lane, mesh.id(first + lane)), stats);
-    }
-  }
-  for (unsigned m = f.clip; m; m &= m - 1)
-    add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces, stats);
+  simd::for_each_left_over<Lanes>(
+      f, large, mesh, first, [&](const ScreenTriangle& t) { add_triangle(t, stats); },
+      [&](int64_t face) { add_face(mesh, mvp, vp, sv, face, cull_backfaces, stats); });
 }
 #endif
 
@@ -428,7 +421,7 @@ void ScanlineTables::add_8_faces(const MeshView& mesh, const double* mvp, const 
   simd::Faces8 f;
   simd::assemble8(mesh, sv, first, count, cull_backfaces, stats, f);
   simd::Box8 box;
-  simd::box8(f, width_, height_, box, 16 * kSubpixelScale, 8 * kSubpixelScale);
+  simd::box8(f, width_, height_, box);
   const unsigned vector_setup = f.draw & box.nonempty & box.small;
   const unsigned scalar_setup = f.draw & box.nonempty & ~box.small;
 
@@ -986,8 +979,8 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
   bounds_.resize(2 * polys_.size());
 #ifdef ZBUFFER_AVX512
   // Room for every polygon plus the 16 entries a vector store may write
-  // past the last one (only the vector paths use these lists: the scalar
-  // build would hold ~170 bytes a triangle here for nothing).
+  // past the last one (only the AVX-512 paths use these lists: builds
+  // without AVX-512 would hold ~150 bytes a triangle here for nothing).
   for (auto& field : active_)
     if (field.size() < polys_.size() + 16) field.resize(polys_.size() + 16);
   for (auto& field : aedge_)

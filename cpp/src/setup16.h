@@ -182,15 +182,12 @@ ZBUFFER_INLINE void assemble16(const MeshView& mesh, const ScreenVertices& sv, i
 }
 
 // The pixel box of 16 assembled faces (raster.h: setup_triangle), clamped to
-// a width x height image, and which faces are small enough for int32 edge
-// values (less than kSmallFx across in x and y) or narrow (less than
-// kNarrowFx in x).
+// a width x height image, and which faces are small or narrow (simd.h:
+// kSmallFx, kNarrowFx).
 struct Box16 {
   __m512i i0, i1, j0, j1, box_w, box_h;
   __mmask16 nonempty, small, narrow;
 };
-constexpr int kSmallFx = 16 * kSubpixelScale;
-constexpr int kNarrowFx = 8 * kSubpixelScale;
 
 ZBUFFER_INLINE void box16(const Faces16& f, int width, int height, Box16& b) {
   const __m512i* x = f.x;

@@ -153,15 +153,14 @@ ZBUFFER_INLINE void assemble8(const MeshView& mesh, const ScreenVertices& sv, in
 }
 
 // The pixel box of 8 assembled faces (raster.h: setup_triangle), clamped to
-// a width x height image, and which faces are small (less than kSmallFx
-// across in x and y) or narrow (less than kNarrowFx in x), as bit masks.
+// a width x height image, and which faces are small or narrow (simd.h:
+// kSmallFx, kNarrowFx), as bit masks.
 struct Box8 {
   __m256i i0, i1, j0, j1, box_w, box_h;
   unsigned nonempty, small, narrow;
 };
 
-ZBUFFER_INLINE void box8(const Faces8& f, int width, int height, Box8& b, int small_fx,
-                         int narrow_fx) {
+ZBUFFER_INLINE void box8(const Faces8& f, int width, int height, Box8& b) {
   const __m256i* x = f.x;
   const __m256i* y = f.y;
   const __m256i min_x = _mm256_min_epi32(x[0], _mm256_min_epi32(x[1], x[2]));
@@ -188,9 +187,9 @@ ZBUFFER_INLINE void box8(const Faces8& f, int width, int height, Box8& b, int sm
     return _mm256_cmpeq_epi32(_mm256_min_epu32(extent, _mm256_set1_epi32(limit - 1)), extent);
   };
   const __m256i extent_x = _mm256_sub_epi32(max_x, min_x);
-  b.small = bits8(_mm256_and_si256(below(extent_x, small_fx),
-                                   below(_mm256_sub_epi32(max_y, min_y), small_fx)));
-  b.narrow = bits8(below(extent_x, narrow_fx));
+  b.small = bits8(_mm256_and_si256(below(extent_x, kSmallFx),
+                                   below(_mm256_sub_epi32(max_y, min_y), kSmallFx)));
+  b.narrow = bits8(below(extent_x, kNarrowFx));
 }
 
 // Edge functions and depth plane of 8 small faces (raster.h:

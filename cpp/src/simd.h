@@ -39,6 +39,8 @@
 
 #include <cstdint>
 
+#include "zbuffer/conventions.h"
+
 namespace zbuffer {
 
 // A hint to bring the line holding p into the caches (no-op elsewhere).
@@ -51,6 +53,12 @@ inline void prefetch(const void* p) {
 }
 
 namespace simd {
+
+// Faces drawn by the batched small-triangle loops (triangle_batch.cpp) and
+// kept in the scanline's int32 records: less than kSmallFx across in x and
+// y (their edge values fit int32); narrow ones: less than kNarrowFx in x.
+constexpr int kSmallFx = 16 * kSubpixelScale;
+constexpr int kNarrowFx = 8 * kSubpixelScale;
 
 // Lane permutations that move the lanes of a bit mask to the front, in
 // order (what AVX-512's compress does).
@@ -403,6 +411,24 @@ ZBUFFER_INLINE __m256i write8_rows(__m256i inside, __m256 z, __m256i id, float* 
   return win;
 }
 #endif
+
+// The faces of a vector step (16 or 8 lanes of assembled faces f, the first
+// face `first`) that the vector setup leaves to scalar code: each lane of
+// `large` as its assembled triangle, on_triangle(Triangle), through a
+// `Lanes` copy of f made only when there are any; each lane of f.clip by its
+// face index, on_clip(face), for the scalar assembly, which clips.
+template <class Lanes, class Faces, class Mesh, class OnTriangle, class OnClip>
+ZBUFFER_INLINE void for_each_left_over(const Faces& f, unsigned large, const Mesh& mesh,
+                                       int64_t first, OnTriangle on_triangle, OnClip on_clip) {
+  if (large) {
+    const Lanes lanes(f);
+    for (unsigned m = large; m; m &= m - 1) {
+      const int lane = __builtin_ctz(m);
+      on_triangle(lanes.triangle(lane, mesh.id(first + lane)));
+    }
+  }
+  for (unsigned m = f.clip; m; m &= m - 1) on_clip(first + __builtin_ctz(m));
+}
 
 }  // namespace simd
 }  // namespace zbuffer

@@ -9,8 +9,6 @@
 #include "zbuffer/triangle_batch.h"
 
 #include <algorithm>
-#include <chrono>
-#include <cstring>
 #include <limits>
 #include <type_traits>
 
@@ -91,9 +89,9 @@ void TriangleBatch::add(const ScreenTriangle& t) {
     hi_y = std::max<int64_t>(hi_y, t.v[k].y_fx);
   }
 #if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
-  if (hi_x - lo_x < kSmallFx && hi_y - lo_y < kSmallFx) {
+  if (hi_x - lo_x < simd::kSmallFx && hi_y - lo_y < simd::kSmallFx) {
     if (pyramid_ && cull_small(s.x_min, s.y_min, s.x_max, s.y_max, s.z_lo)) return;
-    add_small(group_of(hi_x - lo_x < kNarrowFx, bh), s);
+    add_small(group_of(hi_x - lo_x < simd::kNarrowFx, bh), s);
     return;
   }
 #endif
@@ -234,21 +232,15 @@ void TriangleBatch::store_small(Put put, PutF put_f, const Box& box, const Setup
 }
 
 template <class Lanes, class Faces>
-void TriangleBatch::add_unbatched(const Faces& f, unsigned large, unsigned clip,
-                                  const MeshView& mesh, const double* mvp, const Viewport& vp,
-                                  const ScreenVertices& sv, int64_t first, bool cull_backfaces) {
-  // Large faces: the scalar setup from the assembled triangle.
-  if (large) {
-    const Lanes lanes(f);
-    for (unsigned m = large; m; m &= m - 1) {
-      const int lane = __builtin_ctz(m);
-      large_.push_back(setup_triangle(lanes.triangle(lane, mesh.id(first + lane)),
-                                      target_.width, target_.height));
-    }
-  }
-  // Faces that need clipping: the scalar assembly.
-  for (unsigned m = clip; m; m &= m - 1)
-    add_face(mesh, mvp, vp, sv, first + __builtin_ctz(m), cull_backfaces);
+void TriangleBatch::add_unbatched(const Faces& f, unsigned large, const MeshView& mesh,
+                                  const double* mvp, const Viewport& vp, const ScreenVertices& sv,
+                                  int64_t first, bool cull_backfaces) {
+  auto set_up = [&](const ScreenTriangle& t) {
+    large_.push_back(setup_triangle(t, target_.width, target_.height));
+  };
+  simd::for_each_left_over<Lanes>(f, large, mesh, first, set_up, [&](int64_t face) {
+    add_face(mesh, mvp, vp, sv, face, cull_backfaces);
+  });
 }
 
 // Drawing
@@ -662,8 +654,6 @@ void TriangleBatch::draw_wide(int group, int64_t& covered_out, int64_t& written_
 void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const Viewport& vp,
                                  const ScreenVertices& sv, int64_t first, bool cull_backfaces,
                                  int count, unsigned keep) {
-  static_assert(kSmallFx == simd::kSmallFx && kNarrowFx == simd::kNarrowFx,
-                "the scalar and vector paths sort faces into the same groups");
   if (full(16)) flush();
 
   // Assembly and pixel boxes (setup16.h)
@@ -714,10 +704,10 @@ void TriangleBatch::add_16_faces(const MeshView& mesh, const double* mvp, const 
     n_small_ += n_set_up;
   }
 
-  add_unbatched<simd::Lanes16>(f, scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
+  add_unbatched<simd::Lanes16>(f, scalar_setup, mesh, mvp, vp, sv, first, cull_backfaces);
 }
 
-#else  // no AVX-512: faces are set up one at a time (the scalar entry points)
+#else  // no AVX-512: AVX2 builds set up 8 faces at a time, scalar builds one
 
 #ifdef ZBUFFER_AVX2
 
@@ -875,7 +865,7 @@ void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const V
   simd::Faces8 f;
   simd::assemble8(mesh, sv, first, count, cull_backfaces, stats_, f, keep);
   simd::Box8 box;
-  simd::box8(f, target_.width, target_.height, box, kSmallFx, kNarrowFx);
+  simd::box8(f, target_.width, target_.height, box);
   unsigned vector_setup = f.draw & box.nonempty & box.small;
   const unsigned scalar_setup = f.draw & box.nonempty & ~box.small;
   // With a pyramid, hidden small faces go no further (tested one by one).
@@ -915,26 +905,11 @@ void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const V
     n_small_ += count_small;
   }
 
-  add_unbatched<simd::Lanes8>(f, scalar_setup, f.clip, mesh, mvp, vp, sv, first, cull_backfaces);
+  add_unbatched<simd::Lanes8>(f, scalar_setup, mesh, mvp, vp, sv, first, cull_backfaces);
 }
 
-#else  // scalar build: no triangle is batched (TriangleBatch::add)
+#endif  // (scalar build: no triangle is batched, TriangleBatch::add)
 
-template <int kPasses>
-void TriangleBatch::draw_narrow(int, int64_t&, int64_t&) {}
-template <int kRows>
-void TriangleBatch::draw_wide(int, int64_t&, int64_t&) {}
-
-#endif
-
-void TriangleBatch::add_16_faces(const MeshView&, const double*, const Viewport&,
-                                 const ScreenVertices&, int64_t, bool, int, unsigned) {}
-
-#endif
-
-#ifndef ZBUFFER_AVX2
-void TriangleBatch::add_8_faces(const MeshView&, const double*, const Viewport&,
-                                const ScreenVertices&, int64_t, bool, int, unsigned) {}
 #endif
 
 }  // namespace zbuffer

@@ -1,8 +1,6 @@
 // The raster core on hand-built screen triangles: fill rule, ties, depth.
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <limits>
 #include <vector>
 

@@ -1,9 +1,6 @@
 // The scanline algorithm's tables and row walk: the vector paths (faces
 // assembled and set up 16 at a time, the active polygon list drawn 16
 // polygons at a time) against the scalar ones and the plain raster loop.
-#include <cmath>
-#include <cstring>
-#include <limits>
 #include <vector>
 
 #include "check.h"

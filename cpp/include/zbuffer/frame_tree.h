@@ -46,7 +46,9 @@ namespace zbuffer {
 // triangles'.
 // The face pass (each face's bucket and box) and the listing in bucket order
 // run 16 faces per instruction in AVX-512 builds; `vector = false` runs the
-// scalar loops instead (tests hold the two to the same tree).
+// scalar loops instead (tests hold the two to the same tree). The octree
+// reads params' leaf_size and max_depth; its rule is always the bucket's,
+// OctreeRule::kSmallest (params.rule is not read).
 void build_octree_for_frame(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree,
                             bool vector = true);
 void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTree& tree,

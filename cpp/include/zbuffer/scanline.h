@@ -106,10 +106,10 @@ struct EdgeEntry {
 // edges from this one record, with no second, random fetch of the full
 // setup (bunny_69k, scalar build: 2.6x -> 1.85x the plain Z-buffer). Bad: two
 // forms of one triangle; the int32 one is only a faster evaluation of the
-// same exact integers. AVX-512 builds write the
-// records of faces under 16 pixels across from setup16.h's vector setup
-// (the same integers and floats as setup_triangle's, tested), all others
-// through setup_triangle.
+// same exact integers. AVX-512 and AVX2 builds write
+// the records of faces under 16 pixels across from the vector setups of
+// setup16.h and setup8.h (the same integers and floats as setup_triangle's,
+// tested), all others through setup_triangle.
 struct ScanPolygon {
   ScanPolygon() {}  // uninitialised, as EdgeEntry: every field is written
   int32_t x_min, x_max, y_min, y_max;  // pixel box, inside the image
@@ -236,9 +236,9 @@ class ScanlineTables {
   std::vector<int32_t> edge_start_;   // (height + 1) bucket offsets
   std::vector<int32_t> position_;     // scratch of the counting sorts
 
-  // Active polygon list and active edge list: all of them in the scalar
-  // build; in AVX-512 builds only the large triangles' (int64 setups), the
-  // others are in the vector lists below.
+  // Active polygon list and active edge list: all of them in builds
+  // without AVX-512; in AVX-512 builds only the large triangles' (int64
+  // setups), the others are in the vector lists below.
   // Design decision: plain arrays compacted in place once per row (entries
   // whose last row was the current one are dropped while the row is
   // processed, without a branch); the span of each active polygon lives in

@@ -94,8 +94,6 @@ class TriangleBatch {
   static constexpr int kGroups = 16;
   static constexpr int kWideGroups = 8;
   static constexpr int kSlack = 16;  // vector stores write 16 entries
-  static constexpr int kNarrowFx = 8 * kSubpixelScale;   // x extent of narrow triangles
-  static constexpr int kSmallFx = 16 * kSubpixelScale;   // any extent of batched triangles
 
   // The group of a box of `rows` rows, narrow or not.
   static int group_of(bool narrow, int rows) { return (narrow ? 0 : kWideGroups) + ((rows - 1) >> 1); }
@@ -155,13 +153,13 @@ class TriangleBatch {
   // Vector-set-up faces appended to the structure of arrays (both of the above).
   template <class Put, class PutF, class Box, class Setup, class Vec>
   void store_small(Put put, PutF put_f, const Box& box, const Setup& s, Vec area_b0, Vec ids);
-  // What a vector assembly `f` leaves to scalar code (both of the above):
-  // the `large` lanes set up one by one (through a `Lanes` copy of f, made
-  // only when there are any), the `clip` faces through the scalar assembly.
+  // What a vector assembly `f` leaves to scalar code (both of the above;
+  // simd.h, for_each_left_over): the `large` lanes set up one by one, the
+  // faces that need clipping through the scalar assembly.
   template <class Lanes, class Faces>
-  void add_unbatched(const Faces& f, unsigned large, unsigned clip, const MeshView& mesh,
-                     const double* mvp, const Viewport& vp, const ScreenVertices& sv,
-                     int64_t first, bool cull_backfaces);
+  void add_unbatched(const Faces& f, unsigned large, const MeshView& mesh, const double* mvp,
+                     const Viewport& vp, const ScreenVertices& sv, int64_t first,
+                     bool cull_backfaces);
 
   DepthTarget& target_;
   RenderStats& stats_;

@@ -170,7 +170,9 @@ struct RenderStats {
   double vertex_ms = 0.0;          // per-vertex transform and snapping
   double raster_ms = 0.0;          // assembly, clipping, setup, rasterization
   double pyramid_ms = 0.0;         // Z-pyramid upkeep (part of raster_ms)
-  double total_ms = 0.0;           // the whole C++ render call
+  double total_ms = 0.0;           // the whole C++ render call: Python's stats["render_ms"]
+                                   // (its "total_ms" adds shading and Python; benchmarks/ab
+                                   // builds old trees with this name)
 };
 
 }  // namespace zbuffer
