@@ -7,7 +7,9 @@ machines without a display (VTK renders offscreen through EGL with Mesa).
 >>> res = zbuffer.render(mesh, algo="hiz")
 >>> zbuffer.viz.show_result(res, screenshot="result.png")     # image | depth | ids
 >>> zbuffer.viz.show_pyramid(res, screenshot="pyramid.png")   # every level, one colour scale
->>> zbuffer.viz.show_tree(scene, "hiz_octree", result=res)    # octree boxes by fate, frustum
+>>> scene = zbuffer.Scene(mesh)
+>>> seen = scene.render(camera, algo="hiz_octree")
+>>> zbuffer.viz.show_tree(scene, "hiz_octree", result=seen)   # octree boxes by fate, frustum
 """
 
 from __future__ import annotations
@@ -47,8 +49,23 @@ def require_pyvista():
 
 
 def id_colors(triangle_id: np.ndarray, seed: int = 0) -> np.ndarray:
-    """(H, W, 3) uint8 false colours for a triangle-id map: each id its own
-    colour (from a hash, stable across renders), black where nothing was drawn."""
+    """False colours for a triangle-id map, black where nothing was drawn.
+
+    Each id's colour comes from a hash of it (stable across renders), with 7
+    bits a channel kept light: the first 100,000 ids all differ, but among
+    more some share a colour (7% of the first million).
+
+    Parameters
+    ----------
+    triangle_id : (H, W) int array
+        Ids as :attr:`RenderResult.triangle_id`, -1 where nothing was drawn.
+    seed : int
+        Mixed into the hash: another seed, other colours.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+    """
     ids = np.asarray(triangle_id).astype(np.int64)
     h = (ids * 2654435761 + seed) & 0xFFFFFF
     rgb = np.stack([(h >> 16) & 255, (h >> 8) & 255, h & 255], -1).astype(np.uint8)
@@ -58,9 +75,23 @@ def id_colors(triangle_id: np.ndarray, seed: int = 0) -> np.ndarray:
 
 
 def depth_grey(depth: np.ndarray, white: int, darkest: int) -> np.ndarray:
-    """int64 grey levels of a depth map scaled to the image: the nearest
-    drawn depth ``white``, the farthest ``darkest``, nothing drawn 0 (for
-    ``zbuffer render --depth`` and the viewer's depth overlay)."""
+    """Grey levels of a depth map scaled to the image (for ``zbuffer render
+    --depth`` and the viewer's depth overlay).
+
+    Parameters
+    ----------
+    depth : (H, W) float array
+        Any depth (window depth, :meth:`RenderResult.eye_depth`), +inf where
+        nothing was drawn.
+    white, darkest : int
+        The levels of the nearest and of the farthest drawn depth; the
+        others in proportion between them.
+
+    Returns
+    -------
+    (H, W) int64
+        The levels; 0 where nothing was drawn.
+    """
     out = np.zeros(np.shape(depth), np.int64)
     drawn = np.isfinite(depth)
     if drawn.any():
@@ -72,7 +103,18 @@ def depth_grey(depth: np.ndarray, white: int, darkest: int) -> np.ndarray:
 
 
 def depth_for_display(depth: np.ndarray) -> np.ndarray:
-    """float64 copy of a depth map with +inf (nothing drawn) as NaN."""
+    """A depth map for pyvista's colour maps, which draw NaN in their own
+    colour.
+
+    Parameters
+    ----------
+    depth : (H, W) float array
+
+    Returns
+    -------
+    (H, W) float64
+        A copy, with +inf (nothing drawn) as NaN.
+    """
     d = np.asarray(depth, dtype=np.float64).copy()
     d[~np.isfinite(d)] = np.nan
     return d
@@ -88,7 +130,7 @@ def image_plane(pv, values: np.ndarray):
 
 
 def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
-               scalar_bar=True, bar_title=None):
+               scalar_bar=True, bar_title=None, nan_color="black"):
     grid = image_plane(pv, values)
     # Unlit: a picture shows its own colours (lit, the white background of a
     # render came out (200, 197, 189)).
@@ -96,7 +138,7 @@ def _add_image(plotter, pv, values, title, rgb=False, clim=None, cmap="viridis",
         plotter.add_mesh(grid, scalars="values", rgb=True, show_scalar_bar=False,
                          lighting=False)
     else:
-        plotter.add_mesh(grid, scalars="values", cmap=cmap, clim=clim, nan_color="black",
+        plotter.add_mesh(grid, scalars="values", cmap=cmap, clim=clim, nan_color=nan_color,
                          show_scalar_bar=False, lighting=False)
         if scalar_bar:
             # Under the picture, inside its panel (upright at the right edge,
@@ -240,8 +282,9 @@ def _levels(source) -> List[np.ndarray]:
 def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: Union[str, bool, None] = None,
                  levels: Optional[Iterable[int]] = None, window_size=None,
                  highlight_culls: Union[bool, int] = False):
-    """Z-pyramid levels side by side, one shared colour scale (depth of the
-    farthest pixel under each cell; black where nothing was drawn).
+    """Z-pyramid levels side by side, one shared colour scale: the depth of
+    the farthest pixel under each cell, near bright, far dark; grey where a
+    pixel under the cell was not drawn (+inf: such a cell never culls).
 
     Parameters
     ----------
@@ -262,6 +305,10 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
         triangles (True: the top 5 of each level; an int: that many), and
         give each level's total in its title. Needs a render made with
         ``record_culls=True`` (:attr:`RenderResult.culls`).
+
+    Returns
+    -------
+    (H, W, 3|4) uint8 array of the screenshot, or the pyvista Plotter shown.
     """
     pv = require_pyvista()
     pyramid = _levels(source)
@@ -295,7 +342,7 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
             counts = source.culls[level]
             title += f", {int(counts.sum()):,} culls counted"
         _add_image(plotter, pv, values, title, clim=clim, cmap="viridis_r",
-                   scalar_bar=k == cols - 1, bar_title="depth")
+                   scalar_bar=k == cols - 1, bar_title="depth", nan_color="#c8c8c8")
         if top:
             outlines = _cell_outlines(pv, most_culling_cells(counts, top), h)
             if outlines is not None:
@@ -312,9 +359,22 @@ def _highlight_count(highlight) -> int:
 
 
 def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
-    """(k, 2) int array of (row, column) of the at most ``n`` cells of one
-    level of :attr:`RenderResult.culls` with the highest counts, highest
-    first (cells that culled nothing are left out; ties by position)."""
+    """The cells of one level of :attr:`RenderResult.culls` that culled most.
+
+    Parameters
+    ----------
+    counts : (h, w) int64 array
+        One level's counts.
+    n : int
+        How many cells at most.
+
+    Returns
+    -------
+    (k, 2) int64 array
+        (row, column) of the at most ``n`` cells with the highest counts,
+        highest first (cells that culled nothing are left out; ties by
+        position).
+    """
     n = check_int("n", n, 0)
     flat = np.asarray(counts).ravel()
     order = np.argsort(-flat, kind="stable")[:n]
@@ -343,7 +403,24 @@ def show_pyramid_stack(source: Union[RenderResult, Sequence[np.ndarray]],
                        window_size=(900, 900)):
     """The pyramid as a 3D stack of planes: level 0 (the depth map) at the
     bottom, each coarser level above it, all at the image's scale, so a cell
-    sits right over the pixels it bounds."""
+    sits right over the pixels it bounds.
+
+    Parameters
+    ----------
+    source : RenderResult or list of (h, w) float32 arrays
+        A render (its pyramid is computed) or levels as from
+        :meth:`RenderResult.pyramid`.
+    screenshot : str or True, optional
+        As for :func:`show_pyramid`.
+    spacing : float
+        Height between levels, as a fraction of the image's larger side.
+    window_size : (int, int)
+        Pixels of the window or screenshot.
+
+    Returns
+    -------
+    (H, W, 3|4) uint8 array of the screenshot, or the pyvista Plotter shown.
+    """
     pv = require_pyvista()
     pyramid = _levels(source)
     h, w = pyramid[0].shape
@@ -375,9 +452,12 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
 
     Parameters
     ----------
-    mesh, camera, width, height
-        As for :func:`zbuffer.render` (camera None: framed), every algorithm
-        the same; small images by default (320 x 240).
+    mesh : Mesh, trimesh.Trimesh, pyvista.PolyData, (vertices, faces) or path
+        As for :func:`zbuffer.render`.
+    camera : Camera, optional
+        As for :func:`zbuffer.render` (None: framed); every algorithm the same.
+    width, height : int
+        Image size; small by default (320 x 240).
     algos : sequence of str, optional
         The algorithms, in the order shown (default: ``zbuffer.algorithms()``);
         the depth differences are from the first.
@@ -463,6 +543,10 @@ def tree_grid(scene, algo: str = "hiz_octree", level: Optional[int] = None):
     algo : {"hiz_octree", "hiz_bvh"}
     level : int, optional
         Only the nodes at this depth in the tree (root 0); default all.
+
+    Returns
+    -------
+    pyvista.UnstructuredGrid
     """
     pv = require_pyvista()
     nodes = scene.nodes(algo)
@@ -480,7 +564,17 @@ def tree_grid(scene, algo: str = "hiz_octree", level: Optional[int] = None):
 
 def frustum_grid(result: RenderResult):
     """The view volume of a render (its camera's near-to-far frustum) as one
-    hexahedron, from the inverse of the result's MVP."""
+    hexahedron, from the inverse of the result's MVP.
+
+    Parameters
+    ----------
+    result : RenderResult
+
+    Returns
+    -------
+    pyvista.UnstructuredGrid
+        One hexahedron, its corners in world space.
+    """
     pv = require_pyvista()
     inv = np.linalg.inv(result.mvp)
     ndc = np.where(_HEX_CORNERS, 1.0, -1.0)
@@ -488,6 +582,12 @@ def frustum_grid(result: RenderResult):
     points = clip[:, :3] / clip[:, 3:]
     return pv.UnstructuredGrid(np.array([8, *range(8)]), np.array([pv.CellType.HEXAHEDRON], np.uint8),
                                points)
+
+
+# The depth scale of show_tree: upright at the right edge, clear of the
+# title and of the legend's place.
+_SIDE_BAR = dict(vertical=True, position_x=0.85, position_y=0.2, width=0.08, height=0.5,
+                 title_font_size=12, label_font_size=12)
 
 
 def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = None,
@@ -532,15 +632,18 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
         plotter.add_mesh(pv.PolyData(mesh.vertices, faces), color="#bbbbbb",
                          opacity=mesh_opacity)
     depth_max = int(scene.nodes(algo)["depth"].max(initial=0))
-    options = dict(style="wireframe", line_width=1.5, show_scalar_bar=True)
+    options = dict(style="wireframe", line_width=1.5)
     if color_by == "fate":
+        # A legend of named colours (a categorical scalar bar set its names
+        # apart from their colours, or over them).
         options.update(scalars="fate", cmap=list(FATE_COLORS), clim=(-0.5, len(NODE_FATES) - 0.5),
-                       n_colors=len(NODE_FATES), categories=True,
-                       annotations={k: name for k, name in enumerate(NODE_FATES)},
-                       scalar_bar_args={"title": "fate in the last render", "n_labels": 0})
+                       n_colors=len(NODE_FATES), show_scalar_bar=False)
+        plotter.add_legend([[name, color] for name, color in zip(NODE_FATES, FATE_COLORS)],
+                           bcolor="#505050", face="rectangle", size=(0.2, 0.2), loc="upper right")
     else:
         options.update(scalars="depth", cmap="viridis", clim=(0, max(depth_max, 1)),
-                       scalar_bar_args={"title": "depth in the tree", "fmt": "%.0f"})
+                       show_scalar_bar=True,
+                       scalar_bar_args={"title": "depth in the tree", "fmt": "%.0f", **_SIDE_BAR})
 
     def draw(depth):
         grid = tree_grid(scene, algo, depth)
@@ -559,14 +662,34 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
     what = "octree" if algo == "hiz_octree" else "BVH"
     plotter.add_text(f"{what} of {len(mesh.faces):,} triangles"
                      + ("" if level is None else f", depth {level}"), font_size=10)
-    plotter.reset_camera()
+    # Seen from a corner, framed on the tree: the view volume reaches far
+    # past it (framed on both, the tree was a small part of the picture).
+    nodes = scene.nodes(algo)
+    if len(nodes["lo"]):
+        lo, hi = nodes["lo"].min(axis=0), nodes["hi"].max(axis=0)
+        plotter.view_isometric()
+        plotter.reset_camera(bounds=(lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]))
+        plotter.camera_set = True  # (or the first render frames every actor again)
+    else:
+        plotter.reset_camera()
     return _finish(plotter, screenshot)
 
 
 # Recorded Benchmarks (matplotlib; the figures of notebook 04)
 
 def load_benchmark(path) -> dict:
-    """A benchmark report written by ``benchmarks/bench_*.py`` (its JSON)."""
+    """A benchmark report written by ``benchmarks/bench_*.py``.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Its JSON file (``benchmarks/results/*.json``).
+
+    Returns
+    -------
+    dict
+        The report as written: cases, machine, command, date.
+    """
     import json
 
     with open(path) as fh:
@@ -575,9 +698,19 @@ def load_benchmark(path) -> dict:
 
 def plot_grid_times(report: dict):
     """Frame time against N on the spot grid (``bench_hiz.py``), one panel per
-    projection, one line per algorithm and mode, log-log. Returns the
-    matplotlib Figure."""
+    projection, one line per algorithm and mode, log-log.
+
+    Parameters
+    ----------
+    report : dict
+        ``bench_hiz.py``'s report (:func:`load_benchmark`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, LogLocator
 
     projections = sorted({c["projection"] for c in report["grid"]}, reverse=True)
     fig, axes = plt.subplots(1, len(projections), figsize=(6 * len(projections), 4.2),
@@ -594,6 +727,10 @@ def plot_grid_times(report: dict):
         ns = sorted({c["N"] for c in cases})
         ax.set_xticks(ns, [str(n) for n in ns])  # N itself, not powers of 2
         ax.minorticks_off()
+        # Times at 1, 2 and 5 of each decade, written as numbers (a decade
+        # or two of data had one labelled tick).
+        ax.yaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         ax.set_xlabel("N (5 x 5 x N copies)")
         ax.set_ylabel("ms per frame (median)")
         ax.set_title(f"{projection}, {report['size']}x{report['size']}")
@@ -606,7 +743,19 @@ def plot_grid_times(report: dict):
 def plot_grid_culling(report: dict, n: Optional[int] = None):
     """Where the triangles went at one N of the spot grid: drawn, culled by
     the triangle test, never reached (in culled nodes), per algorithm and
-    projection, as stacked bars (fractions of the input). Returns the Figure."""
+    projection, as stacked bars (fractions of the input).
+
+    Parameters
+    ----------
+    report : dict
+        ``bench_hiz.py``'s report (:func:`load_benchmark`).
+    n : int, optional
+        The N shown (default: the largest measured).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     import matplotlib.pyplot as plt
 
     n = n if n is not None else max(c["N"] for c in report["grid"])
@@ -632,8 +781,21 @@ def plot_grid_culling(report: dict, n: Optional[int] = None):
 def plot_models(report: dict, size: Optional[str] = None, cull: bool = False):
     """Models x algorithms (``bench_models.py``): each algorithm's frame time
     as a multiple of the plain Z-buffer's in the same rounds, one group of
-    bars per model, at one image size (default the largest) and culling
-    setting. Returns the matplotlib Figure."""
+    bars per model.
+
+    Parameters
+    ----------
+    report : dict
+        ``bench_models.py``'s report (:func:`load_benchmark`).
+    size : str, optional
+        The image size shown, as ``"WxH"`` (default: the largest measured).
+    cull : bool
+        The back-face culling setting shown.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     import matplotlib.pyplot as plt
 
     cases = [c for c in report["cases"] if "algorithms" in c]

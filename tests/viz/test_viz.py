@@ -125,6 +125,14 @@ def test_pyramid_views(result, tmp_path):
     assert not_blank(stack)
 
 
+def test_pyramid_view_greys_undrawn_cells(result):
+    # +inf cells (a pixel under them not drawn) in their own grey, not in
+    # black, which the colour scale's far end comes close to.
+    picture = viz.show_pyramid(result, screenshot=True, levels=[2], window_size=(400, 300))
+    grey = (picture[..., :3] == 200).all(axis=-1).sum()
+    assert grey > 0.1 * picture.shape[0] * picture.shape[1]
+
+
 def test_views_refuse_what_they_cannot_show(result):
     levels = len(result.pyramid())
     for bad in ([], [0, levels], [-1], [0.5], [True]):
@@ -201,6 +209,14 @@ def test_tree_views(algo, tmp_path):
         image = viz.show_tree(scene, algo, result=res, color_by=color_by, level=lvl,
                               screenshot=str(tmp_path / f"{color_by}.png"), window_size=(400, 300))
         assert not_blank(image)
+    # Framed on the tree, not on the view volume around it: the drawn
+    # nodes' green (lit: of varying shades) reaches over most of the
+    # picture's height.
+    rgb = viz.show_tree(scene, algo, result=res, screenshot=True,
+                        window_size=(400, 300))[..., :3].astype(int)
+    green = ((rgb[..., 1] > rgb[..., 0] + 40) & (rgb[..., 1] > rgb[..., 2] + 40)).any(axis=1)
+    rows = np.flatnonzero(green)
+    assert rows[-1] - rows[0] > 0.7 * rgb.shape[0]
     with pytest.raises(ValueError, match="unknown color_by 'size'; valid values are 'fate'"):
         viz.show_tree(scene, algo, color_by="size", screenshot=str(tmp_path / "x.png"))
     with pytest.raises(TypeError, match="color_by must be one of 'fate', 'depth', got None"):
