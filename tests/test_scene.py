@@ -307,3 +307,17 @@ def test_scene_render_culls_backfaces(algo):
         assert (got.stats["culled_backface"] > 0) == cull
         ids[cull] = got.triangle_id
     assert not np.array_equal(ids[False], ids[True])
+
+
+def test_combine_colours_parts_as_render_takes_colours():
+    tri = (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), np.array([[0, 1, 2]]))
+    two = (np.vstack([tri[0], tri[0] + 2]), np.array([[0, 1, 2], [3, 4, 5]]))
+    mesh = scenes.combine([tri, two], colors=[(255, 0, 0), (0.0, 0.5, 1.0)])
+    np.testing.assert_array_equal(mesh.face_colors,
+                                  np.array([[1, 0, 0], [0, 0.5, 1], [0, 0.5, 1]], np.float32))
+    with pytest.raises(ValueError, match="colors: one per part, got 1 for 2 parts"):
+        scenes.combine([tri, two], colors=[(255, 0, 0)])
+    with pytest.raises(ValueError, match=r"integer colors\[1\] must lie in 0-255"):
+        scenes.combine([tri, two], colors=[(255, 0, 0), (0, 256, 0)])
+    with pytest.raises(ValueError, match=r"colors\[0\] must be 3 numbers"):
+        scenes.combine([tri, two], colors=[(1.0, 0.0), (0.0, 0.0, 0.0)])

@@ -9,7 +9,7 @@ import numpy as np
 
 from .checks import as_number, integer_dtype, number_dtype
 
-__all__ = ["Mesh", "Visit", "unit_rgb"]
+__all__ = ["Mesh", "Visit", "unit_rgb", "one_rgb"]
 
 _INT32_MAX = np.iinfo(np.int32).max
 
@@ -49,6 +49,16 @@ def unit_rgb(c: np.ndarray, what: str) -> np.ndarray:
     if c.size and (not np.all(np.isfinite(c)) or c.min() < 0.0 or c.max() > 1.0):
         raise ValueError(f"float {what} must lie in [0, 1], got {values()}")
     return np.asarray(c[..., :3], dtype=np.float32)  # (float32 RGB kept as given, no copy)
+
+
+def one_rgb(value, what: str) -> np.ndarray:
+    """One colour, as :func:`unit_rgb` takes it: 3 integers (0-255) or 3
+    floats (0-1), ValueError naming ``what`` for another shape. Returns a
+    (3,) float32 array."""
+    c = np.asarray(value)
+    if c.shape != (3,):
+        raise ValueError(f"{what} must be 3 numbers (RGB), got {value!r}")
+    return unit_rgb(c, what)
 
 
 def _as_colors(colors, n: int, what: str) -> Optional[np.ndarray]:

@@ -12,7 +12,7 @@ import numpy as np
 
 from .checks import as_finite, as_reals, check_int
 from .load import as_mesh
-from .mesh import Mesh
+from .mesh import Mesh, one_rgb
 
 __all__ = [
     "box", "uv_sphere", "torus", "grid", "combine", "default_scene", "default_camera",
@@ -158,9 +158,11 @@ def combine(parts: Sequence[Part], colors: Sequence[Sequence[float]] = (),
         faces.append(np.asarray(f, np.int64) + offset)
         offset += len(v)
     face_colors = None
-    if colors:
-        face_colors = np.vstack([np.tile(np.asarray(c, np.float32), (len(f), 1))
-                                 for c, (_, f) in zip(colors, parts)])
+    if len(colors):
+        if len(colors) != len(parts):
+            raise ValueError(f"colors: one per part, got {len(colors)} for {len(parts)} parts")
+        rgb = [one_rgb(c, f"colors[{k}]") for k, c in enumerate(colors)]
+        face_colors = np.vstack([np.tile(c, (len(f), 1)) for c, f in zip(rgb, faces)])
     v = np.vstack(verts) if verts else np.zeros((0, 3))
     f = np.vstack(faces) if faces else np.zeros((0, 3), np.int64)
     return Mesh(v, f, face_colors=face_colors, name=name)

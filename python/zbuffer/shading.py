@@ -17,7 +17,7 @@ import numpy as np
 
 from .camera import _unit
 from .checks import as_number, as_reals, check_choice
-from .mesh import unit_rgb
+from .mesh import one_rgb
 
 __all__ = ["SHADINGS", "ShadingParams", "resolve_shading", "shade_numpy", "vertex_normals"]
 
@@ -38,13 +38,6 @@ class ShadingParams:
     diffuse: float
     color: Optional[np.ndarray]  # (3,) float32 override, or None: mesh colours
     background: np.ndarray    # (3,) uint8
-
-
-def _rgb_float(value, name: str) -> np.ndarray:
-    c = np.asarray(value)
-    if c.shape != (3,):
-        raise ValueError(f"{name} must be 3 numbers (RGB), got {value!r}")
-    return unit_rgb(c, name)
 
 
 def check_shading(shading) -> None:
@@ -85,13 +78,13 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
         light, norm = _unit(light)
         if norm == 0.0:
             raise ValueError("light_dir must not be the zero vector")
-    bg = _rgb_float(background, "background")
+    bg = one_rgb(background, "background")
     return ShadingParams(
         mode=shading,
         light_dir=np.ascontiguousarray(light, dtype=np.float64),
         ambient=float(ambient),
         diffuse=float(diffuse),
-        color=None if color is None else _rgb_float(color, "color"),
+        color=None if color is None else one_rgb(color, "color"),
         background=np.round(bg.astype(np.float64) * 255.0).astype(np.uint8),
     )
 
