@@ -29,8 +29,19 @@ _POLYGON_ALGORITHMS = frozenset(_core.polygon_algorithms())
 def algorithms() -> List[str]:
     """Names of the registered depth algorithms, in presentation order.
 
-    Every name is a valid ``algo=`` for :func:`render`; all of them produce
-    bit-identical ``depth`` and ``triangle_id``.
+    Every name is a valid ``algo=`` for :func:`render`. On triangle meshes
+    all of them produce bit-identical ``depth`` and ``triangle_id``. The
+    exception is a mesh with polygon faces (OBJ, OFF or PLY files with quads
+    or n-gons): ``"scanline"`` draws those polygons natively, which differs
+    from drawing their triangulation (docs/rasterization.md, section 3.7:
+    each polygon's pixels carry its first triangle's id, and its depth
+    comes from the plane of one fan triangle);
+    ``zbuffer.reference.render(..., polygons=True)`` reproduces it.
+
+    Returns
+    -------
+    list of str
+        A new list on every call.
     """
     return list(_ALGORITHMS)
 
@@ -97,12 +108,11 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     ambient, diffuse : float
         Lambert weights: colour = albedo * (ambient + diffuse * max(0, n . l));
         default 0.2 and 0.8 (finite, from 0 to float32's largest).
-    color : (3,) array_like, optional
-        Uniform albedo (uint8 0-255 or float 0-1) overriding the mesh's own
-        vertex or face colours. Default: the mesh's colours, else light grey.
-    background : (3,) array_like
-        Colour of pixels where nothing was drawn (uint8 0-255 or float 0-1);
-        default white.
+    color : (3,) array_like of int (0-255) or float (0-1), optional
+        Uniform albedo (RGB) overriding the mesh's own vertex or face
+        colours. Default: the mesh's colours, else light grey.
+    background : (3,) array_like of int (0-255) or float (0-1)
+        Colour (RGB) of pixels where nothing was drawn; default white.
     record_culls : bool
         Algorithms with a Z-pyramid (``hiz``, ``hiz_octree``, ``hiz_bvh``):
         also record where the pyramid culled, cell by cell, in
@@ -110,13 +120,13 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         a little time per culled triangle and an int64 count per pyramid
         cell (about 11 bytes per pixel: the core counts into the result's
         arrays); ValueError for other algorithms.
-    out : RenderResult or tuple of arrays, optional
+    out : RenderResult, or tuple of (H, W) float32, (H, W) int32 [, (H, W, 3) uint8], optional
         Arrays to render into instead of new ones: a result of an earlier
         render of the same size (its ``depth``, ``triangle_id`` and, when
         this render shades, its ``image`` if it has one), or a tuple
-        ``(depth, triangle_id)`` or ``(depth, triangle_id, image)``: float32
-        and int32 (H, W) with contiguous rows (C-contiguous or padded, the
-        same number of pixels apart in both), uint8 (H, W, 3) C-contiguous,
+        ``(depth, triangle_id)`` or ``(depth, triangle_id, image)``. Depth
+        and ids need contiguous rows (C-contiguous or padded, the same
+        number of pixels apart in both), the image C-contiguous; all
         writeable, sharing no memory with each other or the mesh. They are
         overwritten whole and the returned result holds them. Saves allocating (and the
         operating system zeroing) new arrays every frame: about 10 ms a

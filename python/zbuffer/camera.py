@@ -194,11 +194,18 @@ class Camera:
             View volume height for orthographic cameras; fitted when omitted
             (a perspective camera keeps it unused).
 
+        Returns
+        -------
+        Camera
+
         Raises
         ------
         ValueError
             For a degenerate pose (eye == target, up parallel to the view),
             ``near <= 0`` with perspective, ``near >= far``, or a bad ``fov_y``.
+        TypeError
+            Arguments of the wrong type: not numbers, or a ``projection``
+            that is not a string.
         """
         return cls(
             eye=_tuple3(eye, "eye"), target=_tuple3(target, "target"), up=_tuple3(up, "up"),
@@ -233,6 +240,24 @@ class Camera:
             Image width / height; the narrower side decides the distance.
         margin : float
             Extra room around the bounding sphere (1.0 = touching).
+
+        Returns
+        -------
+        Camera
+            Looking at the sphere's centre. ``near`` and ``far`` are left
+            None (fitted when rendering, :meth:`resolve`); an orthographic
+            camera gets the ``ortho_height`` that frames the sphere and
+            stands at twice its (margined) radius.
+
+        Raises
+        ------
+        ValueError
+            A zero ``direction``, ``aspect`` or ``margin`` not positive and
+            finite, ``fov_y`` outside (0, 180), vertices that are not (N, 3)
+            or not finite, or too large to frame, or a degenerate pose
+            (``up`` parallel to ``direction``).
+        TypeError
+            Non-numeric arguments.
         """
         center, radius = bounding_sphere(vertices)
         d, norm = _unit(_vec3(direction, "direction"))
@@ -265,6 +290,26 @@ class Camera:
         (N, 3) array or a :class:`zbuffer.Mesh`; a unit sphere at the origin
         when there are none): the clip planes enclose the
         sphere, and a perspective camera inside it gets ``near = far / 1000``.
+
+        Parameters
+        ----------
+        vertices : (N, 3) array_like of float, Mesh or None
+
+        Returns
+        -------
+        Camera
+            ``self`` when nothing is unset (``near``, ``far`` and, for an
+            orthographic camera, ``ortho_height``); otherwise a new Camera.
+
+        Raises
+        ------
+        ValueError
+            Only when something is fitted: vertices of the wrong shape, not
+            finite or too large to frame, or fitted clip planes that are not
+            valid (out of double precision's reach; the message says what to
+            change).
+        TypeError
+            Only when something is fitted: vertices that are not numbers.
         """
         if self.near is not None and self.far is not None and (
             self.projection == "perspective" or self.ortho_height is not None
@@ -306,7 +351,14 @@ class Camera:
                              f"pass near and far") from None
 
     def view_matrix(self) -> np.ndarray:
-        """(4, 4) float64 world-to-eye matrix (gluLookAt)."""
+        """The world-to-eye matrix, as gluLookAt builds it.
+
+        Returns
+        -------
+        (4, 4) float64
+            Rows 0-2 of the rotation: the side, up and backward (-forward)
+            unit vectors; the last column moves ``eye`` to the origin.
+        """
         eye = np.asarray(self.eye)
         f, _ = _unit(np.asarray(self.target) - eye)
         s, _ = _unit(_cross(f, _unit(np.asarray(self.up))[0]))
@@ -317,9 +369,24 @@ class Camera:
         return m
 
     def projection_matrix(self, aspect: float) -> np.ndarray:
-        """(4, 4) float64 eye-to-clip matrix for images of ``aspect`` = W / H.
+        """The eye-to-clip matrix (the form of OpenGL's gluPerspective or glOrtho).
 
-        Raises ``ValueError`` if ``near``/``far`` are unresolved (see :meth:`resolve`).
+        Parameters
+        ----------
+        aspect : float
+            Image width / height.
+
+        Returns
+        -------
+        (4, 4) float64
+
+        Raises
+        ------
+        ValueError
+            ``near`` or ``far`` unset, or ``ortho_height`` unset for an
+            orthographic camera (see :meth:`resolve`); a perspective
+            ``near`` and ``far`` so small that the matrix's
+            ``2 far near / (far - near)`` underflows to 0.
         """
         if self.near is None or self.far is None:
             raise ValueError("near/far are not set: call camera.resolve(vertices) first")
@@ -347,8 +414,30 @@ class Camera:
         return m
 
     def mvp(self, width: int, height: int) -> np.ndarray:
-        """(4, 4) float64 C-contiguous, read-only model-view-projection matrix
-        (computed once per image size: cameras are immutable)."""
+        """The model-view-projection matrix, ``projection_matrix(width / height)
+        @ view_matrix()``, computed once per image size (cameras are
+        immutable).
+
+        Parameters
+        ----------
+        width, height : int
+            Image size in pixels.
+
+        Returns
+        -------
+        (4, 4) float64
+            C-contiguous and read-only (the cached array itself). Entries
+            may be non-finite for absurd cameras; :func:`zbuffer.render`
+            refuses such a matrix.
+
+        Raises
+        ------
+        TypeError
+            ``width`` or ``height`` not an integer (bools included).
+        ValueError
+            ``width`` or ``height`` not positive, a ratio beyond float
+            range, or what :meth:`projection_matrix` raises.
+        """
         # Whole numbers only (numpy's too; not bools): the matrix and its cache key agree.
         key = (check_index("width", width), check_index("height", height))
         if key[0] <= 0 or key[1] <= 0:
@@ -368,14 +457,28 @@ class Camera:
         return m
 
     def viewer(self) -> np.ndarray:
-        """(4,) float64 homogeneous viewer: (eye, 1), or (towards camera, 0) if orthographic."""
+        """The viewer in homogeneous coordinates, for shading.
+
+        Returns
+        -------
+        (4,) float64
+            ``(eye, 1)`` for a perspective camera; ``(d, 0)`` for an
+            orthographic one, ``d`` the unit direction from ``target``
+            towards ``eye``.
+        """
         if self.projection == "perspective":
             return np.array([*self.eye, 1.0])
         back, _ = _unit(np.asarray(self.eye) - np.asarray(self.target))
         return np.array([*back, 0.0])
 
     def forward(self) -> np.ndarray:
-        """(3,) float64 unit viewing direction."""
+        """The viewing direction.
+
+        Returns
+        -------
+        (3,) float64
+            Unit vector from ``eye`` towards ``target``.
+        """
         return _unit(np.asarray(self.target) - np.asarray(self.eye))[0]
 
 

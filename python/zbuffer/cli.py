@@ -82,7 +82,23 @@ def _vec3(text: str):
 
 
 def save_image(path: str, image: np.ndarray) -> None:
-    """Write an (H, W, 3) uint8 image (format from the file name's extension)."""
+    """Write an (H, W, 3) uint8 image (format from the file name's extension).
+
+    Parameters
+    ----------
+    path : str
+        Any suffix ``skimage.io.imsave`` writes (``zbuffer render --out``
+        allows .png, .jpg, .jpeg, .bmp, .tif and .tiff).
+    image : (H, W, 3) uint8
+
+    Raises
+    ------
+    ImportError
+        scikit-image is not installed.
+    OSError, ValueError
+        As ``skimage.io.imsave`` raises them (a file that cannot be
+        written, a suffix it does not know).
+    """
     import skimage.io
 
     skimage.io.imsave(path, image, check_contrast=False)
@@ -92,7 +108,26 @@ def save_depth(path: str, depth: np.ndarray) -> None:
     """Write a depth map: to a .npy file as it is (exact; +inf where nothing
     was drawn), else as a 16-bit greyscale image -- the nearest drawn depth
     white, the farthest dark grey, empty (+inf) pixels black. Pass
-    ``RenderResult.eye_depth()`` for a map linear in distance."""
+    ``RenderResult.eye_depth()`` for a map linear in distance.
+
+    Parameters
+    ----------
+    path : str
+        Ending in ``.npy`` (any case): the array as it is, C-contiguous.
+        Otherwise an image format ``skimage.io.imsave`` writes 16-bit
+        greyscale in (``zbuffer render --depth`` allows .png): the drawn
+        depths scaled linearly, per image, from 65535 (nearest) to 8192
+        (farthest), non-finite pixels 0.
+    depth : (H, W) float32 or float64
+        ``RenderResult.depth``, or ``eye_depth()``.
+
+    Raises
+    ------
+    ImportError
+        scikit-image is not installed (needed for .npy files too).
+    OSError, ValueError
+        As ``np.save`` or ``skimage.io.imsave`` raise them.
+    """
     import skimage.io
 
     if path.lower().endswith(".npy"):
@@ -108,7 +143,22 @@ def save_depth(path: str, depth: np.ndarray) -> None:
 def save_ids(path: str, triangle_id: np.ndarray) -> None:
     """Write a triangle-id map: to a .npy file as int32 ids (exact; -1 where
     nothing was drawn), else as an RGB image in false colour (each id its
-    own colour, :func:`zbuffer.viz.id_colors`; nothing drawn black)."""
+    own colour, :func:`zbuffer.viz.id_colors`; nothing drawn black).
+
+    Parameters
+    ----------
+    path : str
+        Ending in ``.npy`` (any case): the array as it is, C-contiguous.
+        Otherwise as for :func:`save_image`.
+    triangle_id : (H, W) int32
+
+    Raises
+    ------
+    ImportError
+        scikit-image is not installed (images only).
+    OSError, ValueError
+        As ``np.save`` or :func:`save_image` raise them.
+    """
     if path.lower().endswith(".npy"):
         np.save(path, np.ascontiguousarray(triangle_id))
         return
@@ -364,7 +414,28 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    """Entry point of the ``zbuffer`` command; returns the exit status."""
+    """Entry point of the ``zbuffer`` command; returns the exit status.
+
+    Errors the commands raise as ValueError, TypeError or OSError are
+    printed to standard error as ``zbuffer: error: ...``, not raised.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments after the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        0 on success; 2 after such an error; 1 when whatever read standard
+        output closed it early; for ``bench``, the harness's own status.
+
+    Raises
+    ------
+    SystemExit
+        From argparse: for ``--help`` and ``--version`` (status 0) and for
+        arguments it refuses (status 2).
+    """
     parser = build_parser()
     args = parser.parse_args(list(argv) if argv is not None else None)
     if args.command == "render" and args.out == "none":

@@ -286,6 +286,30 @@ def as_mesh(obj) -> Mesh:
     ``(vertices, faces)`` pair of arrays; a file path. The colours of
     trimesh meshes are kept, and those of pyvista datasets whose active
     scalars are uint8 RGB or RGBA (per point or per cell).
+
+    Parameters
+    ----------
+    obj : Mesh, trimesh.Trimesh, trimesh.Scene, pyvista dataset, (vertices, faces) or path
+        A pair is a tuple or list of two: ``(N, 3)`` vertices and ``(M, 3)``
+        faces, as :class:`Mesh` takes them. A path is a ``str`` or
+        ``os.PathLike``.
+
+    Returns
+    -------
+    Mesh
+        ``obj`` itself if it is a Mesh; for a path, :func:`load`'s mesh
+        (its default ``merge_vertices=True``, prepared); otherwise a new,
+        unprepared Mesh.
+
+    Raises
+    ------
+    TypeError
+        Anything else (a ``trimesh.PointCloud``, say), or arrays
+        :class:`Mesh` refuses.
+    ValueError
+        Data :class:`Mesh` refuses, or a file :func:`load` cannot read.
+    FileNotFoundError
+        A path to no file.
     """
     if isinstance(obj, Mesh):
         return obj

@@ -32,7 +32,26 @@ def unit_rgb(c: np.ndarray, what: str) -> np.ndarray:
     """float32 RGB in [0, 1] from colours along the last axis of ``c`` (RGB
     or RGBA): integers 0-255 or floats 0-1 (alpha dropped, but checked like
     the rest). For the mesh's colours and the render's ``color`` and
-    ``background``."""
+    ``background``.
+
+    Parameters
+    ----------
+    c : (..., 3|4) ndarray of int (0-255) or float (0-1)
+    what : str
+        What ``c`` is, for the error messages.
+
+    Returns
+    -------
+    (..., 3) float32
+        A view of ``c`` where it already is float32.
+
+    Raises
+    ------
+    ValueError
+        Values out of range, NaN or infinite.
+    TypeError
+        Any other dtype (bools among them).
+    """
     def values() -> str:
         if c.size <= 4:
             return f"{c.tolist()!r}"
@@ -96,9 +115,35 @@ class Visit(NamedTuple):
     def render(self, mvp, width: int, height: int, algo: str, cull_backfaces: bool,
                **options):
         """``_core.render`` of this visit: its own vertices with the faces that
-        index them, their ids and cells (``options``: the other keywords of
-        ``_core.render``). The one place that passes a visit to the core, so
-        that faces are never paired with another mesh's vertices."""
+        index them, their ids and cells. The one place that passes a visit to
+        the core, so that faces are never paired with another mesh's vertices.
+        Arrays that are not read-only are passed as copies (the core reads
+        them without the GIL).
+
+        Parameters
+        ----------
+        mvp : (4, 4) float64
+        width, height : int
+        algo : str
+            A name from :func:`zbuffer.algorithms`.
+        cull_backfaces : bool
+        **options
+            The other keywords of ``_core.render``: ``polygon_offsets`` and
+            ``polygon_indices``, ``record_culls``, ``out_depth``, ``out_ids``.
+
+        Returns
+        -------
+        tuple
+            ``(depth, triangle_id, stats)``: (H, W) float32, (H, W) int32
+            (the mesh's face numbers: ``ids[k]`` for face k when ``ids`` is
+            set) and a dict; with ``record_culls``, a fourth item: a list of
+            (h, w) int64 arrays, one per pyramid level.
+
+        Raises
+        ------
+        ValueError, TypeError
+            What the core's checks of the arrays and arguments refuse.
+        """
         from . import _core
 
         # The core checks the arrays, then reads them without the GIL: an
@@ -351,16 +396,32 @@ class Mesh:
         return _readonly(_core.vertex_normals(self.vertices, self.faces))
 
     def for_shading(self, normals: bool, vertex_colors: bool) -> tuple:
-        """(vertices, faces, vertex normals or None, vertex colours or None)
-        for the shading pass: the mesh's own arrays, or, once it is prepared,
-        its prepared vertices (and their normals and colours, in the same
-        numbering) with the faces in the mesh's own order renumbered to them.
+        """The arrays the shading pass reads: the mesh's own arrays, or, once
+        it is prepared, its prepared vertices (and their normals and colours,
+        in the same numbering) with the faces in the mesh's own order
+        renumbered to them.
         Triangle ids index both the same way and the images are the same
         bits; the pass reads the corners of neighbouring pixels' faces from
         neighbouring memory (bunny_69k and armadillo_86k at 1024x1024:
         5-13% faster, flat and smooth). Cached per mesh, each array with the
         one it was made from (vertex colours set anew are seen; edited in
-        place they are not, see the class notes)."""
+        place they are not, see the class notes).
+
+        Parameters
+        ----------
+        normals : bool
+            Include the vertex normals (smooth shading).
+        vertex_colors : bool
+            Include the vertex colours (for a mesh that has them).
+
+        Returns
+        -------
+        tuple
+            ``(vertices, faces, normals, colors)``: (N, 3) float64,
+            (M, 3) int32 (row f is the mesh's face f, in the returned
+            vertices' numbering), (N, 3) float64 or None, (N, 3) float32 or
+            None.
+        """
         visit = self._visit
         if visit is None or visit.vertex_order is None:
             return (self.vertices, self.faces, self.vertex_normals if normals else None,
@@ -390,7 +451,23 @@ class Mesh:
     def resolved_camera(self, camera):
         """``camera.resolve(self)``, remembered per camera (cameras are
         immutable), so that rendering one mesh from one camera again does
-        not fit the clip planes and build the matrices again."""
+        not fit the clip planes and build the matrices again.
+
+        Parameters
+        ----------
+        camera : Camera
+
+        Returns
+        -------
+        Camera
+            The resolved camera (the cache holds up to 64 cameras, and is
+            emptied when full).
+
+        Raises
+        ------
+        ValueError, TypeError
+            As :meth:`Camera.resolve`.
+        """
         cache = self.__dict__.setdefault("_resolved_cameras", {})
         resolved = cache.get(camera)
         if resolved is None:
@@ -402,7 +479,27 @@ class Mesh:
 
     def auto_camera(self, aspect: float):
         """The camera ``render(camera=None)`` uses: :meth:`Camera.fit` from
-        +z, resolved (cached per aspect ratio)."""
+        +z, resolved (cached per aspect ratio).
+
+        Parameters
+        ----------
+        aspect : float
+            Image width / height.
+
+        Returns
+        -------
+        Camera
+            Perspective, 45 degrees, looking down -z at the mesh's bounding
+            sphere, ``near`` and ``far`` fitted (the cache holds up to 64
+            aspect ratios, and is emptied when full).
+
+        Raises
+        ------
+        TypeError
+            ``aspect`` is not a number.
+        ValueError
+            As :meth:`Camera.fit` and :meth:`Camera.resolve`.
+        """
         aspect = as_number("aspect", aspect)  # (a key for the cache; Camera.fit checks the value)
         cache = self.__dict__.setdefault("_auto_cameras", {})
         camera = cache.get(aspect)
@@ -419,10 +516,17 @@ class Mesh:
     _ORDER_MIN_FACES = 2048
 
     def arrays(self):
-        """(name, array) of every numpy array this Mesh holds -- its own,
-        its colours, its polygons, cached normals, its prepared visit's
-        copies and the shading pass's (:meth:`for_shading`) --, for checks
-        that an array the caller writes into is none of them."""
+        """Every numpy array this Mesh holds -- its own, its colours, its
+        polygons, cached normals, its prepared visit's copies and the
+        shading pass's (:meth:`for_shading`) --, for checks that an array
+        the caller writes into is none of them.
+
+        Yields
+        ------
+        (str, ndarray)
+            A name (the attribute's, without a leading underscore, or
+            ``"prepared ..."``, ``"shading ..."``) and the array.
+        """
         # (Snapshots: a render in another thread may be filling the caches.)
         for name, value in list(vars(self).items()):
             if isinstance(value, np.ndarray):
@@ -443,8 +547,15 @@ class Mesh:
         second copy of the positions; 4-7 ms per 100k faces on the benchmark
         machine of benchmarks/results) now rather than at the second render.
         Results never depend on it: only speed (and the counters that depend
-        on order: pixels written, triangles culled) does. Returns the mesh
-        itself."""
+        on order: pixels written, triangles culled) does. Meshes of fewer
+        than 2048 faces get no order (they are visited as they are), and a
+        mesh prepared once is not prepared again.
+
+        Returns
+        -------
+        Mesh
+            The mesh itself.
+        """
         if self._visit is None and len(self.faces) >= self._ORDER_MIN_FACES:
             from . import _core
 
@@ -459,12 +570,26 @@ class Mesh:
         return self
 
     def faces_for_render(self) -> "Visit":
-        """The vertices and faces as the compiled algorithms visit them (a
-        :class:`Visit`; prepared, its faces index its own renumbered
-        vertices, not ``self.vertices``). The order is computed on the second
-        call (every render makes one) of the same Mesh, or by
-        :meth:`prepare`, so that one-off renders of temporary meshes do not
-        pay for it."""
+        """The vertices and faces as the compiled algorithms visit them.
+
+        Called once per render by :func:`zbuffer.render` (any algorithm)
+        and by :meth:`Scene.render` with an algorithm other than
+        ``hiz_octree`` and ``hiz_bvh`` (whose prebuilt trees hold their own
+        copies of the mesh) -- except ``scanline`` on a mesh with polygon
+        faces, which draws the polygons as written, from the mesh's own
+        arrays. :func:`zbuffer.reference.render` never calls it. The order is
+        computed (:meth:`prepare`) on the second call for the same Mesh, or
+        by an earlier :meth:`prepare`, so that one-off renders of temporary
+        meshes do not pay for it.
+
+        Returns
+        -------
+        Visit
+            The mesh's own vertices and faces while it is not prepared (and
+            always below 2048 faces); once prepared, the prepared visit,
+            whose faces index its own renumbered vertices, not
+            ``self.vertices``.
+        """
         self._renders += 1
         if self._visit is None and self._renders >= 2:
             self.prepare()
@@ -474,7 +599,26 @@ class Mesh:
 
     @classmethod
     def from_trimesh(cls, tm, name: Optional[str] = None) -> "Mesh":
-        """A Mesh from a ``trimesh.Trimesh``, keeping its vertex or face colours."""
+        """A Mesh from a ``trimesh.Trimesh``, keeping its vertex or face colours.
+
+        Parameters
+        ----------
+        tm : trimesh.Trimesh
+        name : str, optional
+
+        Returns
+        -------
+        Mesh
+            ``tm``'s vertices and faces (in its order: triangle ids are its
+            face numbers), with its vertex colours where its visual kind is
+            ``"vertex"``, its face colours where it is ``"face"``, and no
+            colours otherwise (textures among them). Not prepared.
+
+        Raises
+        ------
+        ValueError, TypeError
+            As :class:`Mesh` (a NaN vertex, say).
+        """
         vertex_colors = face_colors = None
         kind = getattr(tm.visual, "kind", None)
         if kind == "vertex":
@@ -488,7 +632,16 @@ class Mesh:
         """The same mesh with vertices of identical position (and colour)
         shared. Faces keep their order, so triangle ids are unchanged, and
         polygon faces (``polygon_sizes``, ``polygon_indices``,
-        ``face_polygon``) are kept, renumbered."""
+        ``face_polygon``) are kept, renumbered.
+
+        Returns
+        -------
+        Mesh
+            ``self`` when it has no vertices or no two alike; otherwise a
+            new, unprepared Mesh whose vertices are the distinct ones in
+            ``np.unique``'s order (sorted), with the same name and face
+            colours. Unused vertices are kept.
+        """
         if len(self.vertices) == 0:
             return self
         key = self.vertices

@@ -32,11 +32,27 @@ def read_obj(path: str) -> PolygonData:
     Everything else (texture coordinates, normals, groups, materials, lines,
     points) is ignored.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Read as UTF-8 (undecodable bytes replaced); a byte order mark and
+        any line ending (``\\n``, ``\\r\\n``, ``\\r``) are allowed.
+
+    Returns
+    -------
+    PolygonData
+        ``vertices`` (the ``v`` records' x, y, z; ``w`` is dropped), the
+        faces as written with 0-based indices (relative ones resolved
+        against the vertices defined before their record), and
+        ``vertex_colors`` when every ``v`` record has r g b (divided by
+        255 when any exceeds 1); no ``face_colors``.
+
     Raises
     ------
     ValueError
         A malformed ``v`` or ``f`` record, a vertex coordinate that is not
-        a number, or an index outside the vertices (each naming the line).
+        a finite number, a vertex colour outside 0-255, or an index outside
+        the vertices (each naming the line).
     """
     with open(path, "rb") as fh:
         text = fh.read().decode("utf-8", errors="replace")

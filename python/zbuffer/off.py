@@ -55,6 +55,12 @@ def read_off(path: str) -> PolygonData:
     corners, their 0-based vertex indices, optionally a colour). ``#``
     starts a comment; records are one a line.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Read as UTF-8 (undecodable bytes replaced; a byte order mark
+        allowed).
+
     Returns
     -------
     PolygonData

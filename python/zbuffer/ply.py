@@ -236,6 +236,20 @@ def read_ply(path: str) -> PolygonData:
     the polygons of its ``face`` element as written (with red, green, blue
     when present), skipping every other property and element.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An ASCII, binary little-endian or binary big-endian PLY file.
+
+    Returns
+    -------
+    PolygonData
+        ``vertices`` as float64 (``float`` properties of ASCII files
+        rounded to float32 first, as binary files hold them), the faces'
+        ``vertex_indices`` (or ``vertex_index``) lists as written, and
+        vertex or face colours where the element has ``red``, ``green``
+        and ``blue`` (integer types divided by 255, float types kept).
+
     Raises
     ------
     UnsupportedPly

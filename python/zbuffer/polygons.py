@@ -43,7 +43,25 @@ class PolygonData:
 def file_rgb(rgb: np.ndarray, integers: bool, what: str) -> np.ndarray:
     """Colours read from a file as RGB in [0, 1]: divided by 255 where the
     file gave integers; ValueError outside 0-255 (integers) or [0, 1]
-    (floats). (The OFF and PLY readers'.)"""
+    (floats). (The OFF and PLY readers'.)
+
+    Parameters
+    ----------
+    rgb : (n, 3) float64
+    integers : bool
+        Whether the file wrote the values as integers.
+    what : str
+        What the colours are, for the error message.
+
+    Returns
+    -------
+    (n, 3) float64
+
+    Raises
+    ------
+    ValueError
+        A value out of range, NaN or infinite.
+    """
     if integers:
         rgb = rgb / 255.0
     if rgb.size and (not np.all(np.isfinite(rgb)) or rgb.min() < 0.0 or rgb.max() > 1.0):
@@ -135,9 +153,19 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
     clipped in their best-fit plane. A fan of a concave polygon would cover
     area outside it.
 
+    Parameters
+    ----------
+    vertices : (N, 3) float64
+    sizes : (P,) array_like of int
+        Corners of each polygon, each at least 3.
+    indices : (sum of sizes,) array_like of int
+        The polygons' vertex indices, concatenated, 0-based (not checked).
+
     Returns
     -------
     faces : (M, 3) int64
+        ``size - 2`` triangles per polygon, in polygon order: M is the sum
+        of ``sizes - 2``.
     face_polygon : (M,) int64
         The polygon each triangle came from.
     """

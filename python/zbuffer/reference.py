@@ -290,6 +290,13 @@ def rasterize(tris: ScreenTriangles, width: int, height: int
               ) -> Tuple[np.ndarray, np.ndarray, Dict[str, int]]:
     """Coverage, depth and the depth write of docs/rasterization.md.
 
+    Parameters
+    ----------
+    tris : ScreenTriangles
+        As :func:`vertex_stage` returns them (``area > 0``).
+    width, height : int
+        Image size in pixels.
+
     Returns
     -------
     depth : (H, W) float32
@@ -569,6 +576,31 @@ def render(mesh, camera: Optional[Camera] = None, width: int = DEFAULT_SIZE[0],
     (``mesh.polygon_sizes``) has them drawn natively, as the algorithms
     that draw polygons (``"scanline"``) draw them; other meshes are drawn
     as triangles either way.
+
+    Parameters
+    ----------
+    mesh, camera, width, height, cull_backfaces
+        As for :func:`zbuffer.render`.
+    shading, light_dir, ambient, diffuse, color, background
+        As for :func:`zbuffer.render`.
+    polygons : bool
+        Draw polygon faces natively (see above); default False, the
+        triangulation, as every algorithm but ``"scanline"`` draws it.
+
+    Returns
+    -------
+    RenderResult
+        ``algo`` is ``"reference"``, ``culls`` None. ``depth`` (H, W)
+        float32 and ``triangle_id`` (H, W) int32 as the compiled
+        algorithms give them; ``image`` (H, W, 3) uint8 from
+        :func:`zbuffer.shading.shade_numpy` (within one level of 255 of
+        the compiled shading pass; None with ``shading="none"``).
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`zbuffer.render` for the arguments they share; TypeError
+        for a ``polygons`` that is not a bool.
     """
     start = time.perf_counter()
     polygons = check_flag("polygons", polygons)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Union
 
 import numpy as np
 
@@ -77,10 +77,39 @@ class RenderResult:
         """(H, W) bool: pixels where a triangle was drawn."""
         return self.triangle_id >= 0
 
-    def show(self, screenshot: Optional[str] = None, **options):
+    def show(self, screenshot: Union[str, bool, None] = None, **options):
         """Show image, depth (with a colour bar) and triangle ids side by side
-        in a pyvista window, or write them to the PNG ``screenshot``
-        (:func:`zbuffer.viz.show_result`)."""
+        in a pyvista window, or render them offscreen
+        (:func:`zbuffer.viz.show_result`).
+
+        Parameters
+        ----------
+        screenshot : str, os.PathLike, file object or True, optional
+            Render offscreen instead of opening a window, and write the
+            picture to this file: PNG, JPEG, BMP or TIFF by the suffix
+            (``.png``, ``.jpg``/``.jpeg``, ``.bmp``, ``.tif``/``.tiff``, in
+            any case); a name without a suffix gets ``.png`` appended.
+            A file object gets a PNG. True: render offscreen and write no
+            file.
+        **options
+            Passed on to :func:`zbuffer.viz.show_result` (``window_size``).
+
+        Returns
+        -------
+        (h, w, 3|4) uint8 array or pyvista.Plotter
+            With ``screenshot``, the picture rendered; without, the
+            plotter shown.
+
+        Raises
+        ------
+        ImportError
+            pyvista is not installed.
+        ValueError
+            A ``screenshot`` name with another suffix, naming a folder, or
+            in a folder that does not exist (said before anything is drawn).
+        RuntimeError
+            No ``screenshot`` and no display to open a window on.
+        """
         from . import viz
 
         return viz.show_result(self, screenshot=screenshot, **options)
@@ -100,20 +129,38 @@ class RenderResult:
         return buffer.getvalue()
 
     def pyramid(self) -> List[np.ndarray]:
-        """The Z-pyramid of ``depth``: a list of float32 arrays from ``depth``
-        itself down to 1 x 1, each cell the farthest depth of its 2 x 2
-        children (+inf where nothing was drawn below it), computed from the
-        final depth. The algorithms' own pyramids keep only its coarser
+        """The Z-pyramid of ``depth``, computed from the final depth.
+
+        Each cell is the farthest (largest) depth of its 2 x 2 children
+        inside the image, so +inf wherever any pixel under it was not
+        drawn. The algorithms' own pyramids keep only its coarser
         levels (from 8 x 8 pixels for ``hiz``, 4 x 4 for the trees) and may
         lag the last batches drawn (never nearer than these: depth only
-        decreases); brought up to date, they equal these levels."""
+        decreases); brought up to date, they equal these levels.
+
+        Returns
+        -------
+        list of (h, w) float32
+            Level 0 is ``depth`` itself (the same array, not a copy); level
+            k (new arrays on every call) has ``ceil(H / 2**k) x
+            ceil(W / 2**k)`` cells, down to 1 x 1.
+        """
         from . import _core
 
         return _core.pyramid_levels(self.depth)
 
     def eye_depth(self) -> np.ndarray:
-        """(H, W) float64 distance along the viewing direction (eye-space -z),
-        +inf where nothing was drawn."""
+        """The distance of each drawn pixel along the viewing direction.
+
+        Eye-space -z, from ``depth`` and the camera's ``near`` and ``far``
+        (window depth 0 gives exactly ``near``, 1 exactly ``far``; linear
+        between them for an orthographic camera).
+
+        Returns
+        -------
+        (H, W) float64
+            +inf where nothing was drawn.
+        """
         n, f = self.camera.near, self.camera.far
         w = self.depth.astype(np.float64)  # window depth, 0 at near and 1 at far
         # (The projection's inverse in terms of w itself: with z_ndc = 2 w - 1,

@@ -91,8 +91,28 @@ class Scene:
         return f"Scene({self.mesh!r}, built: {built})"
 
     def build(self, algo: str = "hiz_octree") -> float:
-        """Build the tree ``algo`` renders, if not built yet; returns the
-        milliseconds this call spent building (0.0 if it was built)."""
+        """Build the tree ``algo`` renders, if not built yet.
+
+        Parameters
+        ----------
+        algo : str
+            A name from :func:`zbuffer.algorithms`; only ``"hiz_octree"``
+            and ``"hiz_bvh"`` have a tree (for the others this does nothing).
+
+        Returns
+        -------
+        float
+            The milliseconds this call spent building (the core's timing of
+            the build); 0.0 if the tree was built already or ``algo`` has
+            none.
+
+        Raises
+        ------
+        ValueError
+            Unknown ``algo``.
+        TypeError
+            ``algo`` is not a string.
+        """
         check_algorithm(algo)
         if algo not in TREE_ALGORITHMS:
             return 0.0
@@ -111,8 +131,28 @@ class Scene:
             return tree.build_ms
 
     def tree_info(self, algo: str = "hiz_octree") -> dict:
-        """Size of ``algo``'s tree (built if needed): nodes, clusters,
-        triangle references, bytes and build time."""
+        """Size of ``algo``'s tree (built if needed).
+
+        Parameters
+        ----------
+        algo : {"hiz_octree", "hiz_bvh"}
+
+        Returns
+        -------
+        dict
+            ``kind`` ("octree" or "bvh"), ``nodes``, ``clusters`` (one per
+            node that owns triangles), triangle ``references`` (the face
+            ids the clusters hold; the octree's "greene" rule may list a
+            face in several), input ``faces``, ``memory_bytes`` and
+            ``build_ms``.
+
+        Raises
+        ------
+        ValueError
+            Unknown ``algo``, or one without a tree.
+        TypeError
+            ``algo`` is not a string.
+        """
         self._require_tree(algo)
         tree = self._trees[algo]
         return {"kind": tree.kind, "nodes": tree.n_nodes, "clusters": tree.n_clusters,
@@ -121,6 +161,10 @@ class Scene:
 
     def nodes(self, algo: str = "hiz_octree") -> Dict[str, np.ndarray]:
         """The nodes of ``algo``'s tree (built if needed), for display.
+
+        Parameters
+        ----------
+        algo : {"hiz_octree", "hiz_bvh"}
 
         Returns
         -------
@@ -131,6 +175,13 @@ class Scene:
             ``own_triangles`` (drawn with the node itself) : (K,) int64;
             ``fate`` : (K,) uint8 in the last render of this tree, an index
             into :data:`NODE_FATES` (0 if it was never rendered).
+
+        Raises
+        ------
+        ValueError
+            Unknown ``algo``, or one without a tree.
+        TypeError
+            ``algo`` is not a string.
         """
         self._require_tree(algo)
         return self._trees[algo].nodes()
@@ -144,8 +195,21 @@ class Scene:
                out=None) -> RenderResult:
         """Render one frame; arguments as for :func:`zbuffer.render`.
 
+        With ``hiz_octree`` or ``hiz_bvh`` the Scene's tree is built (on
+        first use) and traversed; other algorithms render as
+        :func:`zbuffer.render` renders them.
+
         Parameters
         ----------
+        camera : Camera, optional
+            First here (``algo`` is the second argument); as for
+            :func:`zbuffer.render`.
+        algo : str
+            Default ``"hiz_octree"``.
+        width, height, cull_backfaces, shading, light_dir
+            As for :func:`zbuffer.render`.
+        ambient, diffuse, color, background, record_culls, out
+            As for :func:`zbuffer.render`.
         temporal : bool
             Temporal coherence (Greene, Kass and Miller, section 6; tree
             algorithms only): if this Scene's previous frame of the same
@@ -158,8 +222,15 @@ class Scene:
         Returns
         -------
         RenderResult
-            As :func:`zbuffer.render`; ``stats["build_ms"]`` is the time this
-            call spent building the tree (0.0 once it is built).
+            As :func:`zbuffer.render`; with a tree algorithm,
+            ``stats["build_ms"]`` is the time this call spent building the
+            tree (0.0 once it is built).
+
+        Raises
+        ------
+        ValueError, TypeError
+            As :func:`zbuffer.render`; also ValueError for ``temporal=True``
+            with an algorithm without a tree.
         """
         start = time.perf_counter()
         check_algorithm(algo)

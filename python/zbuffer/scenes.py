@@ -69,7 +69,27 @@ def _numbers(name: str, value, size: int = 1, broadcast: bool = False):
 
 
 def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
-    """An axis-aligned box, 12 triangles wound counter-clockwise seen from outside."""
+    """An axis-aligned box, 12 triangles wound counter-clockwise seen from outside.
+
+    Parameters
+    ----------
+    center : (3,) array_like of float, or float
+        A single number stands for all three coordinates.
+    size : (3,) array_like of float, or float
+        Edge lengths along x, y and z (a single number: a cube).
+
+    Returns
+    -------
+    vertices : (8, 3) float64
+    faces : (12, 3) int
+
+    Raises
+    ------
+    TypeError
+        Values that are not real numbers.
+    ValueError
+        The wrong count of numbers, or a NaN or infinite one.
+    """
     c, s = _numbers("center", center, 3, True), _numbers("size", size, 3, True) * 0.5
     corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float)
     faces = np.array([
@@ -82,7 +102,29 @@ def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
 
 def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:
     """A latitude-longitude sphere with poles on the y axis (n_lat >= 2
-    bands of latitude, n_lon >= 3 of longitude)."""
+    bands of latitude, n_lon >= 3 of longitude).
+
+    Parameters
+    ----------
+    center : (3,) array_like of float
+    radius : float
+    n_lat, n_lon : int
+
+    Returns
+    -------
+    vertices : (2 + (n_lat - 1) n_lon, 3) float64
+        The north pole (+y) first, the rings from north to south, the
+        south pole last.
+    faces : (2 (n_lat - 1) n_lon, 3) int
+
+    Raises
+    ------
+    TypeError
+        Counts that are not integers, or numbers that are not real numbers.
+    ValueError
+        Counts out of range (or making more than 2**26 triangles), the
+        wrong count of numbers, or a NaN or infinite one.
+    """
     n_lat, n_lon = _count("n_lat", n_lat, 2), _count("n_lon", n_lon, 3)
     _triangles(f"uv_sphere(n_lat={n_lat}, n_lon={n_lon})", 2 * (n_lat - 1) * n_lon)
     center, radius = _numbers("center", center, 3), _numbers("radius", radius)
@@ -108,7 +150,31 @@ def uv_sphere(center=(0.0, 0.0, 0.0), radius=1.0, n_lat=16, n_lon=32) -> Part:
 
 
 def torus(center=(0.0, 0.0, 0.0), major=1.0, minor=0.3, n_major=32, n_minor=16) -> Part:
-    """A torus around the y axis (n_major, n_minor >= 3 segments)."""
+    """A torus around the y axis (n_major, n_minor >= 3 segments).
+
+    Parameters
+    ----------
+    center : (3,) array_like of float
+    major : float
+        Radius of the tube's centre circle (in the xz plane).
+    minor : float
+        Radius of the tube.
+    n_major, n_minor : int
+        Segments around the centre circle and around the tube.
+
+    Returns
+    -------
+    vertices : (n_major n_minor, 3) float64
+    faces : (2 n_major n_minor, 3) int
+
+    Raises
+    ------
+    TypeError
+        Counts that are not integers, or numbers that are not real numbers.
+    ValueError
+        Counts out of range (or making more than 2**26 triangles), the
+        wrong count of numbers, or a NaN or infinite one.
+    """
     n_major, n_minor = _count("n_major", n_major, 3), _count("n_minor", n_minor, 3)
     _triangles(f"torus(n_major={n_major}, n_minor={n_minor})", 2 * n_major * n_minor)
     center = _numbers("center", center, 3)
@@ -130,7 +196,29 @@ def torus(center=(0.0, 0.0, 0.0), major=1.0, minor=0.3, n_major=32, n_minor=16) 
 
 
 def grid(center=(0.0, 0.0, 0.0), size=(4.0, 4.0), n=(8, 8)) -> Part:
-    """A flat rectangle in the xz plane (normal +y), n[0] x n[1] quads."""
+    """A flat rectangle in the xz plane (normal +y), n[0] x n[1] quads.
+
+    Parameters
+    ----------
+    center : (3,) array_like of float
+    size : (2,) array_like of float
+        Extent along x and along z.
+    n : (2,) sequence of int
+        Quads along x and along z, each at least 1; two triangles each.
+
+    Returns
+    -------
+    vertices : ((n[0] + 1) (n[1] + 1), 3) float64
+    faces : (2 n[0] n[1], 3) int
+
+    Raises
+    ------
+    TypeError
+        Counts that are not integers, or numbers that are not real numbers.
+    ValueError
+        Counts out of range (or making more than 2**26 triangles), the
+        wrong count of numbers, or a NaN or infinite one.
+    """
     n = _counts("n", n, 2, lambda name, c: _count(name, c, 1))
     _triangles(f"grid(n={n})", 2 * n[0] * n[1])
     center, size = _numbers("center", center, 3), _numbers("size", size, 2)
@@ -149,7 +237,28 @@ def grid(center=(0.0, 0.0, 0.0), size=(4.0, 4.0), n=(8, 8)) -> Part:
 
 def combine(parts: Sequence[Part], colors: Sequence[Sequence[float]] = (),
             name: str = "scene") -> Mesh:
-    """One Mesh from several (vertices, faces) parts, optionally one colour each."""
+    """One Mesh from several (vertices, faces) parts, optionally one colour each.
+
+    Parameters
+    ----------
+    parts : sequence of ((N_i, 3) array_like of float, (M_i, 3) array_like of int)
+        Each part's faces index its own vertices.
+    colors : sequence of (3,) array_like of int (0-255) or float (0-1)
+        One RGB colour per part, given to all its faces; empty: no colours.
+    name : str
+
+    Returns
+    -------
+    Mesh
+        The parts' vertices and faces concatenated in order (faces
+        renumbered), with face colours when ``colors`` is given.
+
+    Raises
+    ------
+    ValueError, TypeError
+        What :class:`~zbuffer.Mesh` refuses; colours out of range, or not
+        one per part.
+    """
     verts: List[np.ndarray] = []
     faces: List[np.ndarray] = []
     offset = 0
@@ -171,7 +280,14 @@ def combine(parts: Sequence[Part], colors: Sequence[Sequence[float]] = (),
 def default_scene() -> Mesh:
     """The scene ``zbuffer render`` draws without a file: a box pierced by a
     sphere, a torus sunk into the floor, and the floor (2,028 triangles, with
-    occlusion and interpenetration). See :func:`default_camera`."""
+    occlusion and interpenetration). See :func:`default_camera`.
+
+    Returns
+    -------
+    Mesh
+        Named "default scene", with one face colour per part (floor, box,
+        sphere, torus, in that order).
+    """
     parts = [
         grid((0.0, -1.0, 0.0), (4.5, 3.5), (12, 12)),
         box((-0.8, -0.3, 0.0), (1.4, 1.4, 1.4)),
@@ -185,7 +301,20 @@ def default_scene() -> Mesh:
 def default_camera(aspect: float = 4.0 / 3.0, up=(0.0, 1.0, 0.0)):
     """A camera looking at :func:`default_scene` from the front, above and right
     (``up``: the world direction shown upwards), the scene filling 90% of
-    the picture's width or height."""
+    the picture's width or height.
+
+    Parameters
+    ----------
+    aspect : float
+        Width / height of the picture it is meant for.
+    up : (3,) array_like of float
+
+    Returns
+    -------
+    Camera
+        Perspective, 45 degrees; ``near`` and ``far`` unset (fitted when
+        rendering).
+    """
     from .camera import Camera
 
     mesh = default_scene()
@@ -218,7 +347,28 @@ def default_camera(aspect: float = 4.0 / 3.0, up=(0.0, 1.0, 0.0)):
 # Test Scenes
 
 def overlapping_boxes(n: int = 6, seed: int = 0) -> Mesh:
-    """n boxes of random size and position, overlapping each other."""
+    """n boxes of random size and position, overlapping each other.
+
+    Parameters
+    ----------
+    n : int
+        At least 1.
+    seed : int
+        For ``np.random.default_rng``.
+
+    Returns
+    -------
+    Mesh
+        12 n faces: box k's centre uniform in [-1, 1]^3, its edge lengths
+        uniform in [0.3, 1.2], all from one generator.
+
+    Raises
+    ------
+    TypeError
+        ``n`` is not an integer.
+    ValueError
+        ``n`` below 1 or above 2**26 / 12.
+    """
     n = _count("n", n, 1)
     _triangles(f"overlapping_boxes({n})", 12 * n)
     rng = np.random.default_rng(seed)
@@ -227,7 +377,13 @@ def overlapping_boxes(n: int = 6, seed: int = 0) -> Mesh:
 
 
 def interpenetrating_triangles() -> Mesh:
-    """Three large triangles that pierce each other pairwise (no depth order)."""
+    """Three large triangles that pierce each other pairwise (no depth order).
+
+    Returns
+    -------
+    Mesh
+        9 vertices (none shared), 3 faces.
+    """
     v = np.array([
         [-1.0, -0.6, -0.5], [1.0, -0.6, 0.5], [0.0, 0.9, 0.0],
         [-1.0, -0.5, 0.5], [1.0, -0.5, -0.5], [0.2, 1.0, 0.3],
@@ -238,7 +394,13 @@ def interpenetrating_triangles() -> Mesh:
 
 def coplanar_faces() -> Mesh:
     """Overlapping triangles in one plane (exact depth ties everywhere they
-    overlap; the smaller id must win), plus a fan sharing their vertices."""
+    overlap; the smaller id must win), plus a fan sharing their vertices.
+
+    Returns
+    -------
+    Mesh
+        6 vertices in the plane z = 0, 6 faces.
+    """
     v = np.array([
         [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0],
         [0.0, -1.0, 0.0], [0.0, 1.0, 0.0],
@@ -249,7 +411,27 @@ def coplanar_faces() -> Mesh:
 
 def fan(n: int = 24, tilt: float = 0.3) -> Mesh:
     """A triangle fan around a centre vertex: n thin triangles meeting at one
-    point, every inner edge shared by two of them (n >= 3)."""
+    point, every inner edge shared by two of them (n >= 3).
+
+    Parameters
+    ----------
+    n : int
+    tilt : float
+        The rim, a unit circle around the z axis, rises and falls by
+        ``tilt * cos(3 angle)`` in z.
+
+    Returns
+    -------
+    Mesh
+        The centre (the origin) and n rim vertices; n faces.
+
+    Raises
+    ------
+    TypeError
+        A count that is not an integer, or a number that is not a real one.
+    ValueError
+        ``n`` out of 3 .. 2**26, or a NaN or infinite ``tilt``.
+    """
     n, tilt = _count("n", n, 3), _numbers("tilt", tilt)
     a = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
     rim = np.stack([np.cos(a), np.sin(a), tilt * np.cos(3 * a)], -1)
@@ -259,7 +441,34 @@ def fan(n: int = 24, tilt: float = 0.3) -> Mesh:
 
 
 def random_soup(n: int = 200, seed: int = 0, scale: float = 0.5) -> Mesh:
-    """n independent random triangles in the unit cube (any sizes, orientations)."""
+    """n independent random triangles of any size and orientation.
+
+    Each triangle's centre is uniform in [-1, 1]^3, and each of its corners
+    is that centre plus normal random offsets of standard deviation
+    ``scale`` in x, y and z (so corners may lie outside the cube).
+
+    Parameters
+    ----------
+    n : int
+        At least 1.
+    seed : int
+        For ``np.random.default_rng``.
+    scale : float
+        Standard deviation of the corners' offsets.
+
+    Returns
+    -------
+    Mesh
+        3 n vertices (none shared) and n faces.
+
+    Raises
+    ------
+    TypeError
+        A count that is not an integer, or a number that is not a real one.
+    ValueError
+        ``n`` out of 1 .. 2**26, a NaN or infinite ``scale``, or a
+        negative one (numpy's).
+    """
     n, scale = _count("n", n, 1), _numbers("scale", scale)
     rng = np.random.default_rng(seed)
     centres = rng.uniform(-1, 1, (n, 1, 3))
@@ -273,7 +482,28 @@ def tessellated_square(n: int = 8, jitter: float = 0.0, seed: int = 0) -> Mesh:
     a cell in x and y, so that no vertex reaches a neighbour's place. Under
     0.25 every triangle also keeps its orientation, so the square stays
     covered exactly once; from 0.25 a triangle may fold over (with a seed's
-    bad luck)."""
+    bad luck).
+
+    Parameters
+    ----------
+    n : int
+    jitter : float
+    seed : int
+        For ``np.random.default_rng``.
+
+    Returns
+    -------
+    Mesh
+        (n + 1)^2 vertices, 2 n^2 faces.
+
+    Raises
+    ------
+    TypeError
+        A count that is not an integer, or a number that is not a real one.
+    ValueError
+        ``n`` below 1 (or 2 n^2 above 2**26), or ``jitter`` outside
+        [0, 0.5).
+    """
     n = _count("n", n, 1)
     _triangles(f"tessellated_square({n})", 2 * n * n)
     jitter = _numbers("jitter", jitter)
@@ -303,7 +533,32 @@ def instance_grid(mesh, counts=(5, 5, 10), spacing: float = 1.1) -> Mesh:
     axis apart (1.0: bounding boxes touching), centred on the z axis, the
     first layer in front (largest z) and the others behind it. The occlusion benchmark of the hierarchical algorithms (a
     camera on +z looking down the long axis sees the front layer and little
-    else). Faces are numbered copy by copy."""
+    else). Faces are numbered copy by copy.
+
+    Parameters
+    ----------
+    mesh : Mesh or anything :func:`zbuffer.render` accepts
+    counts : (3,) sequence of int
+        Copies along x, y and z, each at least 1.
+    spacing : float
+        Distance between neighbouring copies' centres, in units of the
+        mesh's extent along that axis (an axis where it is flat counts
+        as 1).
+
+    Returns
+    -------
+    Mesh
+        Without the mesh's colours.
+
+    Raises
+    ------
+    ValueError
+        A mesh without vertices, counts below 1, or more than 2**31 - 1
+        faces or vertices in all.
+    TypeError
+        Counts that are not integers, a ``spacing`` that is not a number,
+        or a ``mesh`` :func:`~zbuffer.as_mesh` does not take.
+    """
     mesh = as_mesh(mesh)
     counts = _counts("counts", counts, 3, lambda name, c: check_int(name, c, 1))
     spacing = _numbers("spacing", spacing)

@@ -53,7 +53,39 @@ def resolve_shading(shading: str, camera, light_dir=None, ambient: float = DEFAU
                     diffuse: float = DEFAULT_DIFFUSE, color=None, background=DEFAULT_BACKGROUND
                     ) -> ShadingParams:
     """Check and normalise shading options. ``light_dir=None`` is a headlight:
-    the light travels along the camera's viewing direction."""
+    the light travels along the camera's viewing direction.
+
+    Parameters
+    ----------
+    shading : {"flat", "smooth", "none"}
+    camera : Camera
+        Only its viewing direction is used (the headlight).
+    light_dir : (3,) array_like of float, optional
+        Direction the light travels in; any length but zero.
+    ambient, diffuse : float
+        Finite, from 0 to float32's largest.
+    color : (3,) array_like of int (0-255) or float (0-1), optional
+    background : (3,) array_like of int (0-255) or float (0-1)
+
+    Returns
+    -------
+    ShadingParams
+        ``light_dir`` a unit (3,) float64 vector, ``color`` (3,) float32 in
+        [0, 1] or None, ``background`` (3,) uint8 (rounded). For
+        ``shading="none"`` with every other option at its default, a
+        shared constant whose ``light_dir`` is a placeholder (nothing is
+        shaded).
+
+    Raises
+    ------
+    ValueError
+        Unknown ``shading``; ``ambient`` or ``diffuse`` out of range;
+        ``light_dir`` not 3 finite numbers or zero; ``color`` or
+        ``background`` not 3 numbers in range.
+    TypeError
+        Arguments of the wrong type (a ``shading`` that is not a string,
+        weights or colours that are not numbers).
+    """
     check_shading(shading)
     # (At most float32's largest: the compiled passes weigh in float32, where
     # a larger weight is inf, and inf times a back-lit 0 is NaN -- black.)
@@ -134,12 +166,27 @@ def face_normal_directions(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
 
 
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(N, 3) float64 area-weighted unit vertex normals, zero for unused
-    vertices (and where the sum vanishes): each vertex sums the cross
-    products (b - a) x (c - a) of the faces (a, b, c) it is a corner of,
-    first corners in face order, then second, then third (``np.bincount``
-    adds in the order of its input), and is divided by the sum's length.
-    ``Mesh.vertex_normals`` computes the same bits in the compiled core."""
+    """Area-weighted unit vertex normals, in numpy.
+
+    Each vertex sums the cross products (b - a) x (c - a) of the faces
+    (a, b, c) it is a corner of, first corners in face order, then second,
+    then third (``np.bincount`` adds in the order of its input), and is
+    divided by the sum's length. Where the largest coordinate magnitude
+    lies outside [2**-200, 2**200], all coordinates are first scaled by a
+    power of two (exact: the same directions). ``Mesh.vertex_normals``
+    computes the same bits in the compiled core.
+
+    Parameters
+    ----------
+    vertices : (N, 3) array_like of float
+    faces : (M, 3) array_like of int
+        Indices into ``vertices`` (not checked).
+
+    Returns
+    -------
+    (N, 3) float64
+        Zero for unused vertices (and where the sum vanishes).
+    """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     # Coordinates whose largest magnitude lies outside [2**-200, 2**200]:
@@ -161,9 +208,31 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def shade_numpy(mesh, triangle_id: np.ndarray, camera, mvp: np.ndarray,
                 params: ShadingParams) -> np.ndarray:
-    """The shading pass in numpy: (H, W, 3) uint8 image of a visibility
-    result (smooth shading from :func:`vertex_normals`, the bits
-    ``Mesh.vertex_normals`` computes in the compiled core)."""
+    """The shading pass in numpy: the image of a visibility result (smooth
+    shading from :func:`vertex_normals`, the bits ``Mesh.vertex_normals``
+    computes in the compiled core). Agrees with the compiled pass within
+    one level of 255 (docs/rasterization.md, section 4).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The mesh rendered.
+    triangle_id : (H, W) int32
+        Face indices into ``mesh.faces``, -1 where nothing was drawn.
+    camera : Camera
+        The camera rendered from (each face's normal is turned towards its
+        viewer: faces are lit from both sides).
+    mvp : (4, 4) float64
+        Its matrix (perspective-correct interpolation).
+    params : ShadingParams
+        From :func:`resolve_shading`; ``mode`` "smooth" interpolates vertex
+        normals, any other face normals.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        ``params.background`` where nothing was drawn.
+    """
     height, width = triangle_id.shape
     image = np.empty((height, width, 3), np.uint8)
     image[...] = params.background

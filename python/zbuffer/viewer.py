@@ -62,6 +62,15 @@ class Viewer:
     width, height : int
         Frame size in pixels.
     shading : {"flat", "smooth", "none"}
+
+    Raises
+    ------
+    ValueError
+        Unknown ``algo`` or ``shading``, a bad frame size, a bad mesh, or
+        one the orbit camera cannot frame (coordinates out of double
+        precision's reach).
+    TypeError
+        Arguments of the wrong type.
     """
 
     def __init__(self, mesh, algo: str = "hiz_octree", width: int = 800, height: int = 600,
@@ -99,7 +108,20 @@ class Viewer:
         self.distance = 2.6 * self.radius
 
     def rotate(self, d_azimuth: float, d_elevation: float) -> None:
-        """Orbit around the target (degrees); elevation stays within +-89."""
+        """Orbit around the target (degrees); elevation stays within +-89.
+
+        Parameters
+        ----------
+        d_azimuth, d_elevation : float
+            Degrees to add; the azimuth wraps into [0, 360).
+
+        Raises
+        ------
+        TypeError
+            Not numbers.
+        ValueError
+            NaN or infinite.
+        """
         d_azimuth = as_finite("d_azimuth", d_azimuth)
         d_elevation = as_finite("d_elevation", d_elevation)
         self.azimuth = (self.azimuth + d_azimuth) % 360.0
@@ -109,7 +131,21 @@ class Viewer:
     _NEAREST, _FARTHEST = 0.05, 100.0
 
     def zoom(self, factor: float) -> None:
-        """Move towards (0 < factor < 1) or away from the target (factor > 1)."""
+        """Move towards (0 < factor < 1) or away from the target (factor > 1).
+
+        Parameters
+        ----------
+        factor : float
+            Multiplies the distance, which stays between 0.05 and 100
+            times the mesh's bounding radius.
+
+        Raises
+        ------
+        TypeError
+            Not a number.
+        ValueError
+            Not positive and finite.
+        """
         x = as_finite("factor", factor)
         if x <= 0.0:
             raise ValueError(f"factor must be > 0, got {factor!r}")
@@ -119,7 +155,19 @@ class Viewer:
     def camera(self, distance: Optional[float] = None) -> Camera:
         """The orbit camera: ``distance`` (default: the current one) from
         ``target`` at ``azimuth`` and ``elevation`` (degrees), near and far
-        around the mesh's sphere."""
+        around the mesh's sphere.
+
+        Parameters
+        ----------
+        distance : float, optional
+
+        Returns
+        -------
+        Camera
+            Perspective, 45 degrees, y up; ``far`` is ``distance + 1.5
+            radius`` and ``near`` ``distance - 1.5 radius``, at least
+            ``distance / 1000``.
+        """
         d = self.distance if distance is None else distance
         a, e = math.radians(self.azimuth), math.radians(self.elevation)
         offset = np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])
@@ -144,7 +192,21 @@ class Viewer:
 
     def toggle(self, overlay: str) -> None:
         """Switch an overlay on (or off, if it is on). "pyramid" steps one
-        level coarser each call instead, and off after the last level."""
+        level coarser each call instead, and off after the last level.
+
+        Parameters
+        ----------
+        overlay : {"depth", "pyramid", "tree"}
+            "tree" does nothing unless it is on or the algorithm has a tree
+            (``hiz_octree``, ``hiz_bvh``).
+
+        Raises
+        ------
+        ValueError
+            Another string.
+        TypeError
+            Not a string.
+        """
         check_choice("overlay", overlay, ("depth", "pyramid", "tree"))
         if overlay == "pyramid":
             levels = _pyramid_levels(self.width, self.height)
@@ -164,7 +226,14 @@ class Viewer:
     # Frames
 
     def render(self) -> RenderResult:
-        """Render the current view with the current algorithm."""
+        """Render the current view with the current algorithm.
+
+        Returns
+        -------
+        RenderResult
+            Also kept as ``self.result``; ``self.frame_ms`` is the time
+            the render took, in milliseconds.
+        """
         t0 = time.perf_counter()
         self.result = self.scene.render(self.camera(), algo=self.algo, width=self.width,
                                         height=self.height, shading=self.shading)
@@ -172,7 +241,16 @@ class Viewer:
         return self.result
 
     def frame(self) -> np.ndarray:
-        """Render and compose the picture shown: (H, W, 3) uint8."""
+        """Render (:meth:`render`) and compose the picture shown.
+
+        Returns
+        -------
+        (H, W, 3) uint8
+            The shaded image (triangle ids in false colour with shading
+            "none"), or the overlay: the depth map or a pyramid level in
+            grey (nearest white, nothing drawn black), or the image with
+            the tree's node rectangles.
+        """
         res = self.render()
         picture = res.image if res.image is not None else id_colors(res.triangle_id)
         if self.overlay == "depth":
@@ -188,7 +266,13 @@ class Viewer:
         return picture
 
     def status(self) -> str:
-        """The on-screen line: algorithm, frame time and the main counters."""
+        """The on-screen line: algorithm, frame time and the main counters.
+
+        Returns
+        -------
+        str
+            Of the last frame rendered; empty before the first.
+        """
         if self.result is None:
             return ""
         s = self.result.stats
@@ -234,7 +318,30 @@ def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
 def run(viewer: Viewer, screenshot: Optional[str] = None):
     """Show the viewer in a window (or, with ``screenshot``, render one frame
     offscreen into that file -- viz.screenshot_target -- and return the
-    picture)."""
+    picture).
+
+    Parameters
+    ----------
+    viewer : Viewer
+    screenshot : str, os.PathLike, file object or True, optional
+        PNG, JPEG, BMP or TIFF by the suffix (none: ``.png`` is appended);
+        a file object gets a PNG; True: offscreen, no file.
+
+    Returns
+    -------
+    (h, w, 3|4) uint8 array or pyvista.Plotter
+        With ``screenshot``, the picture; without, the plotter, once
+        ``show`` returns (the window closed).
+
+    Raises
+    ------
+    ImportError
+        pyvista is not installed.
+    ValueError
+        A bad ``screenshot`` name (said before anything is drawn).
+    RuntimeError
+        No ``screenshot`` and no display to open a window on.
+    """
     pv = require_pyvista()
     offscreen = screenshot is not None
     if offscreen:
