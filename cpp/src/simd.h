@@ -414,7 +414,7 @@ ZBUFFER_INLINE __m256i write8_rows(__m256i inside, __m256 z, __m256i id, float* 
 
 // The faces of a vector step (16 or 8 lanes of assembled faces f, the first
 // face `first`) that the vector setup leaves to scalar code: each lane of
-// `large` as its assembled triangle, on_triangle(Triangle), through a
+// `large` as its assembled triangle, on_triangle(ScreenTriangle), through a
 // `Lanes` copy of f made only when there are any; each lane of f.clip by its
 // face index, on_clip(face), for the scalar assembly, which clips.
 template <class Lanes, class Faces, class Mesh, class OnTriangle, class OnClip>
