@@ -1,9 +1,13 @@
-"""The notebooks run: their code cells, executed in order without Jupyter."""
+"""The notebooks run: their code cells, executed in order without Jupyter,
+and every picture a cell shows (its last expression, or what it passes to
+``display``) has more in it than a background."""
 
+import ast
 import json
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from helpers import can_render_offscreen
@@ -26,10 +30,27 @@ def test_notebook_code_cells_run(path, monkeypatch):
             raise RuntimeError("ZBUFFER_REQUIRE_VIZ is set but pyvista cannot render offscreen")
         pytest.skip(f"{path.name} draws with pyvista, which cannot render offscreen here")
     monkeypatch.chdir(path.parent)  # notebooks use paths relative to themselves
-    namespace = {"__name__": "__main__", "display": lambda *args, **kwargs: None}
+    shown = []
+    namespace = {"__name__": "__main__", "display": lambda *args, **kwargs: shown.extend(args)}
     for k, cell in enumerate(c for c in nb["cells"] if c["cell_type"] == "code"):
-        source = "".join(cell["source"])
-        exec(compile(source, f"{path.name}[{k}]", "exec"), namespace)
+        name = f"{path.name}[{k}]"
+        body = ast.parse("".join(cell["source"]), name)
+        last = body.body.pop() if body.body and isinstance(body.body[-1], ast.Expr) else None
+        exec(compile(body, name, "exec"), namespace)
+        if last is not None:  # what Jupyter would show below the cell
+            shown.append(eval(compile(ast.Expression(last.value), name, "eval"), namespace))
+        for value in shown:
+            if type(value).__name__ == "Image" and hasattr(value, "getcolors"):  # PIL
+                assert not_blank(np.asarray(value)), f"{name} shows a blank picture"
+        shown.clear()
+
+
+def not_blank(picture: np.ndarray) -> bool:
+    """More than a background and a caption: no one colour covers 97% of
+    the picture."""
+    flat = picture.reshape(-1, picture.shape[-1]) if picture.ndim == 3 else picture.reshape(-1, 1)
+    _, counts = np.unique(flat, axis=0, return_counts=True)
+    return counts.max() < 0.97 * len(flat)
 
 
 def test_there_are_notebooks():
