@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "setup16.h"
 #include "setup8.h"
@@ -137,6 +138,29 @@ void flush_row(uint64_t* row, int lo, int hi, float* depth, int32_t* ids, bool m
 }
 
 }  // namespace
+
+size_t ScanlineTables::bytes_held() const {
+  size_t bytes = 0;
+  auto add = [&](const auto& v) { bytes += v.capacity() * sizeof(v[0]); };
+  for (const auto* v : {&poly_row_, &poly_table_, &poly_start_, &edge_row_, &edge_start_,
+                        &position_, &active_polys_, &bounds_, &kills_, &gpoly_row_, &gpoly_table_,
+                        &gpoly_start_, &gedge_row_, &gedge_start_, &active_gpolys_})
+    add(*v);
+  for (const auto& v : active_) add(v);
+  for (const auto& v : aedge_) add(v);
+  add(polys_);
+  add(large_);
+  add(edges_);
+  add(edge_table_);
+  add(active_edges_);
+  add(gpolys_);
+  add(gedges_);
+  add(gedge_table_);
+  add(active_gedges_);
+  add(crossings_);
+  add(row_);
+  return bytes;
+}
 
 void ScanlineTables::reset(int width, int height) {
   width_ = width;
@@ -1135,7 +1159,29 @@ void ScanlineTables::render(DepthTarget& target, RenderStats& stats) {
 
 // The Algorithm
 
+namespace {
+thread_local ScanlineTables tables;
+thread_local size_t kept_bytes = kKeptScanlineBytes;
+
+// Gives this thread's tables back if they grew past kept_bytes, when the
+// frame ends or fails (scanline.h, "Memory").
+struct TrimTables {
+  ~TrimTables() {
+    if (tables.bytes_held() > kept_bytes) tables = ScanlineTables();
+  }
+};
+}  // namespace
+
+size_t scanline_tables_held() { return tables.bytes_held(); }
+void limit_kept_scanline_bytes(size_t bytes) { kept_bytes = bytes; }
+
 void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
+  if (input.mesh.n_faces > kMaxScanlineTriangles)
+    throw std::length_error(
+        "algo='scanline' draws at most 2**24 (16,777,216) triangles (its tables take up to about "
+        "550 bytes a triangle), got " + std::to_string(input.mesh.n_faces) +
+        ": use 'zbuffer', 'hiz' or a tree algorithm for meshes this large");
+  const TrimTables trim;
   const Viewport vp(target.width, target.height);
 
   // Vertex stage: shared with every algorithm, each vertex once.
@@ -1143,7 +1189,6 @@ void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats&
 
   // Assembly into the tables, then the row walk.
   const auto t0 = Clock::now();
-  thread_local ScanlineTables tables;
   tables.reset(target.width, target.height);
   auto add_faces = [&](int64_t begin, int64_t end) {
     tables.add_faces(input.mesh, input.mvp, vp, screen, begin, end, input.cull_backfaces, stats);

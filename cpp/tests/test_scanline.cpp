@@ -1,10 +1,13 @@
 // The scanline algorithm's tables and row walk: the vector paths (faces
 // assembled and set up 16 at a time, the active polygon list drawn 16
 // polygons at a time) against the scalar ones and the plain raster loop.
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "check.h"
 #include "frame.h"
+#include "zbuffer/algorithms.h"
 #include "zbuffer/raster.h"
 #include "zbuffer/scanline.h"
 
@@ -133,9 +136,46 @@ void test_vector_tables_equal_scalar_tables() {
   }
 }
 
+// Memory is bounded (scanline.h, "Memory"): a mesh of more faces than
+// kMaxScanlineTriangles is refused before any of it is read, and a thread
+// keeps its tables for the next frame only up to its limit.
+void test_scanline_memory_is_bounded() {
+  const Algorithm& scanline = *find_algorithm("scanline");
+  const TestMesh m = make_mesh(7, false, 96, 64);
+  RenderInput in;
+  in.mesh = m.view();
+  for (int k = 0; k < 4; ++k) in.mvp[5 * k] = 1.0;
+  Frame frame(96, 64);
+  RenderStats stats;
+  render(scanline, in, frame.target, stats);
+  const size_t held = scanline_tables_held();
+  CHECK(held > 0 && held <= kKeptScanlineBytes);  // kept for the next frame
+
+  RenderInput huge = in;  // its faces are never read: only its count
+  huge.mesh.n_faces = kMaxScanlineTriangles + 1;
+  bool refused = false;
+  try {
+    RenderStats s;
+    render(scanline, huge, frame.target, s);
+  } catch (const std::length_error& e) {
+    refused = std::string(e.what()).find("at most 2**24 (16,777,216) triangles") != std::string::npos;
+  }
+  CHECK(refused);
+  CHECK(scanline_tables_held() == held);
+
+  limit_kept_scanline_bytes(held - 1);  // this frame's tables are over the limit: given back
+  RenderStats again;
+  render(scanline, in, frame.target, again);
+  CHECK(scanline_tables_held() == 0 && again.rasterized == stats.rasterized);
+  limit_kept_scanline_bytes(kKeptScanlineBytes);
+  render(scanline, in, frame.target, again);
+  CHECK(scanline_tables_held() == held);
+}
+
 }  // namespace
 
 int main() {
   test_vector_tables_equal_scalar_tables();
+  test_scanline_memory_is_bounded();
   return check_report("test_scanline");
 }

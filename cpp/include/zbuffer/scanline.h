@@ -186,6 +186,9 @@ class ScanlineTables {
   // (already cleared to +inf and -1: rows are written where drawn only).
   void render(DepthTarget& target, RenderStats& stats);
 
+  // Bytes the tables' arrays hold (their capacity), between frames too.
+  size_t bytes_held() const;
+
  private:
   void add_edge(int64_t y_min, int64_t y_max, int64_t step_x, int64_t bias, int k, int64_t ya,
                 int64_t yb, int32_t poly, RenderStats& stats);
@@ -346,5 +349,24 @@ class ScanlineTables {
   int32_t* image_ids_ = nullptr;     // ... and ids
   bool drawn_in_image_ = false;      // the raster core drew into it this row
 };
+
+// Memory. The tables take 300-550 bytes for each triangle inserted (a
+// record, three edge entries, their sorted copies, the active lists'
+// fields, and the arrays' growth), so render_scanline refuses
+// (std::length_error) a mesh of more than kMaxScanlineTriangles faces (as
+// triangles: a polygon of n corners counts n - 2), up to about 9 GB of
+// tables, before touching it. Each thread
+// keeps its tables for its next frame, whose arrays then need neither
+// growing nor faulting in (giving them back after every frame made the
+// 5 x 5 x 10 spot grid 3.6x slower): up to kKeptScanlineBytes; tables that
+// grew past that (frames of more than about 3.5 million triangles inserted)
+// are given back when the frame ends, or fails.
+constexpr int64_t kMaxScanlineTriangles = int64_t(1) << 24;
+constexpr size_t kKeptScanlineBytes = size_t(1) << 30;
+
+// The bytes this thread's tables hold between frames, and (for tests) a
+// lower limit than kKeptScanlineBytes for this thread.
+size_t scanline_tables_held();
+void limit_kept_scanline_bytes(size_t bytes);
 
 }  // namespace zbuffer
