@@ -190,3 +190,28 @@ def test_vertex_colours_written_0_255_and_records_of_mixed_lengths(tmp_path):
     data = read_obj(str(path))
     np.testing.assert_array_equal(data.vertices, [[0, 0, 0], [1, 2, 3], [4, 5, 6], [7, 8, 9]])
     assert data.vertex_colors is None
+
+
+def test_concave_polygons_beyond_the_ear_clipping_limit_are_refused(tmp_path):
+    # A star: every other corner reflex. Convex polygons of any size are fans
+    # (linear time); a concave one over MAX_CONCAVE_CORNERS would take
+    # minutes to ear clip, so it is refused, by name, without trying.
+    from zbuffer.polygons import MAX_CONCAVE_CORNERS
+
+    def star(n):
+        a = 2 * np.pi * np.arange(n) / n
+        r = np.where(np.arange(n) % 2 == 0, 1.0, 0.9)
+        return np.column_stack([r * np.cos(a), r * np.sin(a), np.zeros(n)])
+
+    n = MAX_CONCAVE_CORNERS + 2
+    with pytest.raises(ValueError, match=f"polygon 0 has {n:,} corners and is not convex"):
+        triangulate_polygons(star(n), np.array([n]), np.arange(n))
+    circle = star(n)[:, :2] / np.linalg.norm(star(n)[:, :2], axis=1, keepdims=True)
+    faces, _ = triangulate_polygons(np.column_stack([circle, np.zeros(n)]), np.array([n]),
+                                    np.arange(n))
+    assert len(faces) == n - 2  # convex: a fan, however many corners
+    path = tmp_path / "star.obj"
+    path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in star(n))
+                    + "f " + " ".join(str(k + 1) for k in range(n)) + "\n")
+    with pytest.raises(ValueError, match="not convex"):
+        zbuffer.load(path)

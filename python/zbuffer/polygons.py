@@ -71,6 +71,12 @@ def file_rgb(rgb: np.ndarray, integers: bool, what: str) -> np.ndarray:
 
 # Triangulation
 
+# Ear clipping takes time quadratic in a concave polygon's corners (about
+# 4 s at this limit, for a comb whose every other corner is reflex): larger
+# concave polygons are refused rather than triangulated for minutes.
+MAX_CONCAVE_CORNERS = 2**15
+
+
 def _newell_normals(p: np.ndarray) -> np.ndarray:
     """(..., 3) normals of polygons with corners (..., n, 3) (Newell's
     method), of length twice their areas."""
@@ -150,8 +156,9 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
 
     Convex polygons become fans from their first corner (in the corners'
     order, so triangles keep the polygon's winding); other polygons are ear
-    clipped in their best-fit plane. A fan of a concave polygon would cover
-    area outside it.
+    clipped in their best-fit plane (time quadratic in the corners: up to
+    :data:`MAX_CONCAVE_CORNERS` of them). A fan of a concave polygon would
+    cover area outside it.
 
     Parameters
     ----------
@@ -168,6 +175,12 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
         of ``sizes - 2``.
     face_polygon : (M,) int64
         The polygon each triangle came from.
+
+    Raises
+    ------
+    ValueError
+        A polygon that is not convex has more than
+        :data:`MAX_CONCAVE_CORNERS` corners.
     """
     sizes = np.asarray(sizes, dtype=np.int64)
     indices = np.asarray(indices, dtype=np.int64)
@@ -195,6 +208,12 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
         normal = _newell_normals(p)
         turn = np.cross(p - np.roll(p, 1, axis=1), q - p)  # (P, n, 3)
         convex = (np.einsum("pnk,pk->pn", turn, normal) >= 0.0).all(axis=1)
+        if n > MAX_CONCAVE_CORNERS and not convex.all():
+            raise ValueError(
+                f"polygon {int(polys[np.argmin(convex)])} has {n:,} corners and is not convex: "
+                f"concave polygons are triangulated (by ear clipping, in time quadratic in the "
+                f"corners) up to {MAX_CONCAVE_CORNERS:,} corners; split it, or triangulate it "
+                "before loading")
         k = np.arange(1, n - 1)
         fan = np.stack([np.repeat(idx[convex, :1], n - 2, axis=1),
                         idx[convex][:, k], idx[convex][:, k + 1]], -1)
