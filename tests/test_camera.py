@@ -189,3 +189,23 @@ def test_auto_camera_checks_its_aspect():
                                  (0, ValueError, "aspect must be positive and finite")]:
         with pytest.raises(error, match=match):
             mesh.auto_camera(aspect)
+
+
+def test_projection_matrices_near_float_limits():
+    # 2 far near overflowed for far near float's largest, though the entry
+    # itself, 2 near far / (far - near), is about 2 near: computed in another
+    # order there, the camera renders (as the reference does).
+    mesh = scenes.default_scene()
+    cam = zbuffer.Camera.look_at((0, 0, 5), (0, 0, 0), near=1e-3, far=1e308)
+    assert np.isfinite(cam.projection_matrix(4 / 3)).all()
+    res = zbuffer.render(mesh, camera=cam, width=64, height=48, shading="none")
+    ref = zbuffer.reference.render(mesh, camera=cam, width=64, height=48, shading="none")
+    assert (res.triangle_id >= 0).any()
+    np.testing.assert_array_equal(res.depth, ref.depth)
+    np.testing.assert_array_equal(res.triangle_id, ref.triangle_id)
+    # An entry truly beyond float range names the camera's numbers.
+    tiny = zbuffer.Camera.look_at((0, 0, 5), (0, 0, 0), projection="orthographic", near=1.0,
+                                  far=10.0, ortho_height=1e-320)
+    with pytest.raises(ValueError, match=r"beyond float range \(near=1.0, far=10.0, "
+                                         r"ortho_height=1e-320"):
+        zbuffer.render(mesh, camera=tiny, width=64, height=48)

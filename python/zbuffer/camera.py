@@ -386,7 +386,8 @@ class Camera:
             ``near`` or ``far`` unset, or ``ortho_height`` unset for an
             orthographic camera (see :meth:`resolve`); a perspective
             ``near`` and ``far`` so small that the matrix's
-            ``2 far near / (far - near)`` underflows to 0.
+            ``2 far near / (far - near)`` underflows to 0; any entry
+            beyond float range (near and far, or ``ortho_height``, named).
         """
         if self.near is None or self.far is None:
             raise ValueError("near/far are not set: call camera.resolve(vertices) first")
@@ -398,6 +399,8 @@ class Camera:
             m[1, 1] = t
             m[2, 2] = -(f + n) / (f - n)
             m[2, 3] = -2.0 * f * n / (f - n)
+            if not math.isfinite(m[2, 3]):  # (2 far overflowed: the same value, in another order)
+                m[2, 3] = -2.0 * n * (f / (f - n))
             m[3, 2] = -1.0
             if m[2, 3] == 0.0:
                 raise ValueError(f"near={n!r} and far={f!r} are too small for double precision "
@@ -411,6 +414,12 @@ class Camera:
             m[2, 2] = -2.0 / (f - n)
             m[2, 3] = -(f + n) / (f - n)
             m[3, 3] = 1.0
+        if not np.isfinite(m).all():
+            shape = (f"fov_y={self.fov_y!r}" if self.projection == "perspective"
+                     else f"ortho_height={self.ortho_height!r}")
+            raise ValueError(f"this camera's projection matrix has an entry beyond float range "
+                             f"(near={n!r}, far={f!r}, {shape}, aspect {aspect!r}): bring them, "
+                             "and the scene, into a smaller range")
         return m
 
     def mvp(self, width: int, height: int) -> np.ndarray:
