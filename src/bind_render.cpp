@@ -18,6 +18,7 @@
 #include "zbuffer/algorithms.h"
 #include "zbuffer/mesh_checks.h"
 #include "zbuffer/mesh_order.h"
+#include "zbuffer/scanline.h"
 #include "zbuffer/zpyramid.h"
 
 namespace zbuffer_py {
@@ -175,6 +176,7 @@ py::list algorithms_with(bool zbuffer::Algorithm::*flag) {
 }  // namespace
 
 void bind_render(py::module_& m) {
+  m.attr("MAX_SCANLINE_TRIANGLES") = zbuffer::kMaxScanlineTriangles;
   m.def(
       "algorithms",
       [] {

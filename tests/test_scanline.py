@@ -113,3 +113,17 @@ def test_depth_storage_is_one_row(procedural_scenes, size):
     assert plain.stats["depth_storage_bytes"] == 4 * w * h
     np.testing.assert_array_equal(scan.triangle_id, plain.triangle_id)
     np.testing.assert_array_equal(scan.depth, plain.depth)
+
+
+def test_meshes_beyond_the_scanline_limit_are_refused_before_preparing():
+    # Its tables take up to ~550 bytes a triangle: more than 2**24 triangles
+    # are refused, by the package before it prepares (sorts and copies) the
+    # mesh, which a second render would do, and by the core.
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    F = np.tile(np.array([[0, 1, 2]], np.int32), (zbuffer._core.MAX_SCANLINE_TRIANGLES + 1, 1))
+    mesh = zbuffer.Mesh(V, F)
+    for _ in range(2):
+        with pytest.raises(ValueError, match=r"algo='scanline' draws at most 2\*\*24 "
+                                             r"\(16,777,216\) triangles"):
+            zbuffer.render(mesh, algo="scanline", width=8, height=8)
+    assert mesh._visit is None  # not prepared

@@ -16,6 +16,7 @@ MAX_OCTREE_DEPTH: int
 DEFAULT_OCTREE_LEAF_SIZE: int
 DEFAULT_OCTREE_MAX_DEPTH: int
 DEFAULT_BVH_LEAF_SIZE: int
+MAX_SCANLINE_TRIANGLES: int
 
 class ObjectTree:
     """A built octree or BVH with the state of its last frame."""

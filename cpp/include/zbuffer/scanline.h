@@ -355,7 +355,8 @@ class ScanlineTables {
 // fields, and the arrays' growth), so render_scanline refuses
 // (std::length_error) a mesh of more than kMaxScanlineTriangles faces (as
 // triangles: a polygon of n corners counts n - 2), up to about 9 GB of
-// tables, before touching it. Each thread
+// tables, before reading any of it (the Python package checks the same
+// before preparing the mesh: _core.MAX_SCANLINE_TRIANGLES). Each thread
 // keeps its tables for its next frame, whose arrays then need neither
 // growing nor faulting in (giving them back after every frame made the
 // 5 x 5 x 10 spot grid 3.6x slower): up to kKeptScanlineBytes; tables that
