@@ -315,6 +315,7 @@ def test_combine_colours_parts_as_render_takes_colours():
     mesh = scenes.combine([tri, two], colors=[(255, 0, 0), (0.0, 0.5, 1.0)])
     np.testing.assert_array_equal(mesh.face_colors,
                                   np.array([[1, 0, 0], [0, 0.5, 1], [0, 0.5, 1]], np.float32))
+    assert scenes.combine([tri, two], colors=None).face_colors is None
     with pytest.raises(ValueError, match="colors: one per part, got 1 for 2 parts"):
         scenes.combine([tri, two], colors=[(255, 0, 0)])
     with pytest.raises(ValueError, match=r"integer colors\[1\] must lie in 0-255"):

@@ -243,8 +243,8 @@ def combine(parts: Sequence[Part], colors: Sequence[Sequence[float]] = (),
     ----------
     parts : sequence of ((N_i, 3) array_like of float, (M_i, 3) array_like of int)
         Each part's faces index its own vertices.
-    colors : sequence of (3,) array_like of int (0-255) or float (0-1)
-        One RGB colour per part, given to all its faces; empty: no colours.
+    colors : sequence of (3,) array_like of int (0-255) or float (0-1), optional
+        One RGB colour per part, given to all its faces; empty or None: no colours.
     name : str
 
     Returns
@@ -267,7 +267,7 @@ def combine(parts: Sequence[Part], colors: Sequence[Sequence[float]] = (),
         faces.append(np.asarray(f, np.int64) + offset)
         offset += len(v)
     face_colors = None
-    if len(colors):
+    if colors is not None and len(colors):
         if len(colors) != len(parts):
             raise ValueError(f"colors: one per part, got {len(colors)} for {len(parts)} parts")
         rgb = [one_rgb(c, f"colors[{k}]") for k, c in enumerate(colors)]
