@@ -187,33 +187,40 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
     if len(sizes) and (sizes == 3).all():  # triangles only (most meshes): as they are
         return indices.reshape(-1, 3), np.arange(len(sizes), dtype=np.int64)
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]) if len(sizes) else sizes
-    faces: List[np.ndarray] = []
-    owners: List[np.ndarray] = []
-    for n in np.unique(sizes):
+
+    def group(n):  # the polygons of n corners, their vertex indices (P, n), scaled corners
         polys = np.flatnonzero(sizes == n)
-        corner = starts[polys, None] + np.arange(n)       # (P, n) positions in indices
-        idx = indices[corner]                              # (P, n) vertex indices
-        if n == 3:
-            faces.append(idx)
-            owners.append(polys)
-            continue
-        # Convexity: every corner turns the same way as the polygon's normal.
-        # Each polygon is scaled by a power of two first (exact: the same
+        idx = indices[starts[polys, None] + np.arange(n)]
+        # Each polygon is scaled by a power of two (exact: the same
         # decisions), so that no product below -- up to the fourth power of
         # the coordinates -- underflows or overflows: near 1e-80 or 1e77 a
         # concave polygon passed for convex and became a fan, and near 1e154
         # the ear clipping found no ear.
-        p = power_scaled(vertices[idx], axis=(1, 2))       # (P, n, 3)
-        q = np.roll(p, -1, axis=1)
-        normal = _newell_normals(p)
-        turn = np.cross(p - np.roll(p, 1, axis=1), q - p)  # (P, n, 3)
-        convex = (np.einsum("pnk,pk->pn", turn, normal) >= 0.0).all(axis=1)
-        if n > MAX_CONCAVE_CORNERS and not convex.all():
+        return polys, idx, power_scaled(vertices[idx], axis=(1, 2))
+
+    def convexity(p):  # every corner turns the same way as the polygon's normal
+        turn = np.cross(p - np.roll(p, 1, axis=1), np.roll(p, -1, axis=1) - p)  # (P, n, 3)
+        return (np.einsum("pnk,pk->pn", turn, _newell_normals(p)) >= 0.0).all(axis=1)
+
+    for n in np.unique(sizes[sizes > MAX_CONCAVE_CORNERS]):  # refused before any is clipped
+        polys, _, p = group(n)
+        convex = convexity(p)
+        if not convex.all():
             raise ValueError(
                 f"polygon {int(polys[np.argmin(convex)])} has {n:,} corners and is not convex: "
                 f"concave polygons are triangulated (by ear clipping, in time quadratic in the "
-                f"corners) up to {MAX_CONCAVE_CORNERS:,} corners; split it, or triangulate it "
-                "before loading")
+                f"corners) up to {MAX_CONCAVE_CORNERS:,} corners each; split it, or triangulate "
+                "it before loading")
+    faces: List[np.ndarray] = []
+    owners: List[np.ndarray] = []
+    for n in np.unique(sizes):
+        if n == 3:
+            polys = np.flatnonzero(sizes == 3)
+            faces.append(indices[starts[polys, None] + np.arange(3)])
+            owners.append(polys)
+            continue
+        polys, idx, p = group(n)
+        convex = convexity(p)
         k = np.arange(1, n - 1)
         fan = np.stack([np.repeat(idx[convex, :1], n - 2, axis=1),
                         idx[convex][:, k], idx[convex][:, k + 1]], -1)
