@@ -1,10 +1,12 @@
-"""The notebooks run: their code cells, executed in order without Jupyter,
-and every picture a cell shows (its last expression, or what it passes to
-``display``) has more in it than a background."""
+"""The notebooks run: their code cells, executed in order without Jupyter;
+every picture a cell shows (its last expression, or what it passes to
+``display``) has more in it than a background, and every matplotlib figure
+it draws has something plotted in each of its panels."""
 
 import ast
 import json
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +45,14 @@ def test_notebook_code_cells_run(path, monkeypatch):
             if type(value).__name__ == "Image" and hasattr(value, "getcolors"):  # PIL
                 assert not_blank(np.asarray(value)), f"{name} shows a blank picture"
         shown.clear()
+        plt = sys.modules.get("matplotlib.pyplot")
+        for number in plt.get_fignums() if plt else []:  # (Jupyter shows every open figure)
+            figure = plt.figure(number)
+            for ax in figure.axes:
+                drawn = [a for a in ax.lines + ax.patches + ax.collections + ax.images
+                         if not (hasattr(a, "get_ydata") and np.isnan(a.get_ydata()).all())]
+                assert drawn, f"{name} draws an empty panel {ax.get_title()!r}"
+            plt.close(figure)
 
 
 def not_blank(picture: np.ndarray) -> bool:

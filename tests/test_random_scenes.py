@@ -95,14 +95,19 @@ def equal_or_refused_alike(mesh, camera, width, height, cull) -> bool:
     return False
 
 
-def test_cameras_the_matrices_cannot_hold_are_refused_alike():
+def test_cameras_near_float_limits_draw_or_are_refused_alike():
     mesh = zbuffer.scenes.random_soup(30, seed=4)
     camera = zbuffer.Camera.look_at((0, 0, 5), (0, 0, 0), projection="orthographic",
                                     near=1.0, far=10.0, ortho_height=1e-320)
-    assert equal_or_refused_alike(mesh, camera, 17, 9, False)
-    # From 1e200 and 1e300 away the matrices hold (2 near far / (far - near)
-    # is computed without overflowing 2 near far): drawn as the reference
-    # draws them (the mesh, a tiny part of the view, covers no pixel centre).
+    assert equal_or_refused_alike(mesh, camera, 17, 9, False)  # a matrix beyond float range
+    # Matrices that hold, though 2 near far overflows (the entry is computed
+    # in another order): drawn as the reference draws them -- the default
+    # scene with far at 1e308 (pixels drawn), and the soup from 1e200 and
+    # 1e300 away (a tiny part of the view: no pixel centre covered).
+    scene = zbuffer.scenes.default_scene()
+    camera = zbuffer.Camera.look_at((0, 0, 5), (0, 0, 0), near=1e-3, far=1e308)
+    assert not equal_or_refused_alike(scene, camera, 64, 48, False)
+    assert (zbuffer.render(scene, camera=camera, width=64, height=48).triangle_id >= 0).sum() > 500
     for eye in [(0.0, 0.0, 1e200), (1e300, 1e300, 0.0)]:
         camera = zbuffer.Camera.look_at(eye, (0, 0, 0))
         assert not equal_or_refused_alike(mesh, camera, 17, 9, False)
