@@ -53,7 +53,8 @@ def id_colors(triangle_id: np.ndarray, seed: int = 0) -> np.ndarray:
 
     Each id's colour comes from a hash of it (stable across renders), with 7
     bits a channel kept light: the first 100,000 ids all differ, but among
-    more some share a colour (7% of the first million).
+    more some share a colour (6.7% of the first million ids repeat an
+    earlier id's colour).
 
     Parameters
     ----------
