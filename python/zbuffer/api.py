@@ -118,8 +118,10 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
         also record where the pyramid culled, cell by cell, in
         ``RenderResult.culls`` (for :func:`zbuffer.viz.show_pyramid`). Costs
         a little time per culled triangle and an int64 count per pyramid
-        cell (about 11 bytes per pixel: the core counts into the result's
-        arrays); ValueError for other algorithms.
+        cell (about 11 bytes per pixel of address space, the core counting
+        into the result's arrays; memory is used only where a count is
+        made: zeroed pages untouched stay unallocated); ValueError for other
+        algorithms.
     out : RenderResult, or tuple of (H, W) float32, (H, W) int32 [, (H, W, 3) uint8], optional
         Arrays to render into instead of new ones: a result of an earlier
         render of the same size (its ``depth``, ``triangle_id`` and, when

@@ -160,7 +160,8 @@ class ZPyramid {
 // result arrays: counted in place, handed to numpy without a copy). Good:
 // a test's counts are added where it read, whatever level that was, and
 // the display needs no conversion. Bad: 8 bytes a cell over all levels,
-// about 11 bytes a pixel of the image, while a render records.
+// about 11 bytes a pixel of the image, while a render records (the binding
+// allocates them as fresh zero pages, resident only where counted).
 class CullMap {
  public:
   // Counts in arrays from `allocate(width, height)`, called once per level k
