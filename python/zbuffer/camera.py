@@ -14,7 +14,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .checks import as_number, as_reals, check_choice, check_index
+from .checks import as_finite_reals, as_number, check_choice, check_index
 
 __all__ = ["Camera"]
 
@@ -24,15 +24,6 @@ PROJECTIONS = ("perspective", "orthographic")
 # The smallest perspective near plane: the core treats clip-space w below
 # MIN_CLIP_W (1e-300) as at the eye, and w = near on the near plane.
 MIN_NEAR = 1e-290
-
-
-def _vec3(value, name: str) -> np.ndarray:
-    v = as_reals(name, value, "3 numbers")
-    if v.shape != (3,):
-        raise ValueError(f"{name} must be 3 numbers, got shape {v.shape}")
-    if not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
 
 
 def _unit(v: np.ndarray) -> Tuple[np.ndarray, float]:
@@ -135,9 +126,9 @@ class Camera:
     far: Optional[float] = None
 
     def __post_init__(self):
-        eye = _vec3(self.eye, "eye")
-        target = _vec3(self.target, "target")
-        up = _vec3(self.up, "up")
+        eye = as_finite_reals("eye", self.eye, 3)
+        target = as_finite_reals("target", self.target, 3)
+        up = as_finite_reals("up", self.up, 3)
         object.__setattr__(self, "eye", tuple(float(x) for x in eye))
         object.__setattr__(self, "target", tuple(float(x) for x in target))
         object.__setattr__(self, "up", tuple(float(x) for x in up))
@@ -260,7 +251,7 @@ class Camera:
             Non-numeric arguments.
         """
         center, radius = bounding_sphere(vertices)
-        d, norm = _unit(_vec3(direction, "direction"))
+        d, norm = _unit(as_finite_reals("direction", direction, 3))
         if norm == 0.0:
             raise ValueError("direction must not be the zero vector")
         aspect = _positive(aspect, "aspect")

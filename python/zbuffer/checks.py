@@ -11,8 +11,8 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["as_finite", "as_number", "as_reals", "check_choice", "check_flag", "check_index", "check_int",
-           "integer_dtype", "number_dtype"]
+__all__ = ["as_finite", "as_finite_reals", "as_number", "as_reals", "check_choice", "check_flag",
+           "check_index", "check_int", "integer_dtype", "number_dtype"]
 
 
 def check_choice(name: str, value, choices) -> str:
@@ -113,3 +113,17 @@ def as_reals(name: str, value, what: str) -> np.ndarray:
         raise ValueError(f"{name} must be finite, got {value!r}") from None
     except (TypeError, ValueError):
         raise TypeError(f"{name} must be {what}, got {value!r}") from None
+
+
+def as_finite_reals(name: str, value, size: int, broadcast: bool = False) -> np.ndarray:
+    """:func:`as_reals` as ``size`` finite numbers, a (size,) float64 array
+    (``broadcast``: one number stands for all): ValueError for another
+    shape, a NaN or an infinity."""
+    v = as_reals(name, value, f"{size} numbers")
+    if broadcast and v.ndim == 0:
+        v = np.full(size, float(v))
+    if v.shape != (size,):
+        raise ValueError(f"{name} must be {size} numbers, got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v

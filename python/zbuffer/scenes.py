@@ -10,7 +10,7 @@ from typing import List, Sequence, Tuple
 
 import numpy as np
 
-from .checks import as_finite, as_reals, check_int
+from .checks import as_finite, as_finite_reals, check_int
 from .load import as_mesh
 from .mesh import Mesh, one_rgb
 
@@ -53,19 +53,8 @@ def _triangles(what: str, n: int) -> None:
 def _numbers(name: str, value, size: int = 1, broadcast: bool = False):
     """``value`` as a finite float (``size`` 1) or ``size`` finite floats
     (``broadcast``: one number stands for all), checked as Camera's are
-    (checks.as_finite, as_reals): TypeError for what is not real numbers
-    (bools among them), ValueError for the wrong count or a NaN or infinite
-    one."""
-    if size == 1:
-        return as_finite(name, value)
-    v = as_reals(name, value, f"{size} numbers")
-    if broadcast and v.ndim == 0:
-        v = np.full(size, float(v))
-    if v.shape != (size,):
-        raise ValueError(f"{name} must be {size} numbers, got shape {v.shape}")
-    if not np.isfinite(v).all():
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
+    (checks.as_finite, as_finite_reals)."""
+    return as_finite(name, value) if size == 1 else as_finite_reals(name, value, size, broadcast)
 
 
 def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Part:
