@@ -164,6 +164,70 @@ def test_triangulation_of_a_long_spiral_covers_it_exactly(turns):
                                rtol=1e-12)
 
 
+def quads_2d(seed, count=4000):
+    """Quads in 2D that exercise every branch of ear clipping: random
+    corners (darts, bowties, convex ones), corners on a small integer grid
+    (collinear and repeated corners, a corner on an edge), and a few with
+    NaN, infinite and huge coordinates."""
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(count, 4, 2))
+    q[: count // 2] = rng.integers(-2, 3, size=(count // 2, 4, 2))
+    q[-30:-20, rng.integers(4)] = np.nan
+    q[-20:-10, rng.integers(4), rng.integers(2)] = np.inf
+    q[-10:] *= 1e200
+    return q
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_quads_are_ear_clipped_all_at_once_as_one_at_a_time(seed):
+    # _ear_clip_quads, the vectorised ear clipping of many quads (concave
+    # quads are common), cuts every quad into the triangles _ear_clip cuts
+    # it into, the fan of self-intersecting and degenerate ones included.
+    from zbuffer.polygons import _ear_clip, _ear_clip_quads
+
+    q = quads_2d(seed)
+    with np.errstate(all="ignore"):  # inf - inf in the last rows
+        expected = np.array([_ear_clip(quad) for quad in q])
+        np.testing.assert_array_equal(_ear_clip_quads(q), expected)
+    # Each branch was taken: an ear at each corner, and no ear at all.
+    firsts = {tuple(t[0]) for t in expected}
+    assert {(3, 0, 1), (0, 1, 2), (1, 2, 3), (2, 3, 0)} <= firsts
+
+
+def test_concave_quads_among_other_polygons_keep_their_polygons_order():
+    # Darts in random planes among triangles, convex quads and concave
+    # pentagons: each polygon's triangles come in its place, and a dart is
+    # cut along its inner diagonal (a fan from a convex corner would cover
+    # area outside it).
+    rng = np.random.default_rng(5)
+    dart = np.array([[0, 0, 0], [2, 1, 0], [0, 2, 0], [0.5, 1, 0]])
+    sizes, points = [], []
+    for k in range(60):
+        n = [3, 4, 4, 5][k % 4]
+        if n == 4 and k % 8 == 1:
+            p = star(4, k, concave=False)
+        elif n == 4:
+            rot, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            p = np.roll(dart, rng.integers(4), axis=0) @ rot.T + rng.normal(size=3)
+        else:
+            p = star(n, k, concave=n == 5)
+        sizes.append(n)
+        points.append(p)
+    p = np.concatenate(points)
+    sizes = np.array(sizes)
+    faces, owner = triangulate_polygons(p, sizes, np.arange(len(p)))
+    np.testing.assert_array_equal(owner, np.repeat(np.arange(len(sizes)), sizes - 2))
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    for j, n in enumerate(sizes):
+        mine = faces[owner == j]
+        alone, _ = triangulate_polygons(points[j], np.array([n]), np.arange(n))
+        np.testing.assert_array_equal(mine, alone + starts[j])
+        tri = p[mine]
+        areas = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        np.testing.assert_allclose(np.linalg.norm(areas, axis=1).sum(),
+                                   np.linalg.norm(polygon_area_normal(points[j])), rtol=1e-12)
+
+
 @pytest.mark.models
 def test_concave_plane_is_not_triangulated_as_a_fan():
     mesh = zbuffer.load(model_path("concave_plane.obj"))

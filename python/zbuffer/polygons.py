@@ -150,6 +150,42 @@ def _ear_clip(p2: np.ndarray) -> List[Tuple[int, int, int]]:
     return triangles
 
 
+# The two triangles _ear_clip cuts a quad into, by the first corner v
+# (0-3) that is an ear: the ear (v - 1, v, v + 1), then a fan of the rest
+# from v - 1; row 4, no ear (a self-intersecting or degenerate quad): the
+# fan from corner 0 that _ear_clip falls back to.
+_QUAD_TRIANGLES = np.array([[[3, 0, 1], [3, 1, 2]],
+                            [[0, 1, 2], [0, 2, 3]],
+                            [[1, 2, 3], [1, 3, 0]],
+                            [[2, 3, 0], [2, 0, 1]],
+                            [[0, 1, 2], [0, 2, 3]]], dtype=np.int64)
+
+
+def _ear_clip_quads(p2: np.ndarray) -> np.ndarray:
+    """:func:`_ear_clip` of many quads at once: (Q, 4, 2) corners, each quad
+    counter-clockwise in 2D, to (Q, 2, 3) local indices -- the same
+    triangles, from the same operations on the same numbers (tests hold
+    the two to that).
+
+    In a quad, a corner b that is not reflex is an ear unless the corner
+    opposite it, the only other corner that can lie in the triangle of b
+    and its neighbours, is reflex and lies in it; the first ear in corner
+    order decides the triangles (:data:`_QUAD_TRIANGLES`).
+    """
+    x = p2[..., 0].astype(np.float64)
+    y = p2[..., 1].astype(np.float64)
+    k = np.arange(4)
+    prev, nxt, opp = (k - 1) % 4, (k + 1) % 4, (k + 2) % 4
+    xa, ya, xc, yc, xd, yd = x[:, prev], y[:, prev], x[:, nxt], y[:, nxt], x[:, opp], y[:, opp]
+    reflex = ~((x - xa) * (yc - ya) - (y - ya) * (xc - xa) > 0.0)
+    inside = (((x - xa) * (yd - ya) - (y - ya) * (xd - xa)) >= 0.0) & \
+             (((xc - x) * (yd - y) - (yc - y) * (xd - x)) >= 0.0) & \
+             (((xa - xc) * (yd - yc) - (ya - yc) * (xd - xc)) >= 0.0)
+    ear = ~reflex & ~(reflex[:, opp] & inside)
+    first = np.where(ear.any(axis=1), np.argmax(ear, axis=1), 4)
+    return _QUAD_TRIANGLES[first]
+
+
 def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.ndarray
                          ) -> Tuple[np.ndarray, np.ndarray]:
     """Triangles covering each polygon exactly.
@@ -226,19 +262,28 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
                         idx[convex][:, k], idx[convex][:, k + 1]], -1)
         faces.append(fan.reshape(-1, 3))
         owners.append(np.repeat(polys[convex], n - 2))
-        for j in np.flatnonzero(~convex):
-            corners = idx[j]
-            pts = p[j]
-            nrm = _newell_normals(pts)
-            axis = int(np.argmax(np.abs(nrm)))
-            # Project along the dominant axis onto a right-handed 2D frame
-            # (y, z), (z, x) or (x, y), mirrored if the normal points the
-            # other way: the polygon is then counter-clockwise.
-            p2 = pts[:, [(axis + 1) % 3, (axis + 2) % 3]]
-            if nrm[axis] < 0.0:
-                p2 = p2[:, ::-1]
-            tris = _ear_clip(p2)
-            faces.append(corners[np.array(tris, dtype=np.int64).reshape(-1, 3)])
+        if convex.all():
+            continue
+        concave = np.flatnonzero(~convex)
+        pts = p[concave]
+        nrm = _newell_normals(pts)
+        axis = np.argmax(np.abs(nrm), axis=1)
+        # Project along the dominant axis onto a right-handed 2D frame
+        # (y, z), (z, x) or (x, y), mirrored if the normal points the other
+        # way: the polygon is then counter-clockwise.
+        mirrored = np.take_along_axis(nrm, axis[:, None], axis=1)[:, 0] < 0.0
+        first = np.where(mirrored, axis + 2, axis + 1) % 3
+        second = np.where(mirrored, axis + 1, axis + 2) % 3
+        p2 = np.stack([np.take_along_axis(pts, first[:, None, None], axis=2)[..., 0],
+                       np.take_along_axis(pts, second[:, None, None], axis=2)[..., 0]], -1)
+        if n == 4:  # the common case, all at once
+            tris = _ear_clip_quads(p2)
+            faces.append(np.take_along_axis(idx[concave], tris.reshape(-1, 6), axis=1).reshape(-1, 3))
+            owners.append(np.repeat(polys[concave], 2))
+            continue
+        for j, corners, q in zip(concave, idx[concave], p2):
+            tris = np.array(_ear_clip(q), dtype=np.int64).reshape(-1, 3)
+            faces.append(corners[tris])
             owners.append(np.full(len(tris), polys[j]))
     if not faces:
         return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
