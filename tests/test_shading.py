@@ -347,7 +347,8 @@ def test_per_vertex_colours_of_faces_collinear_within_rounding():
 def test_the_reference_calls_no_compiled_code(monkeypatch, tmp_path, shading):
     # zbuffer.reference is pure numpy: with every module's handle on the
     # compiled core replaced by one that refuses, it renders the same bits
-    # (vertex colours, and polygon faces drawn natively, too).
+    # (vertex colours, and polygon faces drawn natively, too). (The file is
+    # loaded before: zbuffer.load reads most OBJ files with compiled code.)
     import sys
 
     class Refuse:
@@ -361,11 +362,12 @@ def test_the_reference_calls_no_compiled_code(monkeypatch, tmp_path, shading):
                     "f 1 2 3 4 5\nf 2 6 3\n")  # a concave pentagon and a triangle
     cam = zbuffer.Camera.look_at((0.2, 0.3, 3), (0, 0, 0))
     poly_cam = zbuffer.Camera.look_at((1.5, 1, 5), (1.5, 1, 0), fov_y=50)
+    polygons = zbuffer.load(path)
 
     def renders():
         return (zbuffer.reference.render(zbuffer.Mesh(v, f, vertex_colors=colours), camera=cam,
                                          width=40, height=30, shading=shading),
-                zbuffer.reference.render(zbuffer.load(path), camera=poly_cam, width=40,
+                zbuffer.reference.render(polygons, camera=poly_cam, width=40,
                                          height=30, shading=shading, polygons=True))
 
     expected = renders()

@@ -102,3 +102,15 @@ def shade(
     pixels_beyond_faces: bool = False,
     ids_below: int = -1,
 ) -> npt.NDArray[np.uint8]: ...
+def read_obj_records(
+    text: bytes,
+) -> Optional[
+    Tuple[
+        npt.NDArray[np.float64],
+        Optional[npt.NDArray[np.float64]],
+        npt.NDArray[np.int64],
+        npt.NDArray[np.int64],
+    ]
+]: ...
+# (positions, colours as written or None, polygon sizes, indices), or None
+# outside the subset cpp/include/zbuffer/obj_reader.h takes
