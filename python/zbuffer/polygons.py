@@ -238,9 +238,11 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
         turn = np.cross(p - np.roll(p, 1, axis=1), np.roll(p, -1, axis=1) - p)  # (P, n, 3)
         return (np.einsum("pnk,pk->pn", turn, _newell_normals(p)) >= 0.0).all(axis=1)
 
+    tested = {}  # n: (polys, idx, p, convex) of the sizes over the limit, tested first
     for n in np.unique(sizes[sizes > MAX_CONCAVE_CORNERS]):  # refused before any is clipped
-        polys, _, p = group(n)
+        polys, idx, p = group(n)
         convex = convexity(p)
+        tested[n] = polys, idx, p, convex
         if not convex.all():
             raise ValueError(
                 f"polygon {int(polys[np.argmin(convex)])} has {n:,} corners and is not convex: "
@@ -255,8 +257,11 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
             faces.append(indices[starts[polys, None] + np.arange(3)])
             owners.append(polys)
             continue
-        polys, idx, p = group(n)
-        convex = convexity(p)
+        if n in tested:
+            polys, idx, p, convex = tested[n]
+        else:
+            polys, idx, p = group(n)
+            convex = convexity(p)
         k = np.arange(1, n - 1)
         fan = np.stack([np.repeat(idx[convex, :1], n - 2, axis=1),
                         idx[convex][:, k], idx[convex][:, k + 1]], -1)
