@@ -224,3 +224,25 @@ def test_a_results_repr_is_one_line_not_its_arrays():
     drawn = int((res.triangle_id >= 0).sum())
     assert text.startswith(f"<RenderResult 'hiz' 40x30, no image: {drawn:,} pixels drawn, ")
     assert text.endswith(", culls recorded>") and "\n" not in text and "array" not in text
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_unique_rows_is_numpys_unique_of_rows(seed):
+    # Mesh.merged's unique_rows: np.unique(axis=0)'s three arrays, bit for
+    # bit, on rows with many repeats, rows equal but for a column, signed
+    # zeros (-0.0 equals 0.0: the first occurrence is kept) and extra
+    # (colour) columns.
+    from zbuffer.mesh import unique_rows
+
+    rng = np.random.default_rng(seed)
+    n, k = [(1, 3), (50, 3), (5000, 3), (5000, 6), (3000, 1), (4000, 3)][seed]
+    key = rng.integers(-2, 3, size=(n, k)).astype(np.float64) * rng.choice([0.5, 1e-300, 1e300])
+    key[rng.random((n, k)) < 0.2] *= -1.0  # -0.0 where a zero is negated
+    key[rng.random(n) < 0.3] = rng.normal(size=k)
+    expected = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    got = unique_rows(key)
+    for e, g in zip(expected, got):
+        np.testing.assert_array_equal(g, e.reshape(g.shape))
+        assert g.dtype == e.dtype
+    # the first occurrence's bits, signed zeros included
+    np.testing.assert_array_equal(np.signbit(got[0]), np.signbit(expected[0]))
