@@ -9,7 +9,7 @@
 namespace py = pybind11;
 
 namespace zbuffer_py {
-void bind_obj(py::module_& m);
+void bind_readers(py::module_& m);
 void bind_object_tree(py::module_& m);
 void bind_render(py::module_& m);
 void bind_shading(py::module_& m);
@@ -27,5 +27,5 @@ PYBIND11_MODULE(_core, m) {
   zbuffer_py::bind_render(m);
   zbuffer_py::bind_object_tree(m);
   zbuffer_py::bind_shading(m);
-  zbuffer_py::bind_obj(m);
+  zbuffer_py::bind_readers(m);
 }

@@ -114,3 +114,19 @@ def read_obj_records(
 ]: ...
 # (positions, colours as written or None, polygon sizes, indices), or None
 # outside the subset cpp/include/zbuffer/obj_reader.h takes
+def read_off_records(
+    text: bytes,
+) -> Optional[
+    Tuple[
+        npt.NDArray[np.float64],
+        npt.NDArray[np.int64],
+        npt.NDArray[np.int64],
+        Optional[npt.NDArray[np.float64]],
+        bool,
+        Optional[npt.NDArray[np.float64]],
+        bool,
+    ]
+]: ...
+# (positions, polygon sizes, indices, vertex colours as written or None,
+# whether written as floats, face colours or None, whether floats), or None
+# outside the subset cpp/include/zbuffer/off_reader.h takes

@@ -5,6 +5,11 @@ trimesh fan-triangulates an OFF file's polygons as it reads them: a concave
 polygon's fan covers area outside it. Like the OBJ reader (obj.py), this one
 returns the faces as written; :func:`zbuffer.load` triangulates them exactly
 and keeps them for the algorithms that draw polygons natively.
+
+The files of the forms tools write are parsed by compiled code
+(``_core.read_off_records``, cpp/include/zbuffer/off_reader.h); it takes
+only what it reads exactly as the Python reader here does, and leaves the
+rest -- errors included -- to it.
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ from typing import List, Optional
 
 import numpy as np
 
+from . import _core
 from .polygons import PolygonData, file_rgb
 
 __all__ = ["read_off"]
@@ -76,7 +82,25 @@ def read_off(path: str) -> PolygonData:
         vertices.
     """
     with open(path, "rb") as fh:
-        text = fh.read().decode("utf-8", errors="replace").removeprefix("\ufeff")
+        raw = fh.read()
+    # Most files go through the compiled reader of the format's common
+    # subset (cpp/include/zbuffer/off_reader.h): it gives what the reader
+    # below gives, or None -- for anything else, errors included.
+    fast = _core.read_off_records(raw)
+    if fast is not None:
+        vertices, sizes, indices, vertex_rgb, vertex_floats, face_rgb, face_floats = fast
+        return PolygonData(
+            vertices, sizes, indices,
+            None if vertex_rgb is None else file_rgb(vertex_rgb, not vertex_floats, "vertex"),
+            None if face_rgb is None else file_rgb(face_rgb, not face_floats, "face"))
+    return _read_off_text(raw)
+
+
+def _read_off_text(raw: bytes) -> PolygonData:
+    """:func:`read_off` of the file's bytes, in Python: every file the
+    format allows, and the messages for those it does not."""
+    text = raw.decode("utf-8", errors="replace").removeprefix("\ufeff")
+    del raw
     records = []  # (line number, tokens)
     for number, line in enumerate(text.splitlines(), start=1):
         content = line.partition("#")[0]

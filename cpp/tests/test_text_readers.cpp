@@ -1,11 +1,13 @@
-// The OBJ reader's fast path: the records of the common forms, and false
-// for anything outside them (the Python reader's to read; the Python tests
-// hold the two readers to the same data on generated files).
+// The fast paths of the OBJ and OFF readers: the records of the common
+// forms, and false for anything outside them (the Python readers' to read;
+// the Python tests hold each pair of readers to the same data on generated
+// files).
 #include <string>
 #include <vector>
 
 #include "check.h"
 #include "zbuffer/obj_reader.h"
+#include "zbuffer/off_reader.h"
 
 using namespace zbuffer;
 
@@ -51,10 +53,40 @@ void test_anything_else_is_refused() {
   CHECK(takes(std::string(head) + "f 1 2 3 # \xC3\xA9 \\ _\n# \x01\n"));
 }
 
+void test_off_files() {
+  OffRecords r;
+  CHECK(read_off_records("\xEF\xBB\xBF# a square\r\nOFF\r\n4 2 0\r\n0 0 0\r\n1 0 0\r\n"
+                         "1 1 0 # corner\r\n0 1 0\r\n\r\n3 0 1 2 1 0 0\r\n3 0 2 3 0 0.5 1 1\r\n",
+                         r));
+  CHECK((r.positions == std::vector<double>{0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}));
+  CHECK((r.sizes == std::vector<int64_t>{3, 3}));
+  CHECK((r.indices == std::vector<int64_t>{0, 1, 2, 0, 2, 3}));
+  CHECK((r.face_colors == std::vector<double>{1, 0, 0, 0, 0.5, 1}) && r.face_floats);
+  CHECK(r.vertex_colors.empty());
+  // Counts on the header's line, colours per vertex, normals skipped; a
+  // face without a colour drops the faces' colours.
+  CHECK(read_off_records("CNOFF 3 2 0\n0 0 0 0 0 1 255 0 0\n1 0 0 x y z 0 255 0 255\n"
+                         "0 1 0 0 0 1 0 0 255\n3 0 1 2 9 9 9\n3 2 1 0\n",
+                         r));
+  CHECK((r.vertex_colors == std::vector<double>{255, 0, 0, 0, 255, 0, 0, 0, 255}));
+  CHECK(!r.vertex_floats && r.face_colors.empty());
+  for (const char* text :
+       {"", "OFF\n", "OFF\n1 0 0\n", "OFF\n1 0 0\n0 0 0\n0 0 0\n", "OFF\n1 0\n0 0 0\n",
+        "OFF -1 0 0\n", "OFF 1 0 0\n0 0\n", "OFF 1 0 0\n0 0 inf\n", "OFF 3 1 0\n0 0 0\n0 0 0\n"
+        "0 0 0\n3 0 1 3\n", "OFF 3 1 0\n0 0 0\n0 0 0\n0 0 0\n2 0 1\n",
+        "OFF 1 0 0\n0 0 0 # \xC3\xA9\n", "OFF 1 0 0\n0_0 0 0\n", "OFF BINARY\n",
+        "OFF 1 0 0\n0\x0c" "0 0\n", "4OFF 1 0 0\n0 0 0\n", "OFF 99999999999999 0 0\n"}) {
+    const bool taken = read_off_records(text, r);
+    if (taken) std::fprintf(stderr, "taken: %s\n", text);
+    CHECK(!taken);
+  }
+}
+
 }  // namespace
 
 int main() {
   test_common_forms();
   test_anything_else_is_refused();
-  return check_report("test_obj_reader");
+  test_off_files();
+  return check_report("test_text_readers");
 }
