@@ -161,7 +161,8 @@ def test_the_fast_path_takes_the_common_forms():
 @pytest.mark.parametrize("line", [
     "v 1 2 3 \\\n4", "v inf 0 0", "v nan 0 0", "v 1e400 0 0", "v 1_0 0 0", "v 0x10 0 0",
     "\x0cv 1 2 3", "\u00a0v 5 5 5", "v 1\x0b2 3", "v 1 2", "v 1 2 3 4 5", "f 1 2", "f 1 0 2",
-    "f 1 2 9", "f 1 a 2", "v 1 2 3 300 0 0", "vt 0_5 1"])
+    "f 1 2 9", "f 1 a 2", "v 1 2 3 300 0 0", "vt 0_5 1",
+    "f " + "0" * 4300 + "1 2 3"])  # (int() refuses over 4300 digits)
 def test_anything_else_is_left_to_the_python_reader(tmp_path, line):
     # Lines the fast path does not take: read_obj gives the Python reader's
     # data, or raises its error (naming the line).

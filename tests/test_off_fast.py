@@ -160,7 +160,8 @@ def test_the_fast_path_takes_the_common_forms():
     ("0 0 0\n", "inf 0 0\n"), ("0 0 0\n", "0 0 0 # é\n"), ("0 0 0\n", "0_0 0 0\n"),
     ("4 2 0", "4 3 0"), ("4 2 0", "5 2 0"), ("3 0 1 2\n", "3 0 1 4\n"), ("3 0 1 2\n", "2 0 1\n"),
     ("3 0 1 2\n", "3 0 1 2 9 9\n"), ("3 0 1 2\n", "3 0 1 -1\n"), ("OFF", "OFF BINARY"),
-    ("OFF", "COFF"), ("3 0 1 2\n", "3 0 1 2 inf\n"), ("1 1 0\n", "1 1\x0c0\n")])
+    ("OFF", "COFF"), ("3 0 1 2\n", "3 0 1 2 inf\n"), ("1 1 0\n", "1 1\x0c0\n"),
+    ("3 0 1 2\n", "3 0 1 " + "0" * 4300 + "2\n")])  # (int() refuses over 4300 digits)
 def test_anything_else_is_left_to_the_python_reader(tmp_path, change):
     text = "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n"
     raw = text.replace(*change, 1).encode()

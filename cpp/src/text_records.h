@@ -94,12 +94,16 @@ inline bool parse_number(std::string_view word, double& value) {
 }
 
 // An integer [+-]?digits of magnitude at most `largest`, as Python's int()
-// reads it; false for anything else.
+// reads it; false for anything else, and for more than kMaxIntegerDigits
+// digits (leading zeros count: Python's int() refuses over 4300 digits,
+// or as few as 640 as sys.set_int_max_str_digits may set).
+constexpr size_t kMaxIntegerDigits = 20;
 inline bool parse_integer(std::string_view word, int64_t largest, int64_t& value) {
   size_t at = 0;
   const bool negative = !word.empty() && word[0] == '-';
   if (!word.empty() && (word[0] == '+' || word[0] == '-')) ++at;
   if (at == word.size() || skip_digits(word, at) != word.size()) return false;
+  if (word.size() - at > kMaxIntegerDigits) return false;
   int64_t k = 0;
   for (size_t i = at; i < word.size(); ++i) {
     k = 10 * k + (word[i] - '0');

@@ -44,7 +44,7 @@ void test_anything_else_is_refused() {
         "v 0x10 0 0", "v +-1 0 0", "v 1e 0 0", "v . 0 0", "\x0cv 1 2 3", "\xC2\xA0v 1 2 3",
         "v 1\x0b" "2 3", "v 1 2", "v 1 2 3 4 5", "v 1 2 3 4 5 6 7", "f 1 2", "f 1 0 2",
         "f 1 2 4", "f 1 -4 2", "f 1 a 2", "f 1 2x 3", "f 1 2 2147483649", "v 1 2 3 300 0 0",
-        "v 1 2 3 -1 0 0", "vt 0_5 1", "f 1 2 3 \xC3\xA9"}) {
+        "v 1 2 3 -1 0 0", "vt 0_5 1", "f 1 2 3 \xC3\xA9", "f 0000000000000000000001 2 3"}) {
     const bool taken = takes(std::string(head) + line + "\nf 1 2 3\n");
     if (taken) std::fprintf(stderr, "taken: %s\n", line);
     CHECK(!taken);
