@@ -1,7 +1,7 @@
 """Run the benchmark suites and record them: one command.
 
     python benchmarks/run.py                     # every suite -> benchmarks/results/
-    python benchmarks/run.py hiz peers           # some suites (render hiz scaling peers)
+    python benchmarks/run.py hiz peers           # some suites (render hiz scaling peers load)
     python benchmarks/run.py --quick --out DIR   # smoke mode (CI), somewhere else
 
 Suites (each also runs alone, see its docstring):
@@ -18,7 +18,9 @@ Suites (each also runs alone, see its docstring):
   memory (``bench_scaling.py``);
 - ``peers``: Open3D ray casting, VTK and pyrender offscreen rendering on the
   same meshes, camera and pixels, with the agreement of their depth maps and
-  ours (``bench_peers.py``; each peer only where it is installed).
+  ours (``bench_peers.py``; each peer only where it is installed);
+- ``load``: reading mesh files, ``zbuffer.load`` against trimesh, and the
+  text readers with and without their compiled fast paths (``bench_load.py``).
 
 Each suite writes ``<suite>.json`` and ``<suite>.md`` into the output folder
 and prints a progress bar; this script adds ``<date>-<host>.json`` (all of
@@ -41,6 +43,7 @@ import time
 from pathlib import Path
 
 import bench_hiz
+import bench_load
 import bench_models
 import bench_peers
 import bench_render
@@ -49,7 +52,7 @@ import targets
 from common import HERE, new_report
 
 SUITES = {"models": bench_models, "render": bench_render, "hiz": bench_hiz,
-          "scaling": bench_scaling, "peers": bench_peers}
+          "scaling": bench_scaling, "peers": bench_peers, "load": bench_load}
 
 
 def results_markdown(out: Path, record: dict) -> str:

@@ -307,7 +307,7 @@ def find_benchmarks():
 
 
 # The suites of benchmarks/run.py.
-BENCH_SUITES = ("models", "render", "hiz", "scaling", "peers")
+BENCH_SUITES = ("models", "render", "hiz", "scaling", "peers", "load")
 
 
 def _cmd_bench(args) -> int:
