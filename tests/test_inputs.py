@@ -228,11 +228,11 @@ def test_a_results_repr_is_one_line_not_its_arrays():
 
 @pytest.mark.parametrize("seed", range(6))
 def test_unique_rows_is_numpys_unique_of_rows(seed):
-    # Mesh.merged's unique_rows: np.unique(axis=0)'s three arrays, bit for
+    # Mesh.merged's _unique_rows: np.unique(axis=0)'s three arrays, bit for
     # bit, on rows with many repeats, rows equal but for a column, signed
     # zeros (-0.0 equals 0.0: the first occurrence is kept) and extra
     # (colour) columns.
-    from zbuffer.mesh import unique_rows
+    from zbuffer.mesh import _unique_rows as unique_rows
 
     rng = np.random.default_rng(seed)
     n, k = [(1, 3), (50, 3), (5000, 3), (5000, 6), (3000, 1), (4000, 3)][seed]

@@ -194,6 +194,49 @@ def test_quads_are_ear_clipped_all_at_once_as_one_at_a_time(seed):
     assert {(3, 0, 1), (0, 1, 2), (1, 2, 3), (2, 3, 0)} <= firsts
 
 
+def test_concave_polygons_are_clipped_in_the_plane_of_their_largest_normal_component():
+    # triangulate_polygons projects all concave polygons of a size at once
+    # (and clips quads at once): the triangles are those of the projection
+    # written out for one polygon -- the normal's largest component dropped,
+    # the plane mirrored where that component is negative -- and _ear_clip
+    # (convex ones, a few of the stars, are fans).
+    from zbuffer.polygons import _ear_clip, _newell_normals
+
+    rng = np.random.default_rng(11)
+    dart = np.array([[0, 0, 0], [2, 1, 0], [0, 2, 0], [0.5, 1, 0]])
+    polygons = []
+    for k in range(90):
+        n = [4, 5, 6][k % 3]
+        if n == 4:
+            rot, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            p = np.roll(dart, rng.integers(4), axis=0) @ rot.T
+        else:
+            p = star(n, 100 + k)
+        polygons.append(p[::-1] if k % 2 else p)  # both windings
+    sizes = np.array([len(p) for p in polygons])
+    points = np.concatenate(polygons)
+    faces, _ = triangulate_polygons(points, sizes, np.arange(len(points)))
+    expected, start = [], 0
+    concave = 0
+    for p in polygons:
+        nrm = _newell_normals(p)
+        turns = np.cross(p - np.roll(p, 1, axis=0), np.roll(p, -1, axis=0) - p)
+        if (turns @ nrm >= 0.0).all():
+            k = np.arange(1, len(p) - 1)
+            expected.append(np.stack([np.zeros_like(k), k, k + 1], 1) + start)
+            start += len(p)
+            continue
+        concave += 1
+        axis = int(np.argmax(np.abs(nrm)))
+        p2 = p[:, [(axis + 1) % 3, (axis + 2) % 3]]
+        if nrm[axis] < 0.0:
+            p2 = p2[:, ::-1]
+        expected.append(np.array(_ear_clip(p2)) + start)
+        start += len(p)
+    assert concave >= 60
+    np.testing.assert_array_equal(faces, np.concatenate(expected))
+
+
 def test_concave_quads_among_other_polygons_keep_their_polygons_order():
     # Darts in random planes among triangles, convex quads and concave
     # pentagons: each polygon's triangles come in its place, and a dart is

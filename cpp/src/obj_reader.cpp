@@ -38,8 +38,6 @@ bool read_record(std::string_view record, ObjRecords& out, int64_t& colored) {
     if (n != 3 && n != 4 && n != 6) return false;
     out.positions.insert(out.positions.end(), v, v + 3);
     if (n == 6) {
-      for (int c = 3; c < 6; ++c)
-        if (!(v[c] >= 0.0 && v[c] <= 255.0)) return false;
       // (kept only while every vertex so far has colours)
       if (colored == defined) out.colors.insert(out.colors.end(), v + 3, v + 6);
       ++colored;
@@ -75,6 +73,8 @@ bool read_obj_records(std::string_view text, ObjRecords& out) {
   if (!taken) return false;
   const int64_t n = int64_t(out.positions.size() / 3);
   if (colored != n || n == 0) out.colors.clear();
+  for (double c : out.colors)  // (read only when every vertex has one)
+    if (!(c >= 0.0 && c <= 255.0)) return false;
   for (int64_t k : out.indices)
     if (k < 0 || k >= n) return false;
   return true;

@@ -1,31 +1,21 @@
 // The fast path of the ASCII OFF reader (off_reader.h).
 #include "zbuffer/off_reader.h"
 
-#include <array>
-
 #include "text_records.h"
 
 namespace zbuffer {
 
 namespace {
 
-// The words of a line up to its comment, at most kMax of them, or false
-// for a line outside the subset (a `_`, more than kMax words).
-constexpr int kMax = 16;
-struct LineWords {
-  std::array<std::string_view, kMax> word;
+// Up to `most` of the words left into `out`: how many, or most + 1 if more
+// are left.
+int take(text::Words& words, std::string_view* out, int most) {
   int n = 0;
-};
-bool split(std::string_view line, LineWords& out) {
-  line = line.substr(0, line.find('#'));
-  if (line.find('_') != std::string_view::npos) return false;
-  text::Words words(line);
-  out.n = 0;
   for (std::string_view w = words.next(); !w.empty(); w = words.next()) {
-    if (out.n == kMax) return false;
-    out.word[size_t(out.n++)] = w;
+    if (n == most) return most + 1;
+    out[n++] = w;
   }
-  return true;
+  return n;
 }
 
 bool has_point_or_exponent(std::string_view w) {
@@ -44,20 +34,27 @@ bool read_colour(const std::string_view* w, int n, std::vector<double>& rgb, boo
   return true;
 }
 
+// The shortest records a file of so many vertices and faces can hold, in
+// bytes with their line ends: "0 0 0" and "3 0 0 0".
+constexpr int64_t kLeastVertexBytes = 6, kLeastFaceBytes = 8;
+
 class Reader {
  public:
-  // `bytes`: the text's size, a bound on its records.
-  Reader(OffRecords& out, size_t bytes) : out_(out), bytes_(bytes) {}
+  // `bytes`: the text's size, which bounds the counts a file can hold.
+  Reader(OffRecords& out, size_t bytes) : out_(out), bytes_(int64_t(bytes)) {}
 
+  // One line; false outside the subset.
   bool line(std::string_view line) {
-    LineWords w;
-    if (!split(line, w)) return false;
-    if (w.n == 0) return true;
+    line = line.substr(0, line.find('#'));
+    if (line.find('_') != std::string_view::npos) return false;
+    text::Words words(line);
+    const std::string_view first = words.next();
+    if (first.empty()) return true;  // (blank)
     switch (stage_) {
-      case kHeader: return header(w);
-      case kCounts: return counts(w.word.data(), w.n);
-      case kVertices: return vertex(w);
-      case kFaces: return face(w);
+      case kHeader: return header(first, words);
+      case kCounts: return counts(first, words);
+      case kVertices: return vertex(first, words);
+      case kFaces: return face(first, words);
       case kDone: return false;  // more records than the counts say
     }
     return false;
@@ -72,26 +69,28 @@ class Reader {
  private:
   enum Stage { kHeader, kCounts, kVertices, kFaces, kDone };
 
-  bool header(const LineWords& w) {
-    const std::string_view h = w.word[0];
+  bool header(std::string_view h, text::Words& words) {
     normals_ = h == "NOFF" || h == "CNOFF";
     colours_ = h == "COFF" || h == "CNOFF";
     if (!normals_ && !colours_ && h != "OFF") return false;
     stage_ = kCounts;
-    return w.n == 1 || counts(w.word.data() + 1, w.n - 1);
+    const std::string_view first = words.next();
+    return first.empty() || counts(first, words);
   }
 
-  bool counts(const std::string_view* w, int n) {
-    if (n != 3) return false;
+  bool counts(std::string_view first, text::Words& words) {
+    std::string_view w[3] = {first};
+    if (take(words, w + 1, 2) != 2) return false;
     int64_t c[3];
     for (int k = 0; k < 3; ++k)
-      if (w[k][0] == '+' || w[k][0] == '-' || !text::parse_integer(w[k], int64_t(1) << 40, c[k]))
+      if (w[k][0] == '+' || w[k][0] == '-' || !text::parse_integer(w[k], bytes_, c[k]))
         return false;
-    if (c[0] + c[1] > int64_t(bytes_)) return false;  // (not that many lines)
+    if (kLeastVertexBytes * c[0] + kLeastFaceBytes * c[1] > bytes_ + 1) return false;
     n_vertices_ = c[0];
     n_faces_ = c[1];
     out_.positions.reserve(size_t(3 * n_vertices_));
     out_.sizes.reserve(size_t(n_faces_));
+    out_.indices.reserve(size_t(3 * n_faces_));
     next_stage();
     return true;
   }
@@ -102,38 +101,40 @@ class Reader {
     if (stage_ == kFaces && int64_t(out_.sizes.size()) == n_faces_) stage_ = kDone;
   }
 
-  bool vertex(const LineWords& w) {
-    const int width = normals_ ? 6 : 3, extra = w.n - width;
+  bool vertex(std::string_view first, text::Words& words) {
+    // x y z, a normal's 3 words, a colour's 3 or 4 numbers
+    std::string_view w[10] = {first};
+    const int n = 1 + take(words, w + 1, 9);
+    const int width = normals_ ? 6 : 3, extra = n - width;
     if (extra < 0 || (!colours_ && extra) || (colours_ && extra != 3 && extra != 4)) return false;
     double p[3];
     for (int k = 0; k < 3; ++k)
-      if (!text::parse_number(w.word[size_t(k)], p[k])) return false;
+      if (!text::parse_number(w[k], p[k])) return false;
     out_.positions.insert(out_.positions.end(), p, p + 3);
-    if (colours_ && !read_colour(w.word.data() + width, extra, out_.vertex_colors, out_.vertex_floats))
+    if (colours_ && !read_colour(w + width, extra, out_.vertex_colors, out_.vertex_floats))
       return false;
     next_stage();
     return true;
   }
 
-  bool face(const LineWords& w) {
+  bool face(std::string_view first, text::Words& words) {
     int64_t n = 0;
-    if (!text::parse_integer(w.word[0], kMax, n) || n < 3 || w.n < 1 + n) return false;
-    for (int k = 1; k <= n; ++k) {
+    if (!text::parse_integer(first, bytes_, n) || n < 3) return false;
+    for (int64_t k = 0; k < n; ++k) {
       int64_t index = 0;
-      if (!text::parse_integer(w.word[size_t(k)], int64_t(1) << 40, index) || index < 0 ||
-          index >= n_vertices_)
+      if (!text::parse_integer(words.next(), bytes_, index) || index < 0 || index >= n_vertices_)
         return false;
       out_.indices.push_back(index);
     }
     out_.sizes.push_back(n);
-    const int extra = w.n - 1 - int(n);
+    std::string_view colour[4];
+    const int extra = take(words, colour, 4);
     if (extra == 1) {  // a colour-map index: no face colours
       double unused;
-      if (!text::parse_number(w.word[size_t(1 + n)], unused)) return false;
+      if (!text::parse_number(colour[0], unused)) return false;
       face_colours_ = false;
     } else if (extra == 3 || extra == 4) {
-      if (!read_colour(w.word.data() + 1 + n, extra, out_.face_colors, out_.face_floats))
-        return false;
+      if (!read_colour(colour, extra, out_.face_colors, out_.face_floats)) return false;
     } else if (extra == 0) {
       face_colours_ = false;
     } else {
@@ -145,7 +146,7 @@ class Reader {
   }
 
   OffRecords& out_;
-  size_t bytes_;
+  int64_t bytes_;
   Stage stage_ = kHeader;
   bool normals_ = false, colours_ = false, face_colours_ = true;
   int64_t n_vertices_ = 0, n_faces_ = 0;

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string_view>
 #include <system_error>
 
@@ -90,7 +91,7 @@ inline bool parse_number(std::string_view word, double& value) {
   const size_t from = word[0] == '+' ? mantissa : 0;
   const auto result = std::from_chars(word.data() + from, word.data() + word.size(), value);
   return result.ec == std::errc() && result.ptr == word.data() + word.size() &&
-         std::isfinite(value) && (value == 0.0 || std::abs(value) >= 2.2250738585072014e-308);
+         std::isfinite(value) && (value == 0.0 || std::abs(value) >= std::numeric_limits<double>::min());
 }
 
 // An integer [+-]?digits of magnitude at most `largest`, as Python's int()

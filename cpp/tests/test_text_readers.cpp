@@ -34,6 +34,10 @@ void test_common_forms() {
   CHECK((r.colors == std::vector<double>{255, 0, 0, 0, 1, 0, 0, 0, 51}));
   CHECK(read_obj_records("v 0 0 0 255 0 0\nv 1 0 0\nv 0 1 0 0 0 51\nf 1 2 3\n", r));
   CHECK(r.colors.empty() && r.positions.size() == 9);
+  // Colours out of range: refused when every vertex has one, ignored else.
+  CHECK(!read_obj_records("v 0 0 0 300 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 -1\nf 1 2 3\n", r));
+  CHECK(read_obj_records("v 0 0 0 300 0 0\nv 1 0 0\nv 0 1 0 0 0 -1\nf 1 2 3\n", r));
+  CHECK(r.colors.empty());
   CHECK(read_obj_records("", r) && r.positions.empty() && r.sizes.empty());
 }
 
@@ -43,8 +47,7 @@ void test_anything_else_is_refused() {
        {"v 1 2 3 \\\n4", "v inf 0 0", "v nan 0 0", "v 1e400 0 0", "v 1e-400 0 0", "v 1_0 0 0",
         "v 0x10 0 0", "v +-1 0 0", "v 1e 0 0", "v . 0 0", "\x0cv 1 2 3", "\xC2\xA0v 1 2 3",
         "v 1\x0b" "2 3", "v 1 2", "v 1 2 3 4 5", "v 1 2 3 4 5 6 7", "f 1 2", "f 1 0 2",
-        "f 1 2 4", "f 1 -4 2", "f 1 a 2", "f 1 2x 3", "f 1 2 2147483649", "v 1 2 3 300 0 0",
-        "v 1 2 3 -1 0 0", "vt 0_5 1", "f 1 2 3 \xC3\xA9", "f 0000000000000000000001 2 3"}) {
+        "f 1 2 4", "f 1 -4 2", "f 1 a 2", "f 1 2x 3", "f 1 2 2147483649", "vt 0_5 1", "f 1 2 3 \xC3\xA9", "f 0000000000000000000001 2 3"}) {
     const bool taken = takes(std::string(head) + line + "\nf 1 2 3\n");
     if (taken) std::fprintf(stderr, "taken: %s\n", line);
     CHECK(!taken);
@@ -70,12 +73,20 @@ void test_off_files() {
                          r));
   CHECK((r.vertex_colors == std::vector<double>{255, 0, 0, 0, 255, 0, 0, 0, 255}));
   CHECK(!r.vertex_floats && r.face_colors.empty());
+  // Polygons of any size.
+  std::string polygon = "OFF 20 1 0\n";
+  for (int k = 0; k < 20; ++k) polygon += std::to_string(k) + " 0 0\n";
+  polygon += "20";
+  for (int k = 0; k < 20; ++k) polygon += " " + std::to_string(k);
+  CHECK(read_off_records(polygon + " 1 0 0\n", r) && r.sizes == std::vector<int64_t>{20});
+  CHECK(r.indices.size() == 20 && r.indices[19] == 19 && r.face_colors.size() == 3);
   for (const char* text :
        {"", "OFF\n", "OFF\n1 0 0\n", "OFF\n1 0 0\n0 0 0\n0 0 0\n", "OFF\n1 0\n0 0 0\n",
         "OFF -1 0 0\n", "OFF 1 0 0\n0 0\n", "OFF 1 0 0\n0 0 inf\n", "OFF 3 1 0\n0 0 0\n0 0 0\n"
         "0 0 0\n3 0 1 3\n", "OFF 3 1 0\n0 0 0\n0 0 0\n0 0 0\n2 0 1\n",
         "OFF 1 0 0\n0 0 0 # \xC3\xA9\n", "OFF 1 0 0\n0_0 0 0\n", "OFF BINARY\n",
-        "OFF 1 0 0\n0\x0c" "0 0\n", "4OFF 1 0 0\n0 0 0\n", "OFF 99999999999999 0 0\n"}) {
+        "OFF 1 0 0\n0\x0c" "0 0\n", "4OFF 1 0 0\n0 0 0\n", "OFF 99999999999999 0 0\n",
+        "OFF 3 0 0\n0 0 0\n0 0 0\n", "OFF 1 1 2 3\n0 0 0\n"}) {
     const bool taken = read_off_records(text, r);
     if (taken) std::fprintf(stderr, "taken: %s\n", text);
     CHECK(!taken);

@@ -647,7 +647,7 @@ class Mesh:
         key = self.vertices
         if self.vertex_colors is not None:
             key = np.hstack([key, self.vertex_colors.astype(np.float64)])
-        unique, first, inverse = unique_rows(key)
+        unique, first, inverse = _unique_rows(key)
         if len(unique) == len(key):
             return self
         polygons = None
@@ -661,7 +661,7 @@ class Mesh:
         )
 
 
-def unique_rows(key: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _unique_rows(key: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``np.unique(key, axis=0, return_index=True, return_inverse=True)``
     for a 2D float array, the same three arrays, about 3x faster.
 

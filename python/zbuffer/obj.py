@@ -70,14 +70,15 @@ def read_obj(path: str) -> PolygonData:
     if fast is not None:
         vertices, colors, sizes, indices = fast
         return PolygonData(vertices, sizes, indices, _unit_colors(colors))
-    return _read_obj_text(raw)
-
-
-def _read_obj_text(raw: bytes) -> PolygonData:
-    """:func:`read_obj` of the file's bytes, in Python: every file the
-    format allows, and the messages for those it does not."""
     text = raw.decode("utf-8", errors="replace")
-    del raw
+    del raw  # (the text alone from here on)
+    return _read_obj_text(text)
+
+
+def _read_obj_text(text: str) -> PolygonData:
+    """:func:`read_obj` of the file's text (decoded as UTF-8, undecodable
+    bytes replaced), in Python: every file the format allows, and the
+    messages for those it does not."""
     text = text.removeprefix("\ufeff")  # a byte order mark is not part of the first record
 
     coords: List[str] = []        # the numbers of the v records, as text

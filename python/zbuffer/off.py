@@ -93,14 +93,16 @@ def read_off(path: str) -> PolygonData:
             vertices, sizes, indices,
             None if vertex_rgb is None else file_rgb(vertex_rgb, not vertex_floats, "vertex"),
             None if face_rgb is None else file_rgb(face_rgb, not face_floats, "face"))
-    return _read_off_text(raw)
+    text = raw.decode("utf-8", errors="replace")
+    del raw  # (the text alone from here on)
+    return _read_off_text(text)
 
 
-def _read_off_text(raw: bytes) -> PolygonData:
-    """:func:`read_off` of the file's bytes, in Python: every file the
-    format allows, and the messages for those it does not."""
-    text = raw.decode("utf-8", errors="replace").removeprefix("\ufeff")
-    del raw
+def _read_off_text(text: str) -> PolygonData:
+    """:func:`read_off` of the file's text (decoded as UTF-8, undecodable
+    bytes replaced), in Python: every file the format allows, and the
+    messages for those it does not."""
+    text = text.removeprefix("\ufeff")
     records = []  # (line number, tokens)
     for number, line in enumerate(text.splitlines(), start=1):
         content = line.partition("#")[0]

@@ -258,7 +258,7 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
             owners.append(polys)
             continue
         if n in tested:
-            polys, idx, p, convex = tested[n]
+            polys, idx, p, convex = tested.pop(n)
         else:
             polys, idx, p = group(n)
             convex = convexity(p)

@@ -37,8 +37,9 @@ struct ObjRecords {
 // printable ASCII but `_` and `\`, spaces and tabs; its first word is `v`
 // or `f` (otherwise -- vt, vn, fo -- it is skipped). `v x y z`, `v x y z
 // w` or `v x y z r g b`, each number [+-]?(digits[.digits?] | .digits)
-// ([eE][+-]?digits)?, finite; colours kept when every v record has them,
-// each in [0, 255]. `f` with at least 3 corners, each an integer
+// ([eE][+-]?digits)? whose double is finite and not subnormal (nor a
+// nonzero number rounded to zero: text_records.h, parse_number); colours
+// kept when every v record has them, and then each in [0, 255]. `f` with at least 3 corners, each an integer
 // [+-]?digits (|k| <= 2^31, not 0; negative: relative to the vertices
 // defined so far) optionally followed by `/` and anything; every index
 // resolved into [0, vertices in the file). Returns false, with `out` in an

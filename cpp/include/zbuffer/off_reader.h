@@ -33,7 +33,7 @@ struct OffRecords {
 // header OFF, COFF, NOFF or CNOFF, optionally followed by the counts
 // (vertices, faces, edges: three digit strings), else the next line holds
 // them; then exactly that many vertex and face lines. A vertex: x y z
-// (numbers of obj_reader.h's grammar), with NOFF/CNOFF three words of a
+// (numbers of text_records.h's parse_number), with NOFF/CNOFF three words of a
 // normal (not read), with COFF/CNOFF 3 or 4 numbers of a colour. A face:
 // its corner count n >= 3, n indices in [0, vertices) ([+-]?digits), then
 // nothing, a colour-map index, or 3 or 4 colour numbers.
