@@ -91,6 +91,7 @@ def test_header_variants_colours_and_comments(tmp_path):
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n", "line 7: more records"),
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 300 0 0\n", "face colours must lie in 0-255"),
     ("OFF\nthree 1 0\n", "line 2: expected the vertex, face and edge counts"),
+    ("OFF\n" + "0" * 4300 + "3 1 0\n", "line 2: expected the vertex, face and edge counts"),
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 garbage\n", "line 6: after a face's indices"),
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 1 2\n", "line 6: after a face's indices"),
 ])

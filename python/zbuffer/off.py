@@ -121,10 +121,13 @@ def _read_off_text(text: str) -> PolygonData:
         if len(records) < 2:
             raise ValueError("no vertex, face and edge counts after the header")
         counts, at = records[1][1], 2
-    if len(counts) != 3 or not all(c.isdigit() for c in counts):
+    try:
+        if len(counts) != 3 or not all(c.isdigit() for c in counts):
+            raise ValueError
+        n_vertices, n_faces = int(counts[0]), int(counts[1])  # (over 4300 digits: ValueError)
+    except ValueError:
         raise ValueError(f"line {records[at - 1][0]}: expected the vertex, face and edge counts, "
-                         f"got {' '.join(counts)!r}")
-    n_vertices, n_faces = int(counts[0]), int(counts[1])
+                         f"got {' '.join(counts)[:80]!r}") from None
     if len(records) < at + n_vertices + n_faces:
         raise ValueError(f"the header counts {n_vertices} vertices and {n_faces} faces, but the "
                          f"file has {len(records) - at} records after it")
