@@ -91,7 +91,8 @@ inline bool parse_number(std::string_view word, double& value) {
   const size_t from = word[0] == '+' ? mantissa : 0;
   const auto result = std::from_chars(word.data() + from, word.data() + word.size(), value);
   return result.ec == std::errc() && result.ptr == word.data() + word.size() &&
-         std::isfinite(value) && (value == 0.0 || std::abs(value) >= std::numeric_limits<double>::min());
+         std::isfinite(value) &&
+         (value == 0.0 || std::abs(value) >= std::numeric_limits<double>::min());
 }
 
 // An integer [+-]?digits of magnitude at most `largest`, as Python's int()

@@ -238,11 +238,10 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
         turn = np.cross(p - np.roll(p, 1, axis=1), np.roll(p, -1, axis=1) - p)  # (P, n, 3)
         return (np.einsum("pnk,pk->pn", turn, _newell_normals(p)) >= 0.0).all(axis=1)
 
-    tested = {}  # n: (polys, idx, p, convex) of the sizes over the limit, tested first
+    tested = {}  # n: convexity of the polygons of the sizes over the limit, tested first
     for n in np.unique(sizes[sizes > MAX_CONCAVE_CORNERS]):  # refused before any is clipped
-        polys, idx, p = group(n)
-        convex = convexity(p)
-        tested[n] = polys, idx, p, convex
+        polys, _, p = group(n)
+        convex = tested[n] = convexity(p)
         if not convex.all():
             raise ValueError(
                 f"polygon {int(polys[np.argmin(convex)])} has {n:,} corners and is not convex: "
@@ -257,11 +256,8 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
             faces.append(indices[starts[polys, None] + np.arange(3)])
             owners.append(polys)
             continue
-        if n in tested:
-            polys, idx, p, convex = tested.pop(n)
-        else:
-            polys, idx, p = group(n)
-            convex = convexity(p)
+        polys, idx, p = group(n)
+        convex = tested[n] if n in tested else convexity(p)
         k = np.arange(1, n - 1)
         fan = np.stack([np.repeat(idx[convex, :1], n - 2, axis=1),
                         idx[convex][:, k], idx[convex][:, k + 1]], -1)
@@ -283,7 +279,8 @@ def triangulate_polygons(vertices: np.ndarray, sizes: np.ndarray, indices: np.nd
                        np.take_along_axis(pts, second[:, None, None], axis=2)[..., 0]], -1)
         if n == 4:  # the common case, all at once
             tris = _ear_clip_quads(p2)
-            faces.append(np.take_along_axis(idx[concave], tris.reshape(-1, 6), axis=1).reshape(-1, 3))
+            corners = np.take_along_axis(idx[concave], tris.reshape(-1, 6), axis=1)
+            faces.append(corners.reshape(-1, 3))
             owners.append(np.repeat(polys[concave], 2))
             continue
         for j, corners, q in zip(concave, idx[concave], p2):

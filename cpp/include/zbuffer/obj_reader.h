@@ -39,11 +39,12 @@ struct ObjRecords {
 // w` or `v x y z r g b`, each number [+-]?(digits[.digits?] | .digits)
 // ([eE][+-]?digits)? whose double is finite and not subnormal (nor a
 // nonzero number rounded to zero: text_records.h, parse_number); colours
-// kept when every v record has them, and then each in [0, 255]. `f` with at least 3 corners, each an integer
-// [+-]?digits (|k| <= 2^31, not 0; negative: relative to the vertices
-// defined so far) optionally followed by `/` and anything; every index
-// resolved into [0, vertices in the file). Returns false, with `out` in an
-// unspecified state, outside the subset.
+// kept when every v record has them, and then each in [0, 255]. `f` with
+// at least 3 corners, each an integer [+-]?digits (at most 20 digits,
+// |k| <= 2^31, not 0; negative: relative to the vertices defined so far)
+// optionally followed by `/` and anything; every index resolved into
+// [0, vertices in the file). Returns false, with `out` in an unspecified
+// state, outside the subset.
 bool read_obj_records(std::string_view text, ObjRecords& out);
 
 }  // namespace zbuffer
