@@ -177,6 +177,8 @@ py::list algorithms_with(bool zbuffer::Algorithm::*flag) {
 
 void bind_render(py::module_& m) {
   m.attr("MAX_SCANLINE_TRIANGLES") = zbuffer::kMaxScanlineTriangles;
+  m.def("check_scanline_faces", &zbuffer::check_scanline_faces, py::arg("n_faces"),
+        "ValueError for more faces than algo='scanline' draws (MAX_SCANLINE_TRIANGLES).");
   m.def(
       "algorithms",
       [] {

@@ -1175,12 +1175,16 @@ struct TrimTables {
 size_t scanline_tables_held() { return tables.bytes_held(); }
 void limit_kept_scanline_bytes(size_t bytes) { kept_bytes = bytes; }
 
-void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
-  if (input.mesh.n_faces > kMaxScanlineTriangles)
+void check_scanline_faces(int64_t n_faces) {
+  if (n_faces > kMaxScanlineTriangles)
     throw std::length_error(
         "algo='scanline' draws at most 2**24 (16,777,216) triangles (its tables take up to about "
-        "550 bytes a triangle), got " + std::to_string(input.mesh.n_faces) +
+        "550 bytes a triangle), got " + std::to_string(n_faces) +
         ": use 'zbuffer', 'hiz' or a tree algorithm for meshes this large");
+}
+
+void render_scanline(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
+  check_scanline_faces(input.mesh.n_faces);
   const TrimTables trim;
   const Viewport vp(target.width, target.height);
 

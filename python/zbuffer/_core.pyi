@@ -17,6 +17,7 @@ DEFAULT_OCTREE_LEAF_SIZE: int
 DEFAULT_OCTREE_MAX_DEPTH: int
 DEFAULT_BVH_LEAF_SIZE: int
 MAX_SCANLINE_TRIANGLES: int
+def check_scanline_faces(n_faces: int) -> None: ...
 
 class ObjectTree:
     """A built octree or BVH with the state of its last frame."""

@@ -171,12 +171,9 @@ def render_visibility(mesh: Mesh, algo: str, mvp, width: int, height: int,
     an algorithm that draws them natively, the faces in visiting order
     otherwise. ``outputs``: out_depth and out_ids of ``_core.render``.
     Returns ``_core.render``'s tuple."""
-    if algo == "scanline" and len(mesh.faces) > _core.MAX_SCANLINE_TRIANGLES:
-        # (The core refuses it too, but only after the mesh is prepared.)
-        raise ValueError(f"algo='scanline' draws at most 2**24 "
-                         f"({_core.MAX_SCANLINE_TRIANGLES:,}) triangles (its tables take up to "
-                         f"about 550 bytes a triangle), got {len(mesh.faces)}: use 'zbuffer', "
-                         "'hiz' or a tree algorithm for meshes this large")
+    if algo == "scanline":
+        # (The core's render refuses it too, but only after the mesh is prepared.)
+        _core.check_scanline_faces(len(mesh.faces))
     if draws_polygons(algo, mesh):
         # Polygons as written; faces in polygon order for those drawn as triangles.
         return Visit(mesh.vertices, mesh.faces).render(

@@ -355,8 +355,8 @@ class ScanlineTables {
 // fields, and the arrays' growth), so render_scanline refuses
 // (std::length_error) a mesh of more than kMaxScanlineTriangles faces (as
 // triangles: a polygon of n corners counts n - 2), up to about 9 GB of
-// tables, before reading any of it (the Python package checks the same
-// before preparing the mesh: _core.MAX_SCANLINE_TRIANGLES). Each thread
+// tables, before reading any of it (check_scanline_faces; the Python
+// package calls it before preparing the mesh). Each thread
 // keeps its tables for its next frame, whose arrays then need neither
 // growing nor faulting in (giving them back after every frame made the
 // 5 x 5 x 10 spot grid 3.6x slower): up to kKeptScanlineBytes; tables that
@@ -364,6 +364,10 @@ class ScanlineTables {
 // are given back when the frame ends, or fails.
 constexpr int64_t kMaxScanlineTriangles = int64_t(1) << 24;
 constexpr size_t kKeptScanlineBytes = size_t(1) << 30;
+
+// Throws std::length_error, naming the limit and what to use instead, for
+// more than kMaxScanlineTriangles faces.
+void check_scanline_faces(int64_t n_faces);
 
 // The bytes this thread's tables hold between frames, and (for tests) a
 // lower limit than kKeptScanlineBytes for this thread.
