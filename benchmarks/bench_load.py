@@ -5,8 +5,8 @@ readers with and without their compiled fast paths.
     python benchmarks/bench_load.py --quick    # smoke mode
 
 For each shared model (OBJ, as distributed) and the same mesh written as
-ASCII OFF (polygons as in the OBJ file) and binary PLY (its triangles, by
-trimesh), in a temporary folder:
+ASCII OFF (polygons as in the OBJ file), ASCII and binary PLY (its
+triangles, by trimesh), in a temporary folder:
 
 - ``zbuffer.load(path)``: the whole call (parse, triangulate, merge
   repeated vertices for OFF and PLY, prepare for rendering);
@@ -15,7 +15,9 @@ trimesh), in a temporary folder:
 - for OBJ and OFF, the parse alone: the compiled fast path
   (``_core.read_obj_records``, ``read_off_records``) and the Python reader
   it stands in for (``obj._read_obj_text``, ``off._read_off_text``, the
-  bytes decoded first), on the file's bytes already in memory.
+  bytes decoded first), on the file's bytes already in memory; for ASCII
+  PLY, ``ply.read_ply`` from the file with and without its fast path
+  (``_core.read_ascii_ply_tables``).
 
 Times are medians of --runs calls after one warm-up, in one process; the
 file is in the page cache. Nothing here asserts a speed.
@@ -34,7 +36,7 @@ import numpy as np
 
 import zbuffer
 from common import HERE, MODELS, Progress, new_report, write_report
-from zbuffer import _core
+from zbuffer import _core, ply
 from zbuffer.obj import _read_obj_text
 from zbuffer.off import _read_off_text
 
@@ -71,11 +73,26 @@ def cases_for(path: Path, folder: Path):
     import trimesh
 
     mesh = zbuffer.load(path)
-    off, ply = folder / (path.stem + ".off"), folder / (path.stem + ".ply")
+    off = folder / (path.stem + ".off")
     write_off(mesh, off)
-    ply.write_bytes(trimesh.exchange.ply.export_ply(
-        trimesh.Trimesh(mesh.vertices, mesh.faces, process=False), encoding="binary"))
-    return [("obj", path), ("off", off), ("ply (binary)", ply)]
+    cases = [("obj", path), ("off", off)]
+    for encoding in ("ascii", "binary"):
+        ply = folder / f"{path.stem}_{encoding}.ply"
+        ply.write_bytes(trimesh.exchange.ply.export_ply(
+            trimesh.Trimesh(mesh.vertices, mesh.faces, process=False), encoding=encoding))
+        cases.append((f"ply ({encoding})", ply))
+    return cases
+
+
+def read_ply_without_fast_path(path):
+    """ply.read_ply reading an ASCII file line by line, as without
+    _core.read_ascii_ply_tables."""
+    saved = ply._ascii_fast
+    ply._ascii_fast = lambda body, elements: None
+    try:
+        return ply.read_ply(path)
+    finally:
+        ply._ascii_fast = saved
 
 
 def main(argv=None) -> int:
@@ -98,7 +115,7 @@ def main(argv=None) -> int:
             with open(paths[0], "w") as fh:
                 np.savetxt(fh, scene.vertices, fmt="v %.9g %.9g %.9g")
                 np.savetxt(fh, scene.faces + 1, fmt="f %d %d %d")
-        progress = Progress("load", 3 * len(paths))
+        progress = Progress("load", 4 * len(paths))
         for path in paths:
             for fmt, file in cases_for(path, folder):
                 raw = file.read_bytes()
@@ -117,6 +134,13 @@ def main(argv=None) -> int:
                     case["fast_parse_ms"] = median_ms(lambda: fast(raw), runs)
                     case["python_parse_ms"] = median_ms(
                         lambda: slow(raw.decode("utf-8", errors="replace")), runs)
+                elif fmt == "ply (ascii)":
+                    body = raw[raw.index(b"end_header\n") + len(b"end_header\n"):]
+                    counts = [len(mesh.vertices), len(mesh.faces)]
+                    case["fast_taken"] = _core.read_ascii_ply_tables(body, counts) is not None
+                    case["fast_parse_ms"] = median_ms(lambda: ply.read_ply(file), runs)
+                    case["python_parse_ms"] = median_ms(
+                        lambda: read_ply_without_fast_path(file), runs)
                 report["cases"].append(case)
                 progress(f"{path.name} as {fmt}: load {case['load_ms']:.1f} ms, trimesh "
                          + (f"{case['trimesh_ms']:.1f} ms" if "trimesh_ms" in case else "failed"))
@@ -135,7 +159,8 @@ def markdown(report: dict) -> str:
              "cache, one process. *load*: `zbuffer.load` (parse, triangulate, merge repeated "
              "vertices for OFF and PLY, prepare); *trimesh*: `trimesh.load(path, "
              "process=False)`; *fast* and *Python parse*: the text reader's compiled fast path "
-             "and the Python reader it stands in for, on the bytes in memory.", "",
+             "and the Python reader it stands in for, on the bytes in memory (ASCII PLY: "
+             "`ply.read_ply` with and without its fast path, from the file).", "",
              "| mesh | format | MB | triangles | load ms | trimesh ms | load / trimesh "
              "| fast parse ms | Python parse ms | Python / fast |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]

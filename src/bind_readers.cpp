@@ -1,6 +1,8 @@
-// Bindings for the fast paths of the text mesh readers (obj_reader.h, off_reader.h).
+// Bindings for the fast paths of the text mesh readers (obj_reader.h, off_reader.h,
+// ply_reader.h).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
 #include <string_view>
 #include <utility>
@@ -8,6 +10,7 @@
 
 #include "zbuffer/obj_reader.h"
 #include "zbuffer/off_reader.h"
+#include "zbuffer/ply_reader.h"
 
 namespace py = pybind11;
 
@@ -65,6 +68,19 @@ py::object read_off_records(const py::bytes& text) {
                         rows_or_none(std::move(records.face_colors)), records.face_floats);
 }
 
+py::object read_ascii_ply_tables(const py::bytes& body, const std::vector<int64_t>& counts) {
+  std::vector<std::vector<double>> tables;
+  std::vector<int> columns;
+  const auto read = [&](std::string_view text, std::vector<std::vector<double>>& out) {
+    return zbuffer::read_ascii_ply_tables(text, counts, out, columns);
+  };
+  if (!read_records(body, tables, read)) return py::none();
+  py::list out;
+  for (size_t e = 0; e < tables.size(); ++e)
+    out.append(owning_array(std::move(tables[e]), {py::ssize_t(counts[e]), columns[e]}));
+  return out;
+}
+
 }  // namespace
 
 void bind_readers(py::module_& m) {
@@ -79,6 +95,10 @@ void bind_readers(py::module_& m) {
         "are written as floats, face colours or None, whether they are floats), or None "
         "outside the subset this reader takes, errors included (off_reader.h): then "
         "python/zbuffer/off.py reads it.");
+  m.def("read_ascii_ply_tables", &read_ascii_ply_tables, py::arg("body"), py::arg("counts"),
+        "The records of an ASCII PLY file's body (after the header), counts[e] of element e: "
+        "a list of (counts[e], words a record) float64 tables, or None outside the subset "
+        "ply_reader.h takes: then python/zbuffer/ply.py reads them.");
 }
 
 }  // namespace zbuffer_py

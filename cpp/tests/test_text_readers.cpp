@@ -1,13 +1,14 @@
-// The fast paths of the OBJ and OFF readers: the records of the common
-// forms, and false for anything outside them (the Python readers' to read;
-// the Python tests hold each pair of readers to the same data on generated
-// files).
+// The fast paths of the OBJ, OFF and ASCII PLY readers: the records of the
+// common forms, and false for anything outside them (the Python readers'
+// to read; the Python tests hold each pair of readers to the same data on
+// generated files).
 #include <string>
 #include <vector>
 
 #include "check.h"
 #include "zbuffer/obj_reader.h"
 #include "zbuffer/off_reader.h"
+#include "zbuffer/ply_reader.h"
 
 using namespace zbuffer;
 
@@ -93,11 +94,33 @@ void test_off_files() {
   }
 }
 
+void test_ascii_ply_tables() {
+  std::vector<std::vector<double>> tables;
+  std::vector<int> columns;
+  const std::vector<int64_t> counts = {3, 0, 2};
+  CHECK(read_ascii_ply_tables("0 0 0 1\r\n1 0 0 2\r\n\r\n0 1.5 0 3\r\n3 0 1 2\n  \n3\t0 2 1\n\n",
+                              counts, tables, columns));
+  CHECK((columns == std::vector<int>{4, 0, 4}));
+  CHECK((tables[0] == std::vector<double>{0, 0, 0, 1, 1, 0, 0, 2, 0, 1.5, 0, 3}));
+  CHECK(tables[1].empty() && (tables[2] == std::vector<double>{3, 0, 1, 2, 3, 0, 2, 1}));
+  for (const char* body :
+       {"0 0 0 1\n1 0 0 2\n0 1 0 3\n3 0 1 2\n", "0 0 0 1\n1 0 0 2\n0 1 0 3\n3 0 1 2\n"
+        "3 0 2 1\n3 0 2 1\n", "0 0 0 1\n1 0 0\n0 1 0 3\n3 0 1 2\n3 0 2 1\n",
+        "0 0 0 1\n1 0 0 2\n0 1 0 inf\n3 0 1 2\n3 0 2 1\n",
+        "0 0 0 1\n1 0 0 2\n0 1 0 3\n3 0 1 2\n3 0 2 1 \xC3\xA9\n",
+        "0 0 0 1\n1 0\x0c" "0 2\n0 1 0 3\n3 0 1 2\n3 0 2 1\n"}) {
+    const bool taken = read_ascii_ply_tables(body, counts, tables, columns);
+    if (taken) std::fprintf(stderr, "taken: %s\n", body);
+    CHECK(!taken);
+  }
+}
+
 }  // namespace
 
 int main() {
   test_common_forms();
   test_anything_else_is_refused();
   test_off_files();
+  test_ascii_ply_tables();
   return check_report("test_text_readers");
 }

@@ -131,3 +131,8 @@ def read_off_records(
 # (positions, polygon sizes, indices, vertex colours as written or None,
 # whether written as floats, face colours or None, whether floats), or None
 # outside the subset cpp/include/zbuffer/off_reader.h takes
+def read_ascii_ply_tables(
+    body: bytes, counts: List[int]
+) -> Optional[List[npt.NDArray[np.float64]]]: ...
+# (counts[e], words a record) tables of an ASCII PLY body, or None outside
+# the subset cpp/include/zbuffer/ply_reader.h takes

@@ -7,6 +7,12 @@ some malformed files without a word (faces dropped, colours wrapped).
 :func:`zbuffer.load` reads PLY files with this reader, and leaves to trimesh
 only those it does not know (:class:`UnsupportedPly`: other formats,
 property types, faces not given as a vertex_indices list, point clouds).
+
+The records of ASCII files whose every element's records are as long as
+its first (meshes of triangles, or of quads) are parsed by compiled code
+(``_core.read_ascii_ply_tables``, cpp/include/zbuffer/ply_reader.h) into
+the tables the line-by-line reading would make; other files, and those
+with errors, are read line by line.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from typing import Tuple
 
 import numpy as np
 
+from . import _core
 from .polygons import PolygonData, file_rgb
 
 __all__ = ["read_ply", "UnsupportedPly"]
@@ -164,6 +171,52 @@ def _as_declared(scalars: np.ndarray, props) -> np.ndarray:
     return scalars
 
 
+def _ascii_fast(body: bytes, elements):
+    """Every element's _records_ascii result, from the number tables the
+    compiled reader makes of the body (``_core.read_ascii_ply_tables``,
+    cpp/include/zbuffer/ply_reader.h: files whose every element's records
+    are as long as its first, of plain numbers, nothing after them); None
+    for other files, which _records_ascii then reads line by line."""
+    tables = _core.read_ascii_ply_tables(body, [count for _, count, _ in elements])
+    if tables is None:
+        return None
+    records = []
+    for (_, count, props), table in zip(elements, tables):
+        found = _table_records(table, props) if count else _records_ascii(iter(()), 0, props)
+        if found is None:
+            return None
+        records.append(found)
+    return records
+
+
+def _table_records(table: np.ndarray, props):
+    """_records_ascii's result from a (count >= 1, words) table of an
+    element's records, every record as long as the first, its words read
+    as numbers; None where a list's count differs between records, or
+    exceeds the record, or an integer list holds a fraction (the record by
+    record reading says which)."""
+    scalars, lists, at = [], {}, 0
+    for k, (_, kind, count_kind) in enumerate(props):
+        if count_kind is None:
+            scalars.append(table[:, at])
+            at += 1
+            continue
+        n = int(table[0, at]) if at < table.shape[1] else -1
+        if n < 0 or at + 1 + n > table.shape[1] or (table[:, at] != n).any():
+            return None
+        values = table[:, at + 1:at + 1 + n]
+        if kind not in "fd":
+            if not (np.abs(values) < 2.0 ** 53).all() or (values != np.round(values)).any():
+                return None
+            values = values.astype(np.int64)
+        lists[k] = values
+        at += 1 + n
+    if at != table.shape[1]:
+        return None
+    scalars = np.stack(scalars, 1) if scalars else np.zeros((len(table), 0))
+    return _as_declared(scalars, props), lists
+
+
 def _records_ascii(lines, count: int, props):
     """As _records_binary, from the next ``count`` lines of ASCII records."""
     rows = []
@@ -177,26 +230,9 @@ def _records_ascii(lines, count: int, props):
     except ValueError:
         table = None
     if table is not None and table.ndim == 2 and count:
-        scalars, lists, at = [], {}, 0
-        for k, (_, kind, count_kind) in enumerate(props):
-            if count_kind is None:
-                scalars.append(table[:, at])
-                at += 1
-                continue
-            n = int(table[0, at]) if at < table.shape[1] else -1
-            if n < 0 or at + 1 + n > table.shape[1] or (table[:, at] != n).any():
-                break
-            values = table[:, at + 1:at + 1 + n]
-            if kind not in "fd":
-                if not (np.abs(values) < 2.0 ** 53).all() or (values != np.round(values)).any():
-                    break  # (the record by record reading says which record, or index)
-                values = values.astype(np.int64)
-            lists[k] = values
-            at += 1 + n
-        else:
-            if at == table.shape[1]:
-                scalars = np.stack(scalars, 1) if scalars else np.zeros((count, 0))
-                return _as_declared(scalars, props), lists
+        records = _table_records(table, props)
+        if records is not None:
+            return records
     lines = iter(rows)
     scalars = np.zeros((count, sum(p[2] is None for p in props)))
     lists = {k: [] for k, p in enumerate(props) if p[2] is not None}
@@ -278,21 +314,24 @@ def _read_ply(path: str) -> PolygonData:
     names = [e[0] for e in elements]
     if "vertex" not in names or "face" not in names:
         raise UnsupportedPly("no vertex or no face element")
+    fast = _ascii_fast(body, elements) if fmt == "ascii" else None
     lines = iter(line for line in body.decode("ascii", "replace").splitlines() if line.strip()) \
-        if fmt == "ascii" else None
+        if fmt == "ascii" and fast is None else None
     order = "<" if fmt == "binary_little_endian" else ">"
     offset, found = 0, {}
-    for name, count, props in elements:
+    for e, (name, count, props) in enumerate(elements):
         if name in found:
             raise ValueError(f"two {name} elements")
-        if lines is not None:
+        if fast is not None:
+            scalars, lists = fast[e]
+        elif lines is not None:
             scalars, lists = _records_ascii(lines, count, props)
         else:
             scalars, lists, offset = _records_binary(body, offset, order, count, props)
         if name in ("vertex", "face"):
             found[name] = (scalars, lists, props)
     if (next(lines, None) is not None if lines is not None
-            else body[offset:].strip(b" \t\r\n\0")):  # (white space after the data: fine)
+            else fast is None and body[offset:].strip(b" \t\r\n\0")):  # (white space: fine)
         raise ValueError("the file holds more records than its header declares")
     scalars, _, props = found["vertex"]
     scalar_names = [p[0] for p in props if p[2] is None]
