@@ -176,7 +176,12 @@ def _ascii_fast(body: bytes, elements):
     compiled reader makes of the body (``_core.read_ascii_ply_tables``,
     cpp/include/zbuffer/ply_reader.h: files whose every element's records
     are as long as its first, of plain numbers, nothing after them); None
-    for other files, which _records_ascii then reads line by line."""
+    for other files, which _records_ascii then reads line by line (and for
+    those with an element named twice or a count beyond the body's size,
+    whose errors that reading names)."""
+    names = [name for name, _, _ in elements]
+    if len(set(names)) < len(names) or any(count > len(body) for _, count, _ in elements):
+        return None
     tables = _core.read_ascii_ply_tables(body, [count for _, count, _ in elements])
     if tables is None:
         return None
@@ -197,11 +202,13 @@ def _table_records(table: np.ndarray, props):
     record reading says which)."""
     scalars, lists, at = [], {}, 0
     for k, (_, kind, count_kind) in enumerate(props):
+        if at >= table.shape[1]:
+            return None  # (records shorter than the properties)
         if count_kind is None:
             scalars.append(table[:, at])
             at += 1
             continue
-        n = int(table[0, at]) if at < table.shape[1] else -1
+        n = int(table[0, at])
         if n < 0 or at + 1 + n > table.shape[1] or (table[:, at] != n).any():
             return None
         values = table[:, at + 1:at + 1 + n]
