@@ -70,14 +70,15 @@ py::object read_off_records(const py::bytes& text) {
 
 py::object read_ascii_ply_tables(const py::bytes& body, const std::vector<int64_t>& counts) {
   std::vector<std::vector<double>> tables;
-  std::vector<int> columns;
+  std::vector<int64_t> columns;
   const auto read = [&](std::string_view text, std::vector<std::vector<double>>& out) {
     return zbuffer::read_ascii_ply_tables(text, counts, out, columns);
   };
   if (!read_records(body, tables, read)) return py::none();
   py::list out;
   for (size_t e = 0; e < tables.size(); ++e)
-    out.append(owning_array(std::move(tables[e]), {py::ssize_t(counts[e]), columns[e]}));
+    out.append(owning_array(std::move(tables[e]),
+                            {py::ssize_t(counts[e]), py::ssize_t(columns[e])}));
   return out;
 }
 

@@ -6,7 +6,8 @@
 namespace zbuffer {
 
 bool read_ascii_ply_tables(std::string_view body, const std::vector<int64_t>& counts,
-                           std::vector<std::vector<double>>& tables, std::vector<int>& columns) {
+                           std::vector<std::vector<double>>& tables,
+                           std::vector<int64_t>& columns) {
   tables.assign(counts.size(), {});
   columns.assign(counts.size(), 0);
   for (char c : body)
@@ -26,7 +27,7 @@ bool read_ascii_ply_tables(std::string_view body, const std::vector<int64_t>& co
     if (w.empty()) return true;                  // (blank)
     if (element == counts.size()) return false;  // more records than the counts
     std::vector<double>& table = tables[element];
-    int n = 0;
+    int64_t n = 0;
     for (; !w.empty(); w = words.next(), ++n) {
       double value;
       if (!text::parse_number(w, value)) return false;

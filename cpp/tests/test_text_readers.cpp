@@ -96,11 +96,11 @@ void test_off_files() {
 
 void test_ascii_ply_tables() {
   std::vector<std::vector<double>> tables;
-  std::vector<int> columns;
+  std::vector<int64_t> columns;
   const std::vector<int64_t> counts = {3, 0, 2};
   CHECK(read_ascii_ply_tables("0 0 0 1\r\n1 0 0 2\r\n\r\n0 1.5 0 3\r\n3 0 1 2\n  \n3\t0 2 1\n\n",
                               counts, tables, columns));
-  CHECK((columns == std::vector<int>{4, 0, 4}));
+  CHECK((columns == std::vector<int64_t>{4, 0, 4}));
   CHECK((tables[0] == std::vector<double>{0, 0, 0, 1, 1, 0, 0, 2, 0, 1.5, 0, 3}));
   CHECK(tables[1].empty() && (tables[2] == std::vector<double>{3, 0, 1, 2, 3, 0, 2, 1}));
   for (const char* body :

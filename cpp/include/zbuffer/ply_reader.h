@@ -24,6 +24,7 @@ namespace zbuffer {
 // ASCII PLY file: read_ply 14 ms, 123 ms without this
 // (benchmarks/results/load.md).
 bool read_ascii_ply_tables(std::string_view body, const std::vector<int64_t>& counts,
-                           std::vector<std::vector<double>>& tables, std::vector<int>& columns);
+                           std::vector<std::vector<double>>& tables,
+                           std::vector<int64_t>& columns);
 
 }  // namespace zbuffer
