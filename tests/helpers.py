@@ -105,3 +105,24 @@ def run_in_threads(work, n: int = 4) -> list:
     for t in threads:
         t.join()
     return errors
+
+
+def spoil_a_line(draw, lines, odd_words, junk_lines):
+    """For the hypothesis strategies of mesh files: one change to one of
+    the file's lines (in place): a word replaced by one of ``odd_words``,
+    the line dropped or repeated, or a line of ``junk_lines`` put before it."""
+    from hypothesis import strategies as st
+
+    k = draw(st.integers(0, len(lines) - 1))
+    change = draw(st.sampled_from(["word", "drop", "extra", "junk"]))
+    if change == "word":
+        words = lines[k].split()
+        if words:
+            words[draw(st.integers(0, len(words) - 1))] = draw(odd_words)
+        lines[k] = " ".join(words)
+    elif change == "drop":
+        del lines[k]
+    elif change == "extra":
+        lines.insert(k + 1, lines[k])
+    else:
+        lines.insert(k, draw(st.sampled_from(junk_lines)))

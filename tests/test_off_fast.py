@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from zbuffer import _core
 from zbuffer.off import _read_off_text, read_off
 from zbuffer.polygons import file_rgb
-from helpers import MODELS, model_path
+from helpers import MODELS, model_path, spoil_a_line
 
 
 def python_reading(raw):
@@ -109,20 +109,8 @@ def off_files(draw):
             words.append(str(draw(st.integers(0, 9))))
         lines.append(draw(blank).join(words) + (" # note" if draw(st.integers(0, 4)) == 0 else ""))
     if odd and lines:
-        k = draw(st.integers(0, len(lines) - 1))
-        change = draw(st.sampled_from(["word", "drop", "extra", "junk"]))
-        if change == "word":
-            words = lines[k].split()
-            if words:
-                words[draw(st.integers(0, len(words) - 1))] = draw(odd_words)
-            lines[k] = " ".join(words)
-        elif change == "drop":
-            del lines[k]
-        elif change == "extra":
-            lines.insert(k + 1, lines[k])
-        else:
-            lines.insert(k, draw(st.sampled_from([
-                "\x0c1 2 3", "# é", "é", "1\x0b2", "_", "OFF BINARY", "   ", "3 0 1 2 3 4"])))
+        spoil_a_line(draw, lines, odd_words, [
+            "\x0c1 2 3", "# é", "é", "1\x0b2", "_", "OFF BINARY", "   ", "3 0 1 2 3 4"])
     text = "".join(line + draw(endings) for line in lines)
     if draw(st.integers(0, 9)) == 0:
         text = "\ufeff" + text

@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from zbuffer import _core, ply
-from helpers import MODELS, model_path
+from helpers import MODELS, model_path, spoil_a_line
 
 
 def reading(tmp_path, raw, fast):
@@ -100,18 +100,7 @@ def ply_files(draw):
     lines += [f"{draw(st.integers(0, nv - 1))} {draw(st.integers(0, nv - 1))}"
               for _ in range(extra)]
     if odd and lines:
-        k = draw(st.integers(0, len(lines) - 1))
-        change = draw(st.sampled_from(["word", "drop", "extra", "junk"]))
-        if change == "word":
-            words = lines[k].split()
-            words[draw(st.integers(0, len(words) - 1))] = draw(odd_words)
-            lines[k] = " ".join(words)
-        elif change == "drop":
-            del lines[k]
-        elif change == "extra":
-            lines.insert(k + 1, lines[k])
-        else:
-            lines.insert(k, draw(st.sampled_from(["", "   ", "\t", "1 2", "\x0c", "# 1 2 3"])))
+        spoil_a_line(draw, lines, odd_words, ["", "   ", "\t", "1 2", "\x0c", "# 1 2 3"])
     text = "\n".join(head) + "\n" + "".join(line + draw(endings) for line in lines)
     return not odd and len(set(sizes)) <= 1, text.encode("utf-8")
 
