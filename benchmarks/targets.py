@@ -27,9 +27,10 @@ MEANING = {
                "process rendering the largest grid once with each algorithm.",
     "peers": "The tools people use instead, on the same meshes, camera and pixels, with the "
              "agreement of their depth maps and ours (a fast wrong answer is no answer).",
-    "load": "Reading mesh files: `zbuffer.load` against `trimesh.load`, and the OBJ and OFF "
-            "readers' compiled fast paths against the Python readers they stand in for. No "
-            "issue names a target here.",
+    "load": "Reading mesh files: `zbuffer.load` against `trimesh.load`, the OBJ and OFF "
+            "readers' compiled fast paths against the Python readers they stand in for, and "
+            "`read_ply` of ASCII files with and without its fast path. No issue names a "
+            "target here.",
 }
 
 

@@ -1,5 +1,6 @@
 // What the fast paths of the text mesh readers share (obj_reader.h,
-// off_reader.h): lines, words and numbers of the forms Python reads the same.
+// off_reader.h, ply_reader.h): lines, words and numbers of the forms Python
+// reads the same.
 #pragma once
 
 #include <charconv>

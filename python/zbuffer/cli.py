@@ -402,7 +402,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="run the benchmark suites of a source checkout "
                        "(benchmarks/run.py) and regenerate benchmarks/results/RESULTS.md")
     b.add_argument("suites", nargs="*", metavar="SUITE",
-                   help="models, render, hiz, scaling, peers (default: all)")
+                   help=f"{', '.join(BENCH_SUITES)} (default: all)")
     b.add_argument("--quick", action="store_true", help="smoke mode: small inputs, few runs")
     b.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default benchmarks/results)")

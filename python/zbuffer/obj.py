@@ -10,8 +10,9 @@ polygon can be triangulated correctly (ear clipping) rather than as a fan,
 which covers area outside it.
 
 The files of the forms exporters write are parsed by compiled code
-(``_core.read_obj_records``, cpp/include/zbuffer/obj_reader.h), about 12
-times faster and in a quarter of the memory; it takes only what it reads
+(``_core.read_obj_records``, cpp/include/zbuffer/obj_reader.h), 14-18
+times faster (benchmarks/results/load.md) and in a quarter of the memory;
+it takes only what it reads
 exactly as the Python reader here does, and leaves the rest -- errors
 included -- to it.
 """

@@ -176,9 +176,10 @@ def _ascii_fast(body: bytes, elements):
     compiled reader makes of the body (``_core.read_ascii_ply_tables``,
     cpp/include/zbuffer/ply_reader.h: files whose every element's records
     are as long as its first, of plain numbers, nothing after them); None
-    for other files, which _records_ascii then reads line by line (and for
-    those with an element named twice or a count beyond the body's size,
-    whose errors that reading names)."""
+    for other files, which _records_ascii then reads line by line -- those
+    with an element named twice (of which that reading refuses a second
+    vertex or face element before reading it) or a count beyond the body's
+    size included."""
     names = [name for name, _, _ in elements]
     if len(set(names)) < len(names) or any(count > len(body) for _, count, _ in elements):
         return None
@@ -208,8 +209,11 @@ def _table_records(table: np.ndarray, props):
             scalars.append(table[:, at])
             at += 1
             continue
-        n = int(table[0, at])
-        if n < 0 or at + 1 + n > table.shape[1] or (table[:, at] != n).any():
+        counts = table[:, at]
+        if not np.isfinite(counts[0]) or (counts != counts[0]).any():
+            return None  # (inf, nan, or counts that differ: the record by record reading says)
+        n = int(counts[0])
+        if n < 0 or at + 1 + n > table.shape[1]:
             return None
         values = table[:, at + 1:at + 1 + n]
         if kind not in "fd":
@@ -337,8 +341,11 @@ def _read_ply(path: str) -> PolygonData:
             scalars, lists, offset = _records_binary(body, offset, order, count, props)
         if name in ("vertex", "face"):
             found[name] = (scalars, lists, props)
-    if (next(lines, None) is not None if lines is not None
-            else fast is None and body[offset:].strip(b" \t\r\n\0")):  # (white space: fine)
+    if lines is not None:  # (the fast path found nothing after the records)
+        more = next(lines, None) is not None
+    else:
+        more = fast is None and bool(body[offset:].strip(b" \t\r\n\0"))  # (white space: fine)
+    if more:
         raise ValueError("the file holds more records than its header declares")
     scalars, _, props = found["vertex"]
     scalar_names = [p[0] for p in props if p[2] is None]
