@@ -23,7 +23,7 @@ struct ObjRecords {
 // (python/zbuffer/obj.py), which reads every file it reads and names the
 // line of any error. So the two never disagree on a file this one takes
 // (tests compare them on generated files), and there is one set of error
-// messages. Good: armadillo_86k's 4 MB parsed in 9.8 ms against 142 ms in
+// messages. Good: armadillo_86k's 4 MB parsed in 9.4 ms against 144 ms in
 // Python (benchmarks/results/load.md), and, measured once by hand, a 158 MB
 // file of a million quads in 0.64 s with a peak of 0.5 GB (the file's bytes
 // and the arrays) against 9 s and 2.2 GB. Bad: files

@@ -24,8 +24,8 @@ struct OffRecords {
 // The fast path of python/zbuffer/off.py's reader, as read_obj_records is
 // the OBJ reader's (obj_reader.h: a fast path, not a second reader): false
 // for anything outside the subset below, errors included, and that reader
-// reads the file. Armadillo_86k as a 2.9 MB OFF file parsed in 7.3 ms
-// against 472 ms in Python (benchmarks/results/load.md).
+// reads the file. Armadillo_86k as a 2.9 MB OFF file parsed in 7.5 ms
+// against 458 ms in Python (benchmarks/results/load.md).
 //
 // The subset: only printable ASCII, spaces, tabs and line ends (\n, \r\n,
 // \r) after an optional UTF-8 byte order mark, no `_` before a line's `#`

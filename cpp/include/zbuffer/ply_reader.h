@@ -21,7 +21,7 @@ namespace zbuffer {
 // text_records.h's parse_number; fewer records than the counts, or
 // anything but blank lines after them. Blank lines (spaces and tabs) are
 // skipped, as the Python reader skips them. Armadillo_86k as a 3.2 MB
-// ASCII PLY file: read_ply 14 ms, 123 ms without this
+// ASCII PLY file: read_ply 9.4 ms, 122 ms without this
 // (benchmarks/results/load.md).
 bool read_ascii_ply_tables(std::string_view body, const std::vector<int64_t>& counts,
                            std::vector<std::vector<double>>& tables,
