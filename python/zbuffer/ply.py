@@ -341,10 +341,12 @@ def _read_ply(path: str) -> PolygonData:
             scalars, lists, offset = _records_binary(body, offset, order, count, props)
         if name in ("vertex", "face"):
             found[name] = (scalars, lists, props)
-    if lines is not None:  # (the fast path found nothing after the records)
+    if lines is not None:
         more = next(lines, None) is not None
+    elif fast is not None:
+        more = False  # (the compiled reader found nothing after the records)
     else:
-        more = fast is None and bool(body[offset:].strip(b" \t\r\n\0"))  # (white space: fine)
+        more = bool(body[offset:].strip(b" \t\r\n\0"))  # (white space after the data: fine)
     if more:
         raise ValueError("the file holds more records than its header declares")
     scalars, _, props = found["vertex"]
