@@ -123,3 +123,22 @@ def test_a_triangle_mesh_reads_as_trimesh_reads_it():
     np.testing.assert_array_equal(mesh.vertices, tm.vertices)
     np.testing.assert_array_equal(mesh.faces, tm.faces)
     assert mesh.polygon_sizes is None
+
+
+@pytest.mark.parametrize("header", ["OFF", "COFF", "NOFF"])
+def test_counts_run_into_the_header_as_modelnet_writes_them(tmp_path, header):
+    # The ModelNet datasets' OFF files begin "OFF9278 6940 0" (trimesh,
+    # pytorch3d and MeshLib read them too): the same mesh as "OFF\n9278 ...".
+    vertex = {"OFF": "", "COFF": " 255 0 0", "NOFF": " 0 0 1"}[header]
+    body = "".join(f"{x} {y} 0{vertex}\n" for x, y in [(0, 0), (1, 0), (0, 1), (1, 1)])
+    body += "3 0 1 2\n3 1 3 2\n"
+    joined = zbuffer.load(write(tmp_path, f"{header}4 2 0\n" + body, "joined.off"),
+                          merge_vertices=False)
+    apart = zbuffer.load(write(tmp_path, f"{header}\n4 2 0\n" + body, "apart.off"),
+                         merge_vertices=False)
+    np.testing.assert_array_equal(joined.vertices, apart.vertices)
+    np.testing.assert_array_equal(joined.faces, apart.faces)
+    assert (joined.vertex_colors is None) == (header != "COFF")
+    for text in ["OFFx4 2 0\n", "OFF+4 2 0\n", "XOFF4 2 0\n"]:  # not a header run into a count
+        with pytest.raises(ValueError):
+            zbuffer.load(write(tmp_path, text + body, "bad.off"))

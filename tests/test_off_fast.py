@@ -85,8 +85,7 @@ def off_files(draw):
     if odd and draw(st.booleans()):
         counts[draw(st.integers(0, 2))] = draw(odd_words)
     lines = ["# comment"] if draw(st.booleans()) else []
-    lines += ([header + " " + " ".join(counts)] if draw(st.booleans())
-              else [header, " ".join(counts)])
+    lines += [draw(st.sampled_from([header + " ", header, header + "\n"])) + " ".join(counts)]
     alpha = draw(st.booleans())
     colour_numbers = draw(st.sampled_from([integer_colours, float_colours, any_colours]))
     for _ in range(nv):

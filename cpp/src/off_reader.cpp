@@ -70,11 +70,21 @@ class Reader {
   enum Stage { kHeader, kCounts, kVertices, kFaces, kDone };
 
   bool header(std::string_view h, text::Words& words) {
+    // The header, or the header run into the vertex count ("OFF9278": the
+    // files of the ModelNet datasets).
+    std::string_view first;
+    for (std::string_view name : {"CNOFF", "NOFF", "COFF", "OFF"})
+      if (h.substr(0, name.size()) == name &&
+          (h.size() == name.size() || text::is_digit(h[name.size()]))) {
+        first = h.substr(name.size());
+        h = name;
+        break;
+      }
     normals_ = h == "NOFF" || h == "CNOFF";
     colours_ = h == "COFF" || h == "CNOFF";
     if (!normals_ && !colours_ && h != "OFF") return false;
     stage_ = kCounts;
-    const std::string_view first = words.next();
+    if (first.empty()) first = words.next();
     return first.empty() || counts(first, words);
   }
 

@@ -56,7 +56,9 @@ def _is_number(text: str) -> bool:
 
 def read_off(path: str) -> PolygonData:
     """Parse an ASCII OFF file: header (``OFF``, ``COFF``, ``NOFF`` or
-    ``CNOFF``), counts (vertices, faces, edges), vertex records (x y z, then
+    ``CNOFF``), counts (vertices, faces, edges; on the header's line or the
+    next, and also run into the header, ``OFF9278 6940 0``, as in the files
+    of the ModelNet datasets), vertex records (x y z, then
     a normal and/or colour as the header says), face records (the number of
     corners, their 0-based vertex indices, optionally a colour). ``#``
     starts a comment; records are one a line.
@@ -112,6 +114,12 @@ def _read_off_text(text: str) -> PolygonData:
         tokens = content.split()
         if tokens:
             records.append((number, tokens))
+    if records:  # "OFF9278 6940 0": the header run into the vertex count (ModelNet's files)
+        first = records[0][1]
+        joined = next((h for h in _HEADERS if first[0].startswith(h)
+                       and first[0][len(h):len(h) + 1].isdigit()), None)
+        if joined and first[0] not in _HEADERS:
+            first[:1] = [joined, first[0][len(joined):]]
     if not records or records[0][1][0] not in _HEADERS:
         raise ValueError("not an OFF file (the first record is not OFF, COFF, NOFF or CNOFF)")
     normals, colours = _HEADERS[records[0][1][0]]

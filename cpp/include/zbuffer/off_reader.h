@@ -27,14 +27,15 @@ struct OffRecords {
 // reads the file. Armadillo_86k as a 2.9 MB OFF file parsed in 7.5 ms
 // against 458 ms in Python (benchmarks/results/load.md).
 //
-// The subset: only printable ASCII, spaces, tabs and line ends (\n, \r\n,
-// \r) after an optional UTF-8 byte order mark, no `_` before a line's `#`
-// (which starts a comment). Blank lines are skipped; the first line is the
-// header OFF, COFF, NOFF or CNOFF, optionally followed by the counts
-// (vertices, faces, edges: three digit strings), else the next line holds
-// them; then exactly that many vertex and face lines. A vertex: x y z
-// (numbers of text_records.h's parse_number), with NOFF/CNOFF three words of a
-// normal (not read), with COFF/CNOFF 3 or 4 numbers of a colour. A face:
+// The subset: only printable ASCII, spaces, tabs and line ends (\n, \r\n, \r)
+// after an optional UTF-8 byte order mark, no `_` before a line's `#` (which
+// starts a comment). Blank lines are skipped; the first line is the header
+// OFF, COFF, NOFF or CNOFF, optionally followed by the counts (vertices,
+// faces, edges: three digit strings; the first may be run into the header,
+// "OFF9278 6940 0", as in the ModelNet datasets' files), else the next line
+// holds them; then exactly that many vertex and face lines. A vertex: x y z
+// (numbers of text_records.h's parse_number), with NOFF/CNOFF three words of
+// a normal (not read), with COFF/CNOFF 3 or 4 numbers of a colour. A face:
 // its corner count n >= 3, n indices in [0, vertices) ([+-]?digits), then
 // nothing, a colour-map index, or 3 or 4 colour numbers.
 bool read_off_records(std::string_view text, OffRecords& out);
