@@ -70,8 +70,8 @@ class Reader {
   enum Stage { kHeader, kCounts, kVertices, kFaces, kDone };
 
   bool header(std::string_view h, text::Words& words) {
-    // The header, or the header run into the vertex count ("OFF9278": the
-    // files of the ModelNet datasets).
+    // The header, or the header run into the vertex count ("OFF9278", as
+    // many files of the ModelNet datasets begin).
     std::string_view first;
     for (std::string_view name : {"CNOFF", "NOFF", "COFF", "OFF"})
       if (h.substr(0, name.size()) == name &&

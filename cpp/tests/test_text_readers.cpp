@@ -74,7 +74,7 @@ void test_off_files() {
                          r));
   CHECK((r.vertex_colors == std::vector<double>{255, 0, 0, 0, 255, 0, 0, 0, 255}));
   CHECK(!r.vertex_floats && r.face_colors.empty());
-  // Counts run into the header (ModelNet's files).
+  // Counts run into the header (many ModelNet files).
   CHECK(read_off_records("COFF3 1 0\n0 0 0 1 0 0\n1 0 0 0 1 0\n0 1 0 0 0 1\n3 0 1 2\n", r) &&
         r.positions.size() == 9 && r.vertex_colors.size() == 9 && r.sizes.size() == 1);
   CHECK(!read_off_records("OFFx3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", r));

@@ -57,7 +57,7 @@ def _is_number(text: str) -> bool:
 def read_off(path: str) -> PolygonData:
     """Parse an ASCII OFF file: header (``OFF``, ``COFF``, ``NOFF`` or
     ``CNOFF``), counts (vertices, faces, edges; on the header's line or the
-    next, and also run into the header, ``OFF9278 6940 0``, as in the files
+    next, and also run into the header, ``OFF9278 6940 0``, as in many files
     of the ModelNet datasets), vertex records (x y z, then
     a normal and/or colour as the header says), face records (the number of
     corners, their 0-based vertex indices, optionally a colour). ``#``
@@ -114,7 +114,7 @@ def _read_off_text(text: str) -> PolygonData:
         tokens = content.split()
         if tokens:
             records.append((number, tokens))
-    if records:  # "OFF9278 6940 0": the header run into the vertex count (ModelNet's files)
+    if records:  # "OFF9278 6940 0": the header run into the vertex count (many ModelNet files)
         first = records[0][1]
         joined = next((h for h in _HEADERS if first[0].startswith(h)
                        and first[0][len(h):len(h) + 1].isdigit()), None)

@@ -32,7 +32,7 @@ struct OffRecords {
 // starts a comment). Blank lines are skipped; the first line is the header
 // OFF, COFF, NOFF or CNOFF, optionally followed by the counts (vertices,
 // faces, edges: three digit strings; the first may be run into the header,
-// "OFF9278 6940 0", as in the ModelNet datasets' files), else the next line
+// "OFF9278 6940 0", as in many ModelNet files), else the next line
 // holds them; then exactly that many vertex and face lines. A vertex: x y z
 // (numbers of text_records.h's parse_number), with NOFF/CNOFF three words of
 // a normal (not read), with COFF/CNOFF 3 or 4 numbers of a colour. A face:
