@@ -36,34 +36,37 @@ bool read_records(const py::bytes& text, Records& records, Read read) {
   return read(std::string_view(data, size_t(size)), records);
 }
 
+// The values as a flat array.
+template <class T>
+py::array_t<T> flat(std::vector<T>&& values) {
+  const auto n = py::ssize_t(values.size());
+  return owning_array(std::move(values), {n});
+}
+
+// The values as (n, 3) rows.
+py::array_t<double> rows(std::vector<double>&& values) {
+  const auto n = py::ssize_t(values.size() / 3);
+  return owning_array(std::move(values), {n, 3});
+}
+
 // (n, 3) rows of the values, or None when there are none.
 py::object rows_or_none(std::vector<double>&& values) {
   if (values.empty()) return py::none();
-  const auto n = py::ssize_t(values.size() / 3);
-  return owning_array(std::move(values), {n, 3});
+  return rows(std::move(values));
 }
 
 py::object read_obj_records(const py::bytes& text) {
   zbuffer::ObjRecords records;
   if (!read_records(text, records, zbuffer::read_obj_records)) return py::none();
-  const auto n = py::ssize_t(records.positions.size() / 3);
-  const auto n_faces = py::ssize_t(records.sizes.size());
-  const auto n_corners = py::ssize_t(records.indices.size());
-  return py::make_tuple(owning_array(std::move(records.positions), {n, 3}),
-                        rows_or_none(std::move(records.colors)),
-                        owning_array(std::move(records.sizes), {n_faces}),
-                        owning_array(std::move(records.indices), {n_corners}));
+  return py::make_tuple(rows(std::move(records.positions)), rows_or_none(std::move(records.colors)),
+                        flat(std::move(records.sizes)), flat(std::move(records.indices)));
 }
 
 py::object read_off_records(const py::bytes& text) {
   zbuffer::OffRecords records;
   if (!read_records(text, records, zbuffer::read_off_records)) return py::none();
-  const auto n = py::ssize_t(records.positions.size() / 3);
-  const auto n_faces = py::ssize_t(records.sizes.size());
-  const auto n_corners = py::ssize_t(records.indices.size());
-  return py::make_tuple(owning_array(std::move(records.positions), {n, 3}),
-                        owning_array(std::move(records.sizes), {n_faces}),
-                        owning_array(std::move(records.indices), {n_corners}),
+  return py::make_tuple(rows(std::move(records.positions)), flat(std::move(records.sizes)),
+                        flat(std::move(records.indices)),
                         rows_or_none(std::move(records.vertex_colors)), records.vertex_floats,
                         rows_or_none(std::move(records.face_colors)), records.face_floats);
 }

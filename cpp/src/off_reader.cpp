@@ -62,6 +62,7 @@ class Reader {
 
   bool finish() {
     if (stage_ != kDone) return false;
+    // (Some face had no colour: the faces have none.)
     if (out_.face_colors.size() != 3 * out_.sizes.size()) out_.face_colors.clear();
     return true;
   }
@@ -137,20 +138,18 @@ class Reader {
       out_.indices.push_back(index);
     }
     out_.sizes.push_back(n);
+    // Nothing, a colour-map index, or a colour (finish() keeps the faces'
+    // colours only if every face has one).
     std::string_view colour[4];
     const int extra = take(words, colour, 4);
-    if (extra == 1) {  // a colour-map index: no face colours
+    bool read = extra == 0;
+    if (extra == 1) {
       double unused;
-      if (!text::parse_number(colour[0], unused)) return false;
-      face_colours_ = false;
+      read = text::parse_number(colour[0], unused);
     } else if (extra == 3 || extra == 4) {
-      if (!read_colour(colour, extra, out_.face_colors, out_.face_floats)) return false;
-    } else if (extra == 0) {
-      face_colours_ = false;
-    } else {
-      return false;
+      read = read_colour(colour, extra, out_.face_colors, out_.face_floats);
     }
-    if (!face_colours_) out_.face_colors.clear();  // (not every face has a colour)
+    if (!read) return false;
     next_stage();
     return true;
   }
@@ -158,7 +157,7 @@ class Reader {
   OffRecords& out_;
   int64_t bytes_;
   Stage stage_ = kHeader;
-  bool normals_ = false, colours_ = false, face_colours_ = true;
+  bool normals_ = false, colours_ = false;
   int64_t n_vertices_ = 0, n_faces_ = 0;
 };
 
