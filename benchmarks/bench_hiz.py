@@ -20,7 +20,7 @@ Per case, the median of --runs renders after a warm-up:
 On each grid and camera (and each single mesh), the cases render in
 interleaved rounds -- each once in turn, --runs times -- so that ratios to
 ``zbuffer`` are of times measured side by side. Also: the octree's
-two straddling-triangle rules, a leaf-size sweep, and temporal coherence over
+three rules for placing triangles, a leaf-size sweep, and temporal coherence over
 an orbit. Nothing here asserts a speed.
 """
 
@@ -281,7 +281,7 @@ def markdown(report: dict) -> str:
             lines.append(f"| {algo} | {f2b['ms_median']:.2f} | {b2f['ms_median']:.2f} | "
                          f"{f2b['rasterized']:,} / {b2f['rasterized']:,} |")
     if report.get("rules"):
-        lines += ["", f"Octree straddling rule (built once, N={report['rules'][0]['N']}, "
+        lines += ["", f"Octree rule (built once, N={report['rules'][0]['N']}, "
                   "perspective):", "", "| rule | build ms | render ms | references / faces |",
                   "|---|---:|---:|---:|"]
         for r in report["rules"]:
@@ -371,12 +371,12 @@ def main(argv=None) -> int:
     progress("submission order: " + ", ".join(
         f"{c['algo']} {c['order']} {c['ms_median']:.2f} ms" for c in report["order"]))
 
-    # The octree's two rules, and leaf sizes, on one grid.
+    # The octree's rules, and leaf sizes, on one grid.
     n_rules = sizes[0]
     mesh = zbuffer.scenes.instance_grid(base, (5, 5, n_rules))
     camera = grid_camera(mesh, "perspective")
     report["rules"] = []
-    for rule in ("smallest", "greene"):
+    for rule in zbuffer.scene.OCTREE_RULES:
         r = built_once(mesh, camera, "hiz_octree", size, runs, octree_rule=rule)
         scene = zbuffer.Scene(mesh, octree_rule=rule)
         r.update({"N": n_rules, "rule": rule,

@@ -165,6 +165,7 @@ void bind_object_tree(py::module_& m) {
         if (!zbuffer::parse_octree_rule(rule, params.rule))
           throw py::value_error(
               "unknown octree rule \"" + rule + "\"; valid rules are \"" +
+              zbuffer::octree_rule_name(zbuffer::OctreeRule::kLoose) + "\", \"" +
               zbuffer::octree_rule_name(zbuffer::OctreeRule::kSmallest) + "\", \"" +
               zbuffer::octree_rule_name(zbuffer::OctreeRule::kGreene) + "\"");
         // (leaf_size and max_depth: build_octree's std::invalid_argument, a ValueError)
@@ -172,7 +173,7 @@ void bind_object_tree(py::module_& m) {
                      [&](const zbuffer::MeshView& mesh) { return zbuffer::build_octree(mesh, params); });
       },
       py::arg("positions"), py::arg("faces"), py::arg("leaf_size") = zbuffer::OctreeParams{}.leaf_size,
-      py::arg("max_depth") = zbuffer::OctreeParams{}.max_depth, py::arg("rule") = "smallest",
+      py::arg("max_depth") = zbuffer::OctreeParams{}.max_depth, py::arg("rule") = zbuffer::octree_rule_name(zbuffer::OctreeParams{}.rule),
       "Build the octree of `hiz_octree` over (N, 3) float64 positions and (M, 3) int32 faces.");
   m.def(
       "build_bvh",

@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from zbuffer import _core, reference
+from zbuffer.scene import OCTREE_RULES
 from helpers import ALGORITHMS, counters_add_up
 
 SIZE = 16  # image is SIZE x SIZE pixels
@@ -194,8 +195,8 @@ def test_heavy_occlusion_and_exact_ties(tris, wall_z, seed):
         assert counters_add_up(stats)
         if algo == "hiz":  # (visited in the order given: the wall first)
             assert stats["culled_hidden"] >= covering_behind
-    for tree in (_core.build_octree(v, by_id, 8, 10, "smallest"),
-                 _core.build_octree(v, by_id, 8, 10, "greene"), _core.build_bvh(v, by_id, 8)):
+    for tree in (*(_core.build_octree(v, by_id, 8, 10, rule) for rule in OCTREE_RULES),
+                 _core.build_bvh(v, by_id, 8)):
         depth, got, stats = tree.render(MVP, SIZE, SIZE)
         np.testing.assert_array_equal(got, ref_ids)
         np.testing.assert_array_equal(depth, ref_depth)

@@ -11,15 +11,16 @@ from hypothesis import given, settings
 import zbuffer
 from zbuffer import _core, scenes
 from zbuffer.polygons import triangulate_polygons
-from zbuffer.scene import NODE_FATES, TREE_ALGORITHMS
+from zbuffer.scene import NODE_FATES, OCTREE_RULES, TREE_ALGORITHMS
 from helpers import TREE_ALGORITHMS as REGISTERED_TREES
 from helpers import assert_same_counters, assert_same_visibility, counters_add_up, reference_for
 from test_properties import MVP, SIZE, render_reference, to_arrays, triangles
 
 TREES = sorted(TREE_ALGORITHMS)
-# (algorithm, Scene options): every tree and both octree rules, with small
+# (algorithm, Scene options): every tree and every octree rule, with small
 # leaves so that the small test scenes get deep trees.
 VARIANTS = [("hiz_octree", {"leaf_size": 4}), ("hiz_octree", {"leaf_size": 4, "octree_rule": "greene"}),
+            ("hiz_octree", {"leaf_size": 4, "octree_rule": "smallest"}),
             ("hiz_octree", {"leaf_size": 32, "max_depth": 3}), ("hiz_bvh", {"leaf_size": 4}),
             ("hiz_bvh", {})]
 
@@ -205,7 +206,7 @@ def test_tiny_leaves_on_the_fixed_point_grid(tris):
     # every triangle or two: no node test may cull anything that wins a pixel.
     v, f = to_arrays(tris)
     depth, ids, ref_stats = render_reference(v, f)
-    for tree in (_core.build_octree(v, f, 1, 10, "smallest"), _core.build_octree(v, f, 1, 10, "greene"),
+    for tree in (*(_core.build_octree(v, f, 1, 10, rule) for rule in OCTREE_RULES),
                  _core.build_bvh(v, f, 1)):
         d, i, stats = tree.render(MVP, SIZE, SIZE)
         np.testing.assert_array_equal(i, ids)
@@ -226,9 +227,9 @@ def test_bad_arguments():
             zbuffer.Scene(mesh, max_depth=depth)
     with pytest.raises(TypeError, match="max_depth must be an int"):
         zbuffer.Scene(mesh, max_depth=True)
-    with pytest.raises(ValueError, match="unknown octree_rule 'loose'"):
-        zbuffer.Scene(mesh, octree_rule="loose")
-    with pytest.raises(TypeError, match="octree_rule must be one of 'smallest', 'greene', got None"):
+    with pytest.raises(ValueError, match="unknown octree_rule 'octant'"):
+        zbuffer.Scene(mesh, octree_rule="octant")
+    with pytest.raises(TypeError, match="octree_rule must be one of 'loose', 'smallest', 'greene', got None"):
         zbuffer.Scene(mesh, octree_rule=None)
     scene = zbuffer.Scene(mesh)
     # A Scene's mesh and a Mesh's arrays are fixed (a tree over other faces
@@ -251,8 +252,8 @@ def test_bad_arguments():
         scene.nodes("zbuffer")
     with pytest.raises(ValueError, match="width and height must be positive"):
         scene.render(width=0)
-    with pytest.raises(ValueError, match="unknown octree rule"):
-        _core.build_octree(mesh.vertices, mesh.faces, 8, 10, "loose")
+    with pytest.raises(ValueError, match='unknown octree rule "octant"; valid rules are "loose", "smallest", "greene"'):
+        _core.build_octree(mesh.vertices, mesh.faces, 8, 10, "octant")
     with pytest.raises(ValueError, match="face 0 has vertex index"):
         _core.build_bvh(mesh.vertices, np.array([[0, 1, 10**6]], np.int32))
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <vector>
 
 #include "morton.h"
@@ -305,7 +306,8 @@ class FrameOctree {
   FrameOctree(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree,
               const VertexGrid& grid)
       : mesh_(mesh), params_(params), tree_(tree), grid_(grid), b_(buckets()),
-        cells_(std::min(frame_tree_depth(mesh.n_faces, params.leaf_size), params.max_depth)) {}
+        cells_(std::min(frame_tree_depth(mesh.n_faces, params.leaf_size), params.max_depth),
+               params.rule == OctreeRule::kLoose) {}
 
   void build(bool vector) {
     b_.reset(size_t(cells_.subtree(0)), size_t(mesh_.n_faces), tree_.face_bucket);
@@ -315,14 +317,14 @@ class FrameOctree {
       for (; f + 16 <= mesh_.n_faces; f += 16) {
         __m512i c[3], lo[3], hi[3];
         face_cells16(grid_, mesh_.faces + 3 * f, c, lo, hi);
-        b_.add16(f, cells_.smallest16(lo, hi), lo, hi);
+        b_.add16(f, cells_.holder16(c, lo, hi), lo, hi);
       }
 #endif
     (void)vector;
     for (; f < mesh_.n_faces; ++f) {
       uint32_t lo[3], hi[3];
-      face_cells(grid_, mesh_.faces + 3 * f, lo, hi);
-      b_.add(f, int32_t(cells_.smallest(lo, hi)), lo, hi);
+      const int64_t cell = cells_.holder(grid_, mesh_.faces + 3 * f, lo, hi);
+      b_.add(f, int32_t(cell), lo, hi);
     }
     b_.scatter(mesh_, tree_, vector);
     tree_.nodes.emplace_back();
@@ -452,6 +454,8 @@ int frame_tree_depth(int64_t faces, int leaf_size) {
 
 void build_octree_for_frame(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree,
                             bool vector) {
+  if (params.rule == OctreeRule::kGreene)
+    throw std::invalid_argument("a per-frame octree takes the loose or the simpler rule, not Greene's");
   begin(mesh, tree);
   if (mesh.n_faces == 0) return;
   thread_local VertexGrid grid;

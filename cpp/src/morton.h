@@ -196,10 +196,14 @@ struct VertexGrid {
   // sorts faces by it and the per-frame BVH buckets them by its top bits,
   // so that a mesh visited in that order arrives at the BVH bucket by bucket.
   uint32_t centroid_code(const int32_t* idx) const {
-    const uint32_t c0 = cell[size_t(idx[0])], c1 = cell[size_t(idx[1])], c2 = cell[size_t(idx[2])];
     uint32_t q[3];
-    for (int a = 0; a < 3; ++a) q[a] = (axis(c0, a) + axis(c1, a) + axis(c2, a)) / 3;
+    centroid_cell(idx, q);
     return morton_30(q[0], q[1], q[2]);
+  }
+  // The centroid cell itself, per axis.
+  void centroid_cell(const int32_t* idx, uint32_t* q) const {
+    const uint32_t c0 = cell[size_t(idx[0])], c1 = cell[size_t(idx[1])], c2 = cell[size_t(idx[2])];
+    for (int a = 0; a < 3; ++a) q[a] = (axis(c0, a) + axis(c1, a) + axis(c2, a)) / 3;
   }
 
  private:
@@ -343,20 +347,26 @@ inline __m512i spread_bits_10_16(__m512i v) {
   return step(v, 2, 0x09249249);
 }
 
-// VertexGrid::centroid_code of 16 faces whose corners' cells are c (as
-// face_cells16 gives them): the sum s of three 10-bit values is at most
-// 3069, where s * 43691 (under 2^32) >> 17 is s / 3 exactly.
-inline __m512i centroid_codes16(const __m512i* c) {
+// VertexGrid::centroid_cell (q, per axis) and centroid_code of 16 faces
+// whose corners' cells are c (as face_cells16 gives them): the sum s of
+// three 10-bit values is at most 3069, where s * 43691 (under 2^32) >> 17
+// is s / 3 exactly.
+inline void centroid_cells16(const __m512i* c, __m512i* q) {
   const __m512i third = _mm512_set1_epi32(43691), mask = _mm512_set1_epi32(int(VertexGrid::kMask));
-  __m512i code = _mm512_setzero_si512();
   for (int a = 0; a < 3; ++a) {
     const unsigned shift = unsigned(VertexGrid::kBits * a);
     __m512i sum = _mm512_setzero_si512();
     for (int j = 0; j < 3; ++j)
       sum = _mm512_add_epi32(sum, _mm512_and_si512(_mm512_srli_epi32(c[j], shift), mask));
-    const __m512i q = _mm512_srli_epi32(_mm512_mullo_epi32(sum, third), 17);
-    code = _mm512_or_si512(code, _mm512_slli_epi32(spread_bits_10_16(q), unsigned(a)));
+    q[a] = _mm512_srli_epi32(_mm512_mullo_epi32(sum, third), 17);
   }
+}
+inline __m512i centroid_codes16(const __m512i* c) {
+  __m512i q[3];
+  centroid_cells16(c, q);
+  __m512i code = _mm512_setzero_si512();
+  for (int a = 0; a < 3; ++a)
+    code = _mm512_or_si512(code, _mm512_slli_epi32(spread_bits_10_16(q[a]), unsigned(a)));
   return code;
 }
 
@@ -378,7 +388,9 @@ inline void store_words16(uint64_t* out, __m512i key, __m512i face) {
 class OctreeCells {
  public:
   static constexpr int kMaxDepth = 10;
-  explicit OctreeCells(int depth) : depth_(depth) {
+  // `loose`: faces go to cells by the loose rule, else by the simpler one
+  // (octree.h; Greene's rule, which gives a face several cells, is octree.cpp's).
+  explicit OctreeCells(int depth, bool loose = false) : depth_(depth), loose_(loose) {
     assert(depth >= 1 && depth <= kMaxDepth);
     for (int l = depth_; l >= 0; --l) size_[l] = l == depth_ ? 1 : 1 + 8 * size_[l + 1];
   }
@@ -401,29 +413,54 @@ class OctreeCells {
     return level + (int64_t(m << (3 * (depth_ - level + 1))) - digit_sum) / 7;
   }
 
-  // The number of the smallest cell enclosing the grid box lo .. hi (at
-  // depth <= D; octree.h, the simpler rule).
-  int64_t smallest(const uint32_t* lo, const uint32_t* hi) const {
+  // The number of the cell that holds a face with the grid box lo .. hi and
+  // the centroid cell q (VertexGrid::centroid_cell). The simpler rule: the
+  // smallest cell (at depth <= D) that encloses the box. The loose rule: the
+  // cell of the centroid at the deepest level (<= D) whose cells are as wide
+  // as the box or wider on every axis.
+  int64_t holder(const uint32_t* q, const uint32_t* lo, const uint32_t* hi) const {
     const int coarsen = VertexGrid::kBits - depth_;
-    const uint32_t x = lo[0] >> coarsen, y = lo[1] >> coarsen, z = lo[2] >> coarsen;
-    const uint32_t differ = (x ^ (hi[0] >> coarsen)) | (y ^ (hi[1] >> coarsen)) |
-                            (z ^ (hi[2] >> coarsen));
-    const int s = differ ? 32 - __builtin_clz(differ) : 0;  // levels up from D
+    const uint32_t* at = loose_ ? q : lo;
+    const uint32_t x = at[0] >> coarsen, y = at[1] >> coarsen, z = at[2] >> coarsen;
+    uint32_t span = 0;  // the loose rule: the box's widest extent, in depth-D cells (rounded down)
+    for (int a = 0; loose_ && a < 3; ++a) span = std::max(span, (hi[a] - lo[a]) >> coarsen);
+    const uint32_t differ = loose_ ? span
+                                   : (x ^ (hi[0] >> coarsen)) | (y ^ (hi[1] >> coarsen)) |
+                                         (z ^ (hi[2] >> coarsen));
+    // Levels up from D: the bit length of `differ`; a loose span of 2^D or
+    // more (a face as wide as the cube) goes to the root.
+    const int s = std::min(depth_, differ ? 32 - __builtin_clz(differ) : 0);
     return number(x >> s, y >> s, z >> s, depth_ - s);
+  }
+  // holder() of the face `idx`, and its grid box.
+  int64_t holder(const VertexGrid& grid, const int32_t* idx, uint32_t* lo, uint32_t* hi) const {
+    uint32_t q[3] = {0, 0, 0};
+    face_cells(grid, idx, lo, hi);
+    if (loose_) grid.centroid_cell(idx, q);
+    return holder(q, lo, hi);
   }
 
 #ifdef ZBUFFER_AVX512
-  // smallest() of 16 boxes, computed digit by digit: the cell at `level`
-  // enclosing a box has the octal digits d_1 .. d_level of its depth-D cell
+  // holder() of 16 faces whose corners' cells are c and boxes lo .. hi (as
+  // face_cells16 gives them), computed digit by digit: the cell at `level`
+  // holding a face has the octal digits d_1 .. d_level of its depth-D cell
   // (x, y, z), digit l being bit D - l of x, y and z.
-  __m512i smallest16(const __m512i* lo, const __m512i* hi) const {
+  __m512i holder16(const __m512i* c, const __m512i* lo, const __m512i* hi) const {
     const unsigned coarsen = unsigned(VertexGrid::kBits - depth_);
     __m512i cell[3], differ = _mm512_setzero_si512();
-    for (int a = 0; a < 3; ++a) {
-      cell[a] = _mm512_srli_epi32(lo[a], coarsen);
-      differ = _mm512_or_si512(differ, _mm512_xor_si512(cell[a], _mm512_srli_epi32(hi[a], coarsen)));
+    if (loose_) {
+      centroid_cells16(c, cell);
+      for (int a = 0; a < 3; ++a) {
+        cell[a] = _mm512_srli_epi32(cell[a], coarsen);
+        differ = _mm512_max_epu32(differ, _mm512_srli_epi32(_mm512_sub_epi32(hi[a], lo[a]), coarsen));
+      }
+    } else {
+      for (int a = 0; a < 3; ++a) {
+        cell[a] = _mm512_srli_epi32(lo[a], coarsen);
+        differ = _mm512_or_si512(differ, _mm512_xor_si512(cell[a], _mm512_srli_epi32(hi[a], coarsen)));
+      }
     }
-    // Levels up from depth D: the bit length of `differ` (< 2^D).
+    // Levels up from depth D: the bit length of `differ`, at most D.
     __m512i up = _mm512_setzero_si512();
     const __m512i one = _mm512_set1_epi32(1);
     for (int k = 0; k < depth_; ++k)
@@ -443,23 +480,22 @@ class OctreeCells {
   }
 #endif
 
-  // As face_words' keys: the number of each face's smallest enclosing cell.
+  // As face_words' keys: the number of the cell holding each face.
   uint32_t one(const VertexGrid& grid, const int32_t* idx) const {
     uint32_t lo[3], hi[3];
-    face_cells(grid, idx, lo, hi);
-    return uint32_t(smallest(lo, hi));
+    return uint32_t(holder(grid, idx, lo, hi));
   }
 #ifdef ZBUFFER_AVX512
-  __m512i sixteen(const __m512i*, const __m512i* lo, const __m512i* hi) const {
-    return smallest16(lo, hi);
+  __m512i sixteen(const __m512i* c, const __m512i* lo, const __m512i* hi) const {
+    return holder16(c, lo, hi);
   }
 #endif
 
  private:
   int depth_;
+  bool loose_;
   int64_t size_[kMaxDepth + 1] = {};
 };
-
 
 // words[f] = key << 32 | f for every face f of the mesh, `keys` giving a
 // face's key from its vertex indices (keys.one(grid, idx)) and, in AVX-512

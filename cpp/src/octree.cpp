@@ -10,12 +10,18 @@
 namespace zbuffer {
 
 const char* octree_rule_name(OctreeRule rule) {
-  return rule == OctreeRule::kGreene ? "greene" : "smallest";
+  switch (rule) {
+    case OctreeRule::kSmallest: return "smallest";
+    case OctreeRule::kGreene: return "greene";
+    case OctreeRule::kLoose: return "loose";
+  }
+  return "?";
 }
 
 bool parse_octree_rule(const std::string& name, OctreeRule& rule) {
   if (name == "smallest") rule = OctreeRule::kSmallest;
   else if (name == "greene") rule = OctreeRule::kGreene;
+  else if (name == "loose") rule = OctreeRule::kLoose;
   else return false;
   return true;
 }
@@ -39,7 +45,8 @@ static_assert(kMaxOctreeDepth <= OctreeCells::kMaxDepth, "cell numbers must fit 
 class OctreeBuilder {
  public:
   OctreeBuilder(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree)
-      : mesh_(mesh), params_(params), tree_(tree), clusters_(mesh, tree), cells_(params.max_depth) {}
+      : mesh_(mesh), params_(params), tree_(tree), clusters_(mesh, tree),
+        cells_(params.max_depth, params.rule == OctreeRule::kLoose) {}
 
   void build() {
     make_keys();
@@ -59,8 +66,8 @@ class OctreeBuilder {
     thread_local VertexGrid grid;
     grid.build(mesh_);
     words_.clear();
-    if (params_.rule == OctreeRule::kSmallest) {
-      // One reference per face: its smallest enclosing cell.
+    if (params_.rule != OctreeRule::kGreene) {
+      // One reference per face: the cell that holds it.
       face_words(grid, mesh_, cells_, words_);
       return;
     }

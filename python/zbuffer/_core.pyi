@@ -47,7 +47,7 @@ def build_octree(
     faces: npt.NDArray[np.int32],
     leaf_size: int = ...,
     max_depth: int = ...,
-    rule: str = "smallest",
+    rule: str = "loose",
 ) -> ObjectTree: ...
 def build_bvh(
     positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int32], leaf_size: int = ...

@@ -15,8 +15,9 @@ namespace zbuffer {
 
 // Design decision: one counting sort instead of a radix sort and a
 // recursive split. Every face gets a bucket -- for the octree, the node of a
-// complete octree of depth T that encloses it (numbered in pre-order, so a
-// subtree is a contiguous run of buckets and a node's own faces come first);
+// complete octree of depth T that holds it by params.rule (numbered in
+// pre-order, so a subtree is a contiguous run of buckets and a node's own
+// faces come first);
 // for the BVH, the top 3T bits of its centroid's Morton code -- one pass
 // counts them and bounds each bucket's faces on the vertex grid, a second
 // lists the faces' indices in bucket order (the tree's `order`), and the
@@ -28,8 +29,10 @@ namespace zbuffer {
 // 6. Good: two passes over the faces, nothing sorted, 4 bytes written per
 // face -- and when the faces already come in bucket order with their ids
 // (the BVH of a mesh in spatial order: Mesh.prepare's order is the same
-// Morton code), no second pass: the clusters are runs of the caller's own
-// arrays (9-13% off the per-frame BVH on the spot grid). Listing indices
+// Morton code; so is, under the loose rule, the octree of one whose faces
+// are all narrower than a depth-T cell), no second pass: the clusters are
+// runs of the caller's own arrays (9-13% off the per-frame BVH on the spot
+// grid). Listing indices
 // instead of copying the faces and ids (16 bytes a face) took 5-13% off the
 // per-frame octree from the 5 x 5 x 20 spot grid up (memory traffic: the
 // copy was a third of the build; N = 10 and single meshes within noise),
@@ -47,8 +50,9 @@ namespace zbuffer {
 // The face pass (each face's bucket and box) and the listing in bucket order
 // run 16 faces per instruction in AVX-512 builds; `vector = false` runs the
 // scalar loops instead (tests hold the two to the same tree). The octree
-// reads params' leaf_size and max_depth; its rule is always the bucket's,
-// OctreeRule::kSmallest (params.rule is not read).
+// reads params' leaf_size, max_depth and rule, the loose or the simpler one
+// (a face has one bucket: Greene's rule, which gives it several cells, is
+// refused with std::invalid_argument).
 void build_octree_for_frame(const MeshView& mesh, const OctreeParams& params, ObjectTree& tree,
                             bool vector = true);
 void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTree& tree,
