@@ -45,7 +45,7 @@ class Scene:
     leaf_size : int, optional
         Tree nodes with at most this many triangles are leaves (both trees).
         Default: each tree's own (``zbuffer._core.DEFAULT_OCTREE_LEAF_SIZE``,
-        ``DEFAULT_BVH_LEAF_SIZE``; 512, the fastest measured both on the
+        ``DEFAULT_BVH_LEAF_SIZE``; 1024, measured the fastest overall on the
         spot grid and on single meshes, benchmarks/README.md).
     max_depth : int, optional
         Deepest octree level (cells of 1/2**max_depth of the root cube a

@@ -10,7 +10,7 @@ namespace zbuffer {
 
 struct BvhParams {
   // A node with at most this many triangles is a leaf.
-  int leaf_size = 512;  // measured: spot grid and single meshes (benchmarks/README.md)
+  int leaf_size = 1024;  // measured: spot grid and single meshes (benchmarks/README.md)
 };
 
 // Design decision: a linear BVH (Lauterbach et al. 2009; Karras 2012):

@@ -38,7 +38,7 @@ bool parse_octree_rule(const std::string& name, OctreeRule& rule);
 struct OctreeParams {
   // A node whose subtree holds at most this many distinct faces is a leaf
   // (Greene's rule may reference a face from several of its cells).
-  int leaf_size = 512;  // measured: spot grid and single meshes (benchmarks/README.md)
+  int leaf_size = 1024;  // measured: spot grid and single meshes (benchmarks/README.md)
   // Depth of the finest cells (the root is depth 0): cells of the root cube
   // divided 2^max_depth times a side. 1 .. kMaxOctreeDepth.
   int max_depth = 10;
