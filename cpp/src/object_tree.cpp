@@ -678,11 +678,15 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   }
   const uint32_t now = ++frame.frame;
 
-  // The pyramid is kept from 4 x 4 cells up (hiz: 8 x 8): behind the nodes
-  // a traversal keeps, many small triangles are hidden, and finer cells
-  // prove more of them so (a third more culled on the orthographic grid of
-  // benchmarks/bench_hiz.py, for a little more upkeep).
-  ZPyramid pyramid(target.depth, target.width, target.height, 2, /*cleared=*/true, target.pitch);
+  // The pyramid is kept from 4 x 4 cells up (hiz: 8 x 8) for a tree of more
+  // triangles than the image has pixels: behind the nodes a traversal keeps,
+  // many small triangles are hidden, and finer cells prove more of them so
+  // (a third more culled on the orthographic grid of benchmarks/bench_hiz.py,
+  // for a little more upkeep). A smaller mesh's triangles cover pixels
+  // enough for 8 x 8 cells, which cost less to keep and to test against:
+  // single meshes 1-3% faster (benchmarks/README.md).
+  const int fine = tree.n_input_faces < int64_t(target.width) * target.height ? 3 : 2;
+  ZPyramid pyramid(target.depth, target.width, target.height, fine, /*cleared=*/true, target.pitch);
   pyramid.record_culls(input.culls);
   TriangleBatch batch(target, stats, &pyramid);
   // Per-thread scratch, looked up once here: each use of a thread_local in
