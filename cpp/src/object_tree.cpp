@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "zbuffer/algorithms.h"
 #include "zbuffer/triangle_batch.h"
@@ -72,6 +73,11 @@ void ClusterBuilder::reserve(int64_t references) {
   // only the pages written are ever mapped, and those of a large tree in
   // huge pages (a fresh tree faults in hundreds of MB: 20% of a Scene build
   // of 11.7 million triangles in 4 KiB pages).
+  // Faces index the tree's vertex copies, at most three per reference.
+  if (references > (int64_t(std::numeric_limits<int32_t>::max()) - 1) / 3)
+    throw std::length_error("a tree of " + std::to_string(references) +
+                            " triangle references is too large: at most " +
+                            std::to_string((int64_t(std::numeric_limits<int32_t>::max()) - 1) / 3));
   const size_t n = size_t(references);
   reserve_huge(tree_.faces, 3 * n);
   reserve_huge(tree_.ids, n);
@@ -108,7 +114,8 @@ void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
   const __m256i xyz_lanes = _mm256_set_epi64x(0, -1, -1, -1);
   __m256d lo4 = _mm256_set1_pd(lo[0]), hi4 = _mm256_set1_pd(hi[0]);
 #endif
-  int32_t local = 0;
+  int32_t local = 0;  // the cluster's vertices so far
+  const int32_t vertex_base = int32_t(cluster.vertex_begin);  // (reserve: below 2^31)
   int64_t kept = 0;
   for (int64_t r = 0; r < n; ++r) {
     const int32_t f = face[r];
@@ -155,7 +162,7 @@ void ClusterBuilder::add_cluster(int32_t node, const int32_t* face, int64_t n) {
       }
 #endif
       local += first;
-      out_faces[3 * kept + k] = at;
+      out_faces[3 * kept + k] = vertex_base + at;
     }
     out_ids[kept] = mesh_.id(f);
     ++kept;
@@ -526,6 +533,12 @@ void gather_rows(const ObjectTree& tree, const TriangleCluster& cl, std::vector<
 // 0.96x -- but with a share of 0.4, the octree at N = 40, 49% drawn, 1.03x).
 // The first frame of a mesh, and those after one that drew less, go as
 // needed.
+// A Scene tree's vertices (its clusters' own copies, a run each) follow the
+// same choice, up front or as needed -- but as needed, a cluster at a time,
+// exactly its run, as before the choice existed: blocks of 256 over runs
+// of a few hundred would transform the copies of clusters not drawn (the
+// perspective grid 4-5% slower). Up front, single meshes are 2-5% faster
+// than a cluster at a time (benchmarks/README.md).
 // The screen vertices do not depend on when (or in which block) they are
 // computed, and the outcodes' OR, which lets assembly skip reading outcodes
 // when it is 0, only grows by vertices not used before: the output is the
@@ -544,6 +557,17 @@ class LazyVertices {
     n_blocks_ = (n_vertices >> kShift) + 1;
     done_.assign(size_t(n_blocks_), 0);
     if (up_front) transform_rest();
+  }
+
+  // A Scene tree's cluster, drawn at most once a frame: its own vertex
+  // copies, begin .. end - 1, which no other cluster uses, transformed
+  // exactly (no blocks to keep track of), and the outcodes' OR made theirs
+  // alone, so that the cluster's faces skip reading outcodes where its own
+  // vertices allow (as when each cluster had its screen vertices to itself).
+  // Up front, the OR stays every vertex's.
+  void need_own(int64_t begin, int64_t end) {
+    if (all_) return;
+    out_.any_outcode = transform_vertex_range(mesh_, mvp_, vp_, begin, end, out_);
   }
 
   // Every vertex of the n faces (vertex indices, 3 a face) transformed.
@@ -701,16 +725,19 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   std::vector<int32_t>& kept_ids = tls_kept_ids;
   int64_t reached = 0;         // faces handed to the batch (each once)
   double draw_ms = 0.0;        // vertex stage, cluster drawing and batch flushes
-  // An indexed tree's vertices: through the vertex stage as clusters need
+  // The vertices the clusters' faces index (an indexed tree's: the mesh's;
+  // a Scene tree's: its copies): through the vertex stage as clusters need
   // them, or all up front where that is cheaper (LazyVertices).
   const auto lazy_start = Clock::now();
-  const int64_t n_vertices = tree.mesh_positions ? tree.mesh_vertices : 0;
+  const double* positions = tree.mesh_positions ? tree.mesh_positions : tree.positions.data();
+  const int64_t n_vertices =
+      tree.mesh_positions ? tree.mesh_vertices : int64_t(tree.positions.size() / 3);
   frame.vertices_up_front = n_vertices > 0 && (n_vertices < frame.lazy_vertices_from ||
-                                               (frame.drawn_positions == tree.mesh_positions &&
+                                               (frame.drawn_positions == positions &&
                                                 frame.drawn_vertices == n_vertices &&
                                                 frame.drawn_share >= TreeFrame::kUpFrontShare));
-  LazyVertices lazy(tree.mesh_positions, n_vertices, frame.vertices_up_front, input.mvp, vp,
-                    screen, tls_blocks_done);
+  LazyVertices lazy(positions, n_vertices, frame.vertices_up_front, input.mvp, vp, screen,
+                    tls_blocks_done);
   {
     const double ms = ms_between(lazy_start, Clock::now());
     stats.vertex_ms += ms;
@@ -723,10 +750,9 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     if (frame.cluster_stamp[size_t(c)] == now) return;  // drawn already this frame
     frame.cluster_stamp[size_t(c)] = now;
     const TriangleCluster& cl = tree.clusters[size_t(c)];
-    MeshView mesh;  // the cluster's own vertices, or the whole mesh's (indexed)
-    mesh.positions = tree.mesh_positions ? tree.mesh_positions
-                                         : tree.positions.data() + 3 * cl.vertex_begin;
-    mesh.n_vertices = tree.mesh_positions ? tree.mesh_vertices : cl.vertex_end - cl.vertex_begin;
+    MeshView mesh;  // the faces index all the vertices (the mesh's, or the tree's copies)
+    mesh.positions = positions;
+    mesh.n_vertices = n_vertices;
     mesh.faces = tree.face_rows() + 3 * cl.face_begin;
     mesh.face_ids = tree.id_rows() + cl.face_begin;
     mesh.n_faces = cl.face_end - cl.face_begin;
@@ -770,7 +796,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     if (tree.mesh_positions)
       lazy.need(mesh.faces + 3 * begin, end - begin);
     else
-      transform_vertices(mesh, input.mvp, vp, screen);
+      lazy.need_own(cl.vertex_begin, cl.vertex_end);
     const auto t1 = Clock::now();
     batch.add_faces_in_buckets(mesh, input.mvp, vp, screen, begin, end, input.cull_backfaces,
                                bucket, cl.bucket_begin, cl.bucket_end);
@@ -867,7 +893,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   flush();
   stats.culled_in_nodes += tree.n_input_faces - reached;
   stats.depth_storage_bytes = pyramid.storage_bytes();
-  frame.drawn_positions = tree.mesh_positions;
+  frame.drawn_positions = positions;
   frame.drawn_vertices = n_vertices;
   frame.drawn_share = tree.n_input_faces > 0 ? double(reached) / double(tree.n_input_faces) : 0.0;
 

@@ -85,9 +85,11 @@ void check_structure(const ObjectTree& tree, const Soup& soup, bool each_once) {
       const int32_t id = tree.ids[size_t(r)];
       ++seen[size_t(id)];
       for (int k = 0; k < 3; ++k) {
-        // The cluster's copy of the vertex is the input vertex, and the node
-        // contains it.
-        const double* copy = &tree.positions[3 * size_t(cl.vertex_begin + tree.faces[3 * size_t(r) + k])];
+        // The face indexes the cluster's own copy of the vertex, which is the
+        // input vertex, and the node contains it.
+        const int32_t v = tree.faces[3 * size_t(r) + k];
+        CHECK(v >= cl.vertex_begin && v < cl.vertex_end);
+        const double* copy = &tree.positions[3 * size_t(v)];
         const double* input = &soup.pos[3 * size_t(soup.faces[3 * size_t(id) + k])];
         CHECK(std::memcmp(copy, input, 3 * sizeof(double)) == 0);
         CHECK(inside(copy, node));
@@ -253,6 +255,66 @@ void test_octree_cells_hold_faces_by_their_rule() {
         }
         if (scene == 0 && depth >= 3) CHECK(__builtin_popcount(levels_seen) >= 2);  // not all at one level
       }
+  }
+}
+
+// A Scene's trees (their own vertex copies) drawn with those vertices
+// transformed all up front and as the clusters drawn need them -- frames
+// from cameras that draw most of the tree, a zoomed few clusters, another
+// corner zoomed (whose blocks hold the camera before's vertices, which must
+// not be read) -- give the plain Z-buffer's bits.
+void test_scene_trees_vertices_up_front_and_as_needed() {
+  const Soup soup = random_soup(77, 4000);
+  RenderInput input;
+  input.mesh = soup.view();
+  const double n = 0.5, f = 10.0, a = -(f + n) / (f - n), b = -2 * f * n / (f - n);
+  const double mvp[16] = {1.5, 0, 0, 0, 0, 1.5, 0, 0, 0, 0, a, b - 3 * a, 0, 0, -1, 3};
+  std::copy(mvp, mvp + 16, input.mvp);
+  RenderInput zoom = input, zoom_aside = input, other = input;
+  zoom.mvp[0] *= 8;
+  zoom.mvp[5] *= 8;
+  zoom_aside.mvp[0] *= 10;
+  zoom_aside.mvp[5] *= 10;
+  zoom_aside.mvp[3] = 1.5;
+  zoom_aside.mvp[7] = -1.5;
+  other.mvp[0] = 1.2;
+  const int w = 96, h = 80;
+  for (int kind = 0; kind < 4; ++kind) {  // octree (loose, simpler, Greene's rule), BVH
+    ObjectTree tree;
+    if (kind < 3) {
+      OctreeParams p;
+      p.leaf_size = 16;
+      p.rule = kind == 0 ? OctreeRule::kLoose : kind == 1 ? OctreeRule::kSmallest : OctreeRule::kGreene;
+      tree = build_octree(soup.view(), p);
+    } else {
+      BvhParams p;
+      p.leaf_size = 16;
+      tree = build_bvh(soup.view(), p);
+    }
+    CHECK(!tree.mesh_positions && !tree.positions.empty());
+    for (int64_t lazy_from : {int64_t(1) << 18, int64_t(0)}) {
+      TreeFrame frame;
+      frame.lazy_vertices_from = lazy_from;
+      bool saw_up_front = false, saw_lazy = false;
+      for (const RenderInput* in : {&other, &zoom, &zoom_aside, &input, &input, &zoom, &other}) {
+        std::vector<float> want_depth(size_t(w) * h, std::numeric_limits<float>::infinity());
+        std::vector<int32_t> want_ids(size_t(w) * h, -1);
+        DepthTarget want{want_depth.data(), want_ids.data(), w, h};
+        RenderStats want_stats;
+        render(*find_algorithm("zbuffer"), *in, want, want_stats);
+        std::vector<float> depth(want_depth.size(), std::numeric_limits<float>::infinity());
+        std::vector<int32_t> ids(want_ids.size(), -1);
+        DepthTarget target{depth.data(), ids.data(), w, h};
+        RenderStats stats;
+        stats.triangles_in = soup.view().n_faces;
+        render_object_tree(tree, *in, target, stats, frame);
+        (frame.vertices_up_front ? saw_up_front : saw_lazy) = true;
+        CHECK(std::memcmp(depth.data(), want_depth.data(), depth.size() * sizeof(float)) == 0);
+        CHECK(ids == want_ids);
+      }
+      CHECK(saw_up_front);
+      CHECK(saw_lazy == (lazy_from == 0));
+    }
   }
 }
 
@@ -627,6 +689,7 @@ int main() {
   test_octree_reference_order();
   test_frame_trees();
   test_octree_cells_hold_faces_by_their_rule();
+  test_scene_trees_vertices_up_front_and_as_needed();
   test_greene_draws_each_face_once();
   return check_report("test_object_tree");
 }

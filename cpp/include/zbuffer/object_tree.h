@@ -45,10 +45,12 @@ struct TriangleCluster {
 };
 
 // Design decision: a tree built to last (zbuffer.Scene) is self-contained.
-// Every cluster gets its own copy of its vertices, with faces indexed
-// locally, so that drawing a cluster transforms exactly the vertices it uses
-// (vertex_stage.h: 8 at a time with AVX-512, 4 with AVX2) and never
-// touches the rest of the mesh.
+// Every cluster gets its own copy of its vertices, a run of `positions`
+// that its faces index, so that drawing a cluster transforms exactly the
+// vertices it uses (vertex_stage.h: 8 at a time with AVX-512, 4 with AVX2)
+// and never touches the rest of the mesh -- or, where the frame before drew
+// most of the tree, every copy up front in one pass, as an indexed tree
+// does (TreeFrame; object_tree.cpp, LazyVertices).
 // Good: render time depends on what is visible, not on the size of the
 // mesh, and the tree outlives the arrays it was built from. Bad: vertices on
 // cluster borders are stored (and transformed) more than once -- identical
@@ -67,8 +69,8 @@ struct ObjectTree {
   std::vector<TreeNode> nodes;           // nodes[0] is the root (empty mesh: none)
   std::vector<TriangleCluster> clusters;
   // (Buffers: grown without zeroing, then written once; buffer.h.)
-  Buffer<double> positions;              // (vertices, 3) cluster-local copies
-  Buffer<int32_t> faces;                 // (references, 3) local vertex indices
+  Buffer<double> positions;              // (vertices, 3) each cluster's copies, a run each
+  Buffer<int32_t> faces;                 // (references, 3) rows of positions, in the cluster's run
   Buffer<int32_t> ids;                   // (references,) triangle id reported
   Buffer<int32_t> source;                // (references,) input face index (shared only)
   int64_t n_input_faces = 0;
@@ -176,14 +178,14 @@ struct TreeFrame {
   std::vector<int32_t> visible_clusters;  // clusters with a pixel on the last frame's sampled rows
   std::vector<uint32_t> reached_rank;   // the order the last traversal reached clusters in
   bool has_visible = false;             // visible_clusters belongs to the tree's last frame
-  // An indexed tree over at least this many vertices has them transformed
-  // as the clusters drawn need them (object_tree.cpp: LazyVertices), a
-  // smaller one all up front -- and so is a larger one when the frame
-  // before, over the same vertices, drew most of the tree's faces. Tests
-  // lower it.
+  // A tree over at least this many vertices (an indexed tree's: the mesh's;
+  // a Scene tree's: its copies) has them transformed as the clusters drawn
+  // need them (object_tree.cpp: LazyVertices), a smaller one all up front --
+  // and so has a larger one when the frame before, over the same vertices,
+  // drew most of the tree's faces. Tests lower it.
   int64_t lazy_vertices_from = int64_t(1) << 18;
   static constexpr double kUpFrontShare = 0.6;
-  // The indexed tree's vertices in the last frame, and the share of the
+  // The tree's vertices in the last frame, and the share of the
   // tree's faces that frame drew (handed to the batch, not culled in nodes).
   // Only a guess for the next frame: a new array at the address of a freed
   // one is taken for it, which changes the frame's speed, never its bits.
