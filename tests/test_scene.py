@@ -57,7 +57,7 @@ def test_one_tree_many_cameras_equals_the_reference(algo, options):
         # The depth buffer and the pyramid levels kept above it (8x8 cells up).
         assert res.stats["depth_storage_bytes"] > 4 * 80 * 64
         # Whole nodes were culled: in every frame with small leaves; over the
-        # path with the default leaves of 512 triangles (a view from the side
+        # path with the default leaves of 1024 triangles (a view from the side
         # hides no whole leaf of this grid).
         if options.get("leaf_size"):
             assert res.stats["culled_in_nodes"] > 0

@@ -61,7 +61,8 @@ struct Buckets {
   // hundreds of consecutive faces -- go into the run's lane-wise bounds,
   // reduced once when the run ends; the others straight into their buckets,
   // a bucket at a time, a face alone without a reduction (an octree's faces
-  // that straddle a cell border and belong to a coarser node, or the first
+  // that belong to a coarser node -- wider than a cell under the loose
+  // rule, straddling a cell border under the simpler one -- or the first
   // faces of the next run). A step with no face in the run ends it; the next
   // is lane 15's bucket. Counts and boxes do not depend on the order faces
   // come in. (Ending the run for every other bucket present, six masked
@@ -140,8 +141,9 @@ struct Buckets {
     // 16 faces at a time: those in the bucket of the first go to consecutive
     // places at once (compressed, in order), the others one by one. The
     // octree's faces come mostly in runs (Mesh.prepare's order is that of
-    // the depth-T cells) broken by single faces that straddle a cell border
-    // and belong to a coarser node.
+    // the depth-T cells) broken by single faces that belong to a coarser
+    // node (under the loose rule, only faces wider than a cell: a mesh of
+    // narrow ones comes in bucket order and is not listed at all).
     const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     for (; vector && f + 16 <= mesh.n_faces; f += 16) {
       const __m512i bucket = _mm512_loadu_si512(&of_face[size_t(f)]);
@@ -275,9 +277,9 @@ int32_t add_cluster(ObjectTree& tree, int32_t node, int64_t b, int64_t e) {
 // they lie among few others in the mesh's order, it is set to be drawn from
 // there (TriangleCluster::range_begin) instead of by gathering its rows. A mesh in
 // spatial order (Mesh.prepare: the Morton order on the trees' grid) lists a
-// cell's faces together, interleaved with the few that straddle its border
-// and belong to a coarser node; those are skipped, at most kRangeSlack - 1
-// of the cluster's size.
+// cell's faces together, interleaved with the few that belong to a coarser
+// node (wider than a cell, or straddling its border: octree.h's rules);
+// those are skipped, at most kRangeSlack - 1 of the cluster's size.
 constexpr int64_t kRangeSlack = 2;
 void set_mesh_range(ObjectTree& tree, int32_t c, const Buckets& buckets, size_t lo, size_t hi) {
   if (tree.order.empty()) return;  // its rows are runs of the mesh's arrays already

@@ -24,7 +24,8 @@ void render_hiz(const RenderInput& input, DepthTarget& target, RenderStats& stat
   // after the last batch that culled enough to be worth updating for: up to
   // 1 + TriangleBatch::kMaxSkippedUpdates batches back), so smaller ones cull
   // sooner but cost more upkeep: 128 instead of 512 made single meshes ~4%
-  // slower. Keeping 4x4 cells too (as the tree algorithms do) made them
+  // slower. Keeping 4x4 cells too (as the tree algorithms do for meshes of at
+  // least as many triangles as pixels) made them
   // 1-4% slower, and so did finer cells (16 x 16 x 16: up to 25% on small
   // meshes, whose cells then hold a few faces each).
   ZPyramid pyramid(target.depth, target.width, target.height, 3, /*cleared=*/true, target.pitch);

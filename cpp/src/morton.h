@@ -390,7 +390,7 @@ class OctreeCells {
   static constexpr int kMaxDepth = 10;
   // `loose`: faces go to cells by the loose rule, else by the simpler one
   // (octree.h; Greene's rule, which gives a face several cells, is octree.cpp's).
-  explicit OctreeCells(int depth, bool loose = false) : depth_(depth), loose_(loose) {
+  OctreeCells(int depth, bool loose) : depth_(depth), loose_(loose) {
     assert(depth >= 1 && depth <= kMaxDepth);
     for (int l = depth_; l >= 0; --l) size_[l] = l == depth_ ? 1 : 1 + 8 * size_[l + 1];
   }
@@ -427,9 +427,9 @@ class OctreeCells {
     const uint32_t differ = loose_ ? span
                                    : (x ^ (hi[0] >> coarsen)) | (y ^ (hi[1] >> coarsen)) |
                                          (z ^ (hi[2] >> coarsen));
-    // Levels up from D: the bit length of `differ`; a loose span of 2^D or
-    // more (a face as wide as the cube) goes to the root.
-    const int s = std::min(depth_, differ ? 32 - __builtin_clz(differ) : 0);
+    // Levels up from D: the bit length of `differ` (below 2^D either way:
+    // a face as wide as the cube goes to the root, s = D).
+    const int s = differ ? 32 - __builtin_clz(differ) : 0;
     return number(x >> s, y >> s, z >> s, depth_ - s);
   }
   // holder() of the face `idx`, and its grid box.

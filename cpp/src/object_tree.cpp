@@ -516,7 +516,7 @@ void gather_rows(const ObjectTree& tree, const TriangleCluster& cl, std::vector<
 // tree culls most of the mesh transforms little more than what it draws
 // (the 5 x 5 x 80 spot grid in perspective: a quarter of the blocks; per
 // frame octree 0.84x, BVH 0.81x). Bad: a cluster whose vertices are spread
-// over the mesh (a coarse node's straddlers; a leaf whose faces reuse
+// over the mesh (a coarse node's own faces; a leaf whose faces reuse
 // vertices numbered long before) looks up each face's three blocks (three
 // gathers per 16 faces), and blocks done one by one stream less well than
 // one pass: drawing everything so was 3-8% slower. Hence the limits: meshes
@@ -575,7 +575,7 @@ class LazyVertices {
     if (all_ || n == 0) return;
     // A cluster whose vertices lie within a few blocks (a leaf of a mesh in
     // visiting order, its vertices numbered by first use) gets those blocks
-    // whole; only one spread over the mesh (a coarse node's straddlers)
+    // whole; only one spread over the mesh (a coarse node's own faces)
     // looks up each face's.
     int32_t lo = faces[0], hi = faces[0];
     int64_t i = 0;
@@ -702,8 +702,8 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   }
   const uint32_t now = ++frame.frame;
 
-  // The pyramid is kept from 4 x 4 cells up (hiz: 8 x 8) for a tree of more
-  // triangles than the image has pixels: behind the nodes a traversal keeps,
+  // The pyramid is kept from 4 x 4 cells up (hiz: 8 x 8) for a tree of at
+  // least as many triangles as the image has pixels: behind the nodes a traversal keeps,
   // many small triangles are hidden, and finer cells prove more of them so
   // (a third more culled on the orthographic grid of benchmarks/bench_hiz.py,
   // for a little more upkeep). A smaller mesh's triangles cover pixels

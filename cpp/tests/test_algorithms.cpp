@@ -58,7 +58,8 @@ void test_every_algorithm_equals_the_plain_zbuffer() {
     RenderStats ref_stats;
     render(*find_algorithm("zbuffer"), input, ref, ref_stats);
     // The batch's occlusion test at every finest pyramid level it supports
-    // (hiz keeps 8 x 8 cells, the trees 4 x 4; 2 x 2 works too), eager and
+    // (hiz keeps 8 x 8 cells, the trees of at least as many triangles as pixels 4 x 4;
+    // 2 x 2 works too), eager and
     // lazy upkeep, small and full batches: the same bits, and culling.
     for (int first : {1, 2, 3})
       for (int capacity : {64, TriangleBatch::kCapacity}) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 #include <vector>
 
 #include "../src/morton.h"
@@ -249,8 +250,9 @@ void test_octree_cells_hold_faces_by_their_rule() {
           levels_seen |= 1 << level;
           const int shift = VertexGrid::kBits - level;
           const uint32_t* at = loose ? q : lo;
-          CHECK(uint32_t(words[size_t(f)] >> 32) ==
-                uint32_t(cells.number(at[0] >> shift, at[1] >> shift, at[2] >> shift, level)));
+          const uint32_t want = uint32_t(cells.number(at[0] >> shift, at[1] >> shift, at[2] >> shift, level));
+          CHECK(uint32_t(words[size_t(f)] >> 32) == want);  // (16 at a time where it can)
+          CHECK(cells.one(grid, mesh.faces + 3 * f) == want);  // one at a time
           CHECK(uint32_t(words[size_t(f)]) == uint32_t(f));
         }
         if (scene == 0 && depth >= 3) CHECK(__builtin_popcount(levels_seen) >= 2);  // not all at one level
@@ -278,6 +280,11 @@ void test_scene_trees_vertices_up_front_and_as_needed() {
   zoom_aside.mvp[3] = 1.5;
   zoom_aside.mvp[7] = -1.5;
   other.mvp[0] = 1.2;
+  // From inside the soup (the eye at z = 0): the near plane cuts through
+  // it, so some clusters' vertices have outcodes and others none.
+  RenderInput inside = input;
+  inside.mvp[11] = b;
+  inside.mvp[15] = 0;
   const int w = 96, h = 80;
   for (int kind = 0; kind < 4; ++kind) {  // octree (loose, simpler, Greene's rule), BVH
     ObjectTree tree;
@@ -296,7 +303,9 @@ void test_scene_trees_vertices_up_front_and_as_needed() {
       TreeFrame frame;
       frame.lazy_vertices_from = lazy_from;
       bool saw_up_front = false, saw_lazy = false;
-      for (const RenderInput* in : {&other, &zoom, &zoom_aside, &input, &input, &zoom, &other}) {
+      bool saw_clipped = false;
+      for (const RenderInput* in :
+           {&other, &zoom, &zoom_aside, &input, &input, &zoom, &inside, &other, &inside}) {
         std::vector<float> want_depth(size_t(w) * h, std::numeric_limits<float>::infinity());
         std::vector<int32_t> want_ids(size_t(w) * h, -1);
         DepthTarget want{want_depth.data(), want_ids.data(), w, h};
@@ -309,11 +318,13 @@ void test_scene_trees_vertices_up_front_and_as_needed() {
         stats.triangles_in = soup.view().n_faces;
         render_object_tree(tree, *in, target, stats, frame);
         (frame.vertices_up_front ? saw_up_front : saw_lazy) = true;
+        saw_clipped |= stats.clipped > 0 && !frame.vertices_up_front;
         CHECK(std::memcmp(depth.data(), want_depth.data(), depth.size() * sizeof(float)) == 0);
         CHECK(ids == want_ids);
       }
       CHECK(saw_up_front);
       CHECK(saw_lazy == (lazy_from == 0));
+      CHECK(saw_clipped == (lazy_from == 0));
     }
   }
 }
@@ -530,7 +541,7 @@ void test_frame_trees() {
           up_front_seen += saw_up_front;
         }
       }
-      CHECK(up_front_seen >= 2);
+      CHECK(up_front_seen >= 2);  // (of the three kinds: the loose octree may cull too much)
     }
   }
 }
@@ -580,6 +591,22 @@ void test_frame_tree_bounds_when_the_cube_rounds() {
 // with the last face moved to the last lane of the first 16, to the second
 // lane of the next 16, or the first face moved to the end (out of order:
 // copied).
+// A per-frame octree gives each face one bucket: Greene's rule, which gives
+// it several cells, is refused.
+void test_frame_octree_refuses_greene_rule() {
+  const Soup soup = random_soup(3, 50);
+  OctreeParams p;
+  p.rule = OctreeRule::kGreene;
+  ObjectTree tree;
+  bool threw = false;
+  try {
+    build_octree_for_frame(soup.view(), p, tree);
+  } catch (const std::invalid_argument&) {
+    threw = true;
+  }
+  CHECK(threw);
+}
+
 void test_frame_tree_vector_pass_equals_scalar() {
   const Soup soups[] = {random_soup(7, 5001), wavy_sheet(90), wavy_sheet(17)};
   for (const Soup& soup : soups)
@@ -690,6 +717,7 @@ int main() {
   test_frame_trees();
   test_octree_cells_hold_faces_by_their_rule();
   test_scene_trees_vertices_up_front_and_as_needed();
+  test_frame_octree_refuses_greene_rule();
   test_greene_draws_each_face_once();
   return check_report("test_object_tree");
 }

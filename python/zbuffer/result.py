@@ -134,8 +134,8 @@ class RenderResult:
         Each cell is the farthest (largest) depth of its 2 x 2 children
         inside the image, so +inf wherever any pixel under it was not
         drawn. The algorithms' own pyramids keep only its coarser
-        levels (from 8 x 8 pixels; 4 x 4 for the trees of meshes with more
-        triangles than the image has pixels) and may
+        levels (from 8 x 8 pixels; 4 x 4 for the trees of meshes with at
+        least as many triangles as the image has pixels) and may
         lag the last batches drawn (never nearer than these: depth only
         decreases); brought up to date, they equal these levels.
 

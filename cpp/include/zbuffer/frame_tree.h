@@ -39,7 +39,7 @@ namespace zbuffer {
 // though gathering the faces of the clusters drawn gives back part of it.
 // So an octree's cluster whose faces lie in a stretch of the mesh's own
 // order at most twice its size -- a cell of a mesh in spatial order, among
-// the few faces that straddle the cell's border -- is drawn from that
+// the few faces of coarser nodes -- is drawn from that
 // stretch, the faces of other buckets masked off by a compare per 16 (8 in
 // AVX2 builds): on the spot grids 2-4% less per frame (benchmarks/ab.py;
 // 0-2% in AVX2 builds), single meshes within noise. The tree keeps each

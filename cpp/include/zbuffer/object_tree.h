@@ -48,14 +48,16 @@ struct TriangleCluster {
 // Every cluster gets its own copy of its vertices, a run of `positions`
 // that its faces index, so that drawing a cluster transforms exactly the
 // vertices it uses (vertex_stage.h: 8 at a time with AVX-512, 4 with AVX2)
-// and never touches the rest of the mesh -- or, where the frame before drew
-// most of the tree, every copy up front in one pass, as an indexed tree
-// does (TreeFrame; object_tree.cpp, LazyVertices).
-// Good: render time depends on what is visible, not on the size of the
-// mesh, and the tree outlives the arrays it was built from. Bad: vertices on
+// and never touches the rest of the mesh -- or, for a tree of fewer copies
+// than TreeFrame::lazy_vertices_from (every single mesh measured) and where
+// the frame before drew most of the tree, every copy up front in one pass,
+// as an indexed tree does (object_tree.cpp, LazyVertices).
+// Good: a large tree's render time depends on what is visible, not on the
+// size of the mesh, and the tree outlives the arrays it was built from. Bad: vertices on
 // cluster borders are stored (and transformed) more than once -- identical
-// bits each time, so the output does not change -- and the tree holds about
-// 40 bytes per triangle.
+// bits each time, so the output does not change -- the tree holds about
+// 40 bytes per triangle, and a thread that renders it keeps screen vertices
+// for all its copies (20 bytes each, reused by its next frames).
 //
 // A tree built for one frame (frame_tree.h) is `indexed` instead: it runs
 // over the mesh's own arrays, and the traversal transforms the mesh's

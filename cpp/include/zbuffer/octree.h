@@ -22,7 +22,8 @@ enum class OctreeRule {
   // cells it overlaps there -- and drawn at most once per frame.
   kGreene,
   // The loose octree's rule (Ulrich, "Loose octrees", Game Programming Gems,
-  // 2000): a triangle goes to the cell of its centroid at the deepest level
+  // 2000): a triangle goes to the cell of its centroid (on the vertex grid:
+  // the mean of its corners' cells, rounded down) at the deepest level
   // whose cells are at least as wide as the triangle's box. Each triangle
   // has one home, and only a large one a coarse home, however it lies
   // across the split planes; a cell's triangles may reach out of it (by
@@ -42,7 +43,7 @@ struct OctreeParams {
   // Depth of the finest cells (the root is depth 0): cells of the root cube
   // divided 2^max_depth times a side. 1 .. kMaxOctreeDepth.
   int max_depth = 10;
-  // The loose rule: on the spot grid and single meshes, per frame 9-15%
+  // The loose rule: on the spot grid and single meshes, per frame 8-15%
   // faster than the simpler rule, built once up to 10% (benchmarks/README.md).
   OctreeRule rule = OctreeRule::kLoose;
 };
