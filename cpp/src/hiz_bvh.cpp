@@ -11,7 +11,7 @@ namespace zbuffer {
 void render_hiz_bvh(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
   render_built_per_frame(input, target, stats, [](const MeshView& mesh, ObjectTree& tree) {
     BvhParams params;
-    params.leaf_size = frame_leaf_size(mesh.n_faces, 512);
+    params.leaf_size = frame_leaf_size(mesh.n_faces);
     build_bvh_for_frame(mesh, params, tree);
   });
 }

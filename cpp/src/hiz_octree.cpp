@@ -11,7 +11,7 @@ namespace zbuffer {
 void render_hiz_octree(const RenderInput& input, DepthTarget& target, RenderStats& stats) {
   render_built_per_frame(input, target, stats, [](const MeshView& mesh, ObjectTree& tree) {
     OctreeParams params;
-    params.leaf_size = frame_leaf_size(mesh.n_faces, 8192);
+    params.leaf_size = frame_leaf_size(mesh.n_faces);
     build_octree_for_frame(mesh, params, tree);
   });
 }

@@ -61,17 +61,17 @@ void build_bvh_for_frame(const MeshView& mesh, const BvhParams& params, ObjectTr
 // The depth T used for a mesh of `faces` faces and the given leaf size.
 int frame_tree_depth(int64_t faces, int leaf_size);
 
-// The leaf size the registry's per-frame trees aim at, by mesh size: 128
-// triangles up to 20,480 faces, then faces / 160 (the depth stays at 3), up
-// to `largest`: 512 for the BVH (from 81,920 faces on), 8192 for the
-// octree (from 1,310,720). A tree built every frame pays for its depth
-// within the frame: one level shallower (fewer, fuller clusters) wins on
-// large meshes, loses on small ones that need the level; the octree, whose
-// nodes are seldom hidden whole on the orthographic grid, gains from
-// shallower trees longer than the BVH. The measurements behind each bound:
-// benchmarks/README.md, "Leaf size of the per-frame trees by mesh size".
-inline int frame_leaf_size(int64_t faces, int64_t largest) {
-  return int(std::min<int64_t>(largest, std::max<int64_t>(128, faces / 160)));
+// The leaf size the registry's per-frame trees (octree and BVH) aim at, by
+// mesh size: 128 triangles up to 20,480 faces, then faces / 160 (the depth
+// stays at 3), up to 8192 (from 1,310,720 faces on). A tree built every
+// frame pays for its depth within the frame: one level shallower (fewer,
+// fuller clusters) wins on large meshes, loses on small ones that need the
+// level; on the orthographic grid, where nodes are seldom hidden whole,
+// shallow trees win most. The measurements behind each bound:
+// benchmarks/README.md, "Leaf size of the per-frame trees by mesh size" and
+// "The per-frame BVH's leaves".
+inline int frame_leaf_size(int64_t faces) {
+  return int(std::min<int64_t>(8192, std::max<int64_t>(128, faces / 160)));
 }
 
 }  // namespace zbuffer
