@@ -64,7 +64,10 @@ class Scene:
     Raises
     ------
     ValueError, TypeError
-        Bad mesh or parameters.
+        Bad mesh or parameters. (Building a tree raises ValueError for
+        more than 715,827,882 triangle references -- a tree's faces index
+        its vertex copies with 32-bit integers; Greene's rule references a
+        triangle up to 8 times.)
 
     Examples
     --------
