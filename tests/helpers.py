@@ -14,6 +14,13 @@ MODELS = Path(os.environ.get("ZBUFFER_MODELS",
                              Path(__file__).resolve().parents[2] / "shared" / "models"))
 
 
+def model_names(suffix: str, fallback: str) -> list:
+    """The shared models' file names ending in ``suffix`` (for
+    parametrizing), or [fallback] without the folder, whose test then
+    skips through model_path."""
+    return sorted(p.name for p in MODELS.glob("*" + suffix)) or [fallback]
+
+
 def model_path(name: str) -> Path:
     """Path of a model in the shared folder; skips the test if it is absent."""
     path = MODELS / name
@@ -126,3 +133,15 @@ def spoil_a_line(draw, lines, odd_words, junk_lines):
         lines.insert(k + 1, lines[k])
     else:
         lines.insert(k, draw(st.sampled_from(junk_lines)))
+
+
+def assert_fast_path_agrees(fast, slow, clean: bool, raw: bytes, assert_same) -> None:
+    """What a reader's compiled fast path owes its Python reader on one
+    file: where it takes the file (``fast`` is not None), the same data or
+    error (``assert_same``); where it leaves it, the file is not one of the
+    common forms it must take (``clean``) that the Python reader reads --
+    else a parity test could pass by taking nothing."""
+    if fast is not None:
+        assert_same(fast, slow)
+    elif clean and not isinstance(slow, str):
+        raise AssertionError(f"the fast path left a file of the forms it must take: {raw!r}")

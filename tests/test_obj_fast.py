@@ -2,9 +2,6 @@
 on every file it takes it gives what the Python reader gives, and it leaves
 everything else -- errors included -- to that reader."""
 
-import glob
-import os
-
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -12,7 +9,7 @@ from hypothesis import strategies as st
 
 from zbuffer import _core
 from zbuffer.obj import _read_obj_text, _unit_colors, read_obj
-from helpers import MODELS, model_path
+from helpers import assert_fast_path_agrees, model_names, model_path
 
 
 def python_reading(raw):
@@ -136,14 +133,8 @@ def obj_files(draw):
 @settings(max_examples=600, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_the_fast_path_reads_what_the_python_reader_reads(file):
     clean, raw = file
-    fast = _core.read_obj_records(raw)
-    slow = python_reading(raw)
-    if fast is not None:
-        assert_same(fast, slow)
-    elif clean and not isinstance(slow, str):
-        # A file of the common forms that the Python reader reads: the fast
-        # path must take it too (else this test could pass by taking none).
-        raise AssertionError(f"the fast path left a file of the common forms: {raw!r}")
+    assert_fast_path_agrees(_core.read_obj_records(raw), python_reading(raw), clean, raw,
+                            assert_same)
 
 
 def test_the_fast_path_takes_the_common_forms():
@@ -189,8 +180,7 @@ def test_anything_else_is_left_to_the_python_reader(tmp_path, line):
 
 
 @pytest.mark.models
-@pytest.mark.parametrize("name", sorted(os.path.basename(p) for p in
-                                        glob.glob(os.path.join(MODELS, "*.obj"))) or ["bunny_10k.obj"])
+@pytest.mark.parametrize("name", model_names(".obj", "bunny_10k.obj"))
 def test_every_model_goes_the_fast_way_to_the_same_data(name):
     path = model_path(name)  # (skips without the models)
     with open(path, "rb") as fh:

@@ -2,18 +2,14 @@
 on every file it takes it gives what the Python reader gives, and it leaves
 everything else -- errors included -- to that reader."""
 
-import glob
-import os
-
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from zbuffer import _core
-from zbuffer.off import _read_off_text, read_off
-from zbuffer.polygons import file_rgb
-from helpers import MODELS, model_path, spoil_a_line
+from zbuffer.off import _off_data, _read_off_text, read_off
+from helpers import assert_fast_path_agrees, model_names, model_path, spoil_a_line
 
 
 def python_reading(raw):
@@ -25,19 +21,16 @@ def python_reading(raw):
 
 
 def fast_reading(raw):
-    """The fast path's data as read_off makes it (colours through
-    file_rgb), its error message, or None where it leaves the file."""
+    """The fast path's data as read_off makes it (_off_data), its error
+    message, or None where it leaves the file."""
     fast = _core.read_off_records(raw)
     if fast is None:
         return None
-    vertices, sizes, indices, vertex_rgb, vertex_floats, face_rgb, face_floats = fast
     try:
-        colours = [None if rgb is None else file_rgb(rgb, not floats, what)
-                   for rgb, floats, what in [(vertex_rgb, vertex_floats, "vertex"),
-                                             (face_rgb, face_floats, "face")]]
+        d = _off_data(fast)
     except ValueError as err:
         return str(err)
-    return vertices, sizes, indices, colours[0], colours[1]
+    return d.vertices, d.polygon_sizes, d.polygon_indices, d.vertex_colors, d.face_colors
 
 
 def assert_same(fast, slow):
@@ -120,14 +113,7 @@ def off_files(draw):
 @settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_the_fast_path_reads_what_the_python_reader_reads(file):
     clean, raw = file
-    fast = fast_reading(raw)
-    slow = python_reading(raw)
-    if fast is not None:
-        assert_same(fast, slow)
-    elif clean and not isinstance(slow, str):
-        # A well-formed file that the Python reader reads: the fast path
-        # must take it too (else this test could pass by taking none).
-        raise AssertionError(f"the fast path left a well-formed file: {raw!r}")
+    assert_fast_path_agrees(fast_reading(raw), python_reading(raw), clean, raw, assert_same)
 
 
 def test_the_fast_path_takes_the_common_forms():
@@ -187,8 +173,7 @@ def test_counts_beyond_what_the_file_can_hold_are_left_to_the_python_reader():
 
 
 @pytest.mark.models
-@pytest.mark.parametrize("name", sorted(os.path.basename(p) for p in
-                                        glob.glob(os.path.join(MODELS, "*.off"))) or ["bunny_7k.off"])
+@pytest.mark.parametrize("name", model_names(".off", "bunny_7k.off"))
 def test_every_model_goes_the_fast_way_to_the_same_data(name):
     path = model_path(name)  # (skips without the models)
     with open(path, "rb") as fh:

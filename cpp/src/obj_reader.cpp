@@ -23,8 +23,9 @@ bool parse_corner(std::string_view word, int64_t defined, int64_t& index) {
 
 // One `v` or `f` record (the line up to its comment); false outside the subset.
 bool read_record(std::string_view record, ObjRecords& out, int64_t& colored) {
-  for (char c : record)
-    if (!(is_graphic(c) || is_blank(c)) || c == '_' || c == '\\') return false;
+  // (A record holds no line end.)
+  if (!text::is_plain(record) || record.find_first_of("_\\") != std::string_view::npos)
+    return false;
   text::Words words(record);
   const std::string_view tag = words.next();
   const int64_t defined = int64_t(out.positions.size() / 3);

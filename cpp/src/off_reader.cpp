@@ -166,8 +166,7 @@ class Reader {
 bool read_off_records(std::string_view text, OffRecords& out) {
   out = OffRecords();
   text = text::without_bom(text);
-  for (char c : text)
-    if (!(text::is_graphic(c) || text::is_blank(c) || c == '\n' || c == '\r')) return false;
+  if (!text::is_plain(text)) return false;
   Reader reader(out, text.size());
   return text::for_each_line(text, [&](std::string_view line) { return reader.line(line); }) &&
          reader.finish();

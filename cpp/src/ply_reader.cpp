@@ -10,8 +10,7 @@ bool read_ascii_ply_tables(std::string_view body, const std::vector<int64_t>& co
                            std::vector<int64_t>& columns) {
   tables.assign(counts.size(), {});
   columns.assign(counts.size(), 0);
-  for (char c : body)
-    if (!(text::is_graphic(c) || text::is_blank(c) || c == '\n' || c == '\r')) return false;
+  if (!text::is_plain(body)) return false;
   size_t element = 0;
   int64_t records = 0;  // of the current element
   auto next_element = [&] {

@@ -17,6 +17,14 @@ inline bool is_digit(char c) { return c >= '0' && c <= '9'; }
 // Printable ASCII, the space excluded.
 inline bool is_graphic(char c) { return c > ' ' && c < '\x7f'; }
 
+// Whether the text holds only printable ASCII, spaces, tabs and line ends
+// (\n, \r): the bytes every fast path takes.
+inline bool is_plain(std::string_view text) {
+  for (char c : text)
+    if (!(is_graphic(c) || is_blank(c) || c == '\n' || c == '\r')) return false;
+  return true;
+}
+
 // The text without a UTF-8 byte order mark.
 inline std::string_view without_bom(std::string_view text) {
   if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);

@@ -24,7 +24,7 @@ from typing import List
 import numpy as np
 
 from . import _core
-from .polygons import PolygonData
+from .polygons import PolygonData, read_with_fast_path
 
 __all__ = ["read_obj"]
 
@@ -62,18 +62,16 @@ def read_obj(path: str) -> PolygonData:
         a finite number, a vertex colour outside 0-255, or an index outside
         the vertices (each naming the line).
     """
-    with open(path, "rb") as fh:
-        raw = fh.read()
     # Most files go through the compiled reader of the format's common
     # subset (cpp/include/zbuffer/obj_reader.h): it gives what the reader
     # below gives, or None -- for anything else, errors included.
-    fast = _core.read_obj_records(raw)
-    if fast is not None:
-        vertices, colors, sizes, indices = fast
-        return PolygonData(vertices, sizes, indices, _unit_colors(colors))
-    text = raw.decode("utf-8", errors="replace")
-    del raw  # (the text alone from here on)
-    return _read_obj_text(text)
+    return read_with_fast_path(path, _core.read_obj_records, _obj_data, _read_obj_text)
+
+
+def _obj_data(records) -> PolygonData:
+    """PolygonData of _core.read_obj_records' records."""
+    vertices, colors, sizes, indices = records
+    return PolygonData(vertices, sizes, indices, _unit_colors(colors))
 
 
 def _read_obj_text(text: str) -> PolygonData:

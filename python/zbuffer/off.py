@@ -19,7 +19,7 @@ from typing import List, Optional
 import numpy as np
 
 from . import _core
-from .polygons import PolygonData, file_rgb
+from .polygons import PolygonData, file_rgb, read_with_fast_path
 
 __all__ = ["read_off"]
 
@@ -83,21 +83,20 @@ def read_off(path: str) -> PolygonData:
         match, malformed records (naming the line), indices outside the
         vertices.
     """
-    with open(path, "rb") as fh:
-        raw = fh.read()
     # Most files go through the compiled reader of the format's common
     # subset (cpp/include/zbuffer/off_reader.h): it gives what the reader
     # below gives, or None -- for anything else, errors included.
-    fast = _core.read_off_records(raw)
-    if fast is not None:
-        vertices, sizes, indices, vertex_rgb, vertex_floats, face_rgb, face_floats = fast
-        return PolygonData(
-            vertices, sizes, indices,
-            None if vertex_rgb is None else file_rgb(vertex_rgb, not vertex_floats, "vertex"),
-            None if face_rgb is None else file_rgb(face_rgb, not face_floats, "face"))
-    text = raw.decode("utf-8", errors="replace")
-    del raw  # (the text alone from here on)
-    return _read_off_text(text)
+    return read_with_fast_path(path, _core.read_off_records, _off_data, _read_off_text)
+
+
+def _off_data(records) -> PolygonData:
+    """PolygonData of _core.read_off_records' records (their colours
+    through file_rgb, which may raise ValueError)."""
+    vertices, sizes, indices, vertex_rgb, vertex_floats, face_rgb, face_floats = records
+    return PolygonData(
+        vertices, sizes, indices,
+        None if vertex_rgb is None else file_rgb(vertex_rgb, not vertex_floats, "vertex"),
+        None if face_rgb is None else file_rgb(face_rgb, not face_floats, "face"))
 
 
 def _read_off_text(text: str) -> PolygonData:

@@ -40,6 +40,22 @@ class PolygonData:
         self.face_colors = face_colors
 
 
+def read_with_fast_path(path, fast, from_records, from_text) -> PolygonData:
+    """A mesh file through its format's compiled fast path: ``fast`` (the
+    file's bytes -> records, or None for anything it leaves, errors
+    included) and ``from_records`` (records -> PolygonData); else its text
+    (UTF-8, undecodable bytes replaced) through the Python reader
+    ``from_text``, the one source of error messages."""
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    records = fast(raw)
+    if records is not None:
+        return from_records(records)
+    text = raw.decode("utf-8", errors="replace")
+    del raw  # (the text alone from here on)
+    return from_text(text)
+
+
 def file_rgb(rgb: np.ndarray, integers: bool, what: str) -> np.ndarray:
     """Colours read from a file as RGB in [0, 1]: divided by 255 where the
     file gave integers; ValueError outside 0-255 (integers) or [0, 1]
