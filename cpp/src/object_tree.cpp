@@ -713,6 +713,11 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   ZPyramid pyramid(target.depth, target.width, target.height, fine, /*cleared=*/true, target.pitch);
   pyramid.record_culls(input.culls);
   TriangleBatch batch(target, stats, &pyramid);
+  // Lazy upkeep (triangle_batch.h): on a single unoccluded mesh the pyramid
+  // is brought up to date every few flushes, and the node tests see it a
+  // little late (per-frame trees 0.97-0.99x, built once 0.98-1.02x,
+  // benchmarks/README.md); where triangles are culled, after every flush.
+  batch.set_lazy_upkeep(true);
   // Per-thread scratch, looked up once here: each use of a thread_local in
   // the lambdas below would call __tls_get_addr again (a shared library's
   // thread-locals; perf: its share of a per-frame octree frame went from

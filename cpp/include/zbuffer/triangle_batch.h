@@ -79,9 +79,10 @@ class TriangleBatch {
 
   // With a pyramid: let flush() skip bringing the pyramid up to date (for
   // up to kMaxSkippedUpdates batches in a row) after a batch tested against
-  // an up-to-date pyramid culled under 1/64 of its triangles. For callers that never read the pyramid between
-  // batches themselves (`hiz`; a tree traversal tests nodes against it and
-  // wants it current).
+  // an up-to-date pyramid culled under 1/64 of its triangles (a single
+  // unoccluded mesh). `hiz` and the tree traversals use it; a traversal then
+  // tests nodes against a pyramid a few batches old, which only culls less
+  // (where batches cull, every flush brings it up to date).
   void set_lazy_upkeep(bool lazy) { lazy_upkeep_ = lazy; }
   static constexpr int kMaxSkippedUpdates = 3;
 
