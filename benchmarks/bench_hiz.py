@@ -18,8 +18,9 @@ Per case, the median of --runs renders after a warm-up:
   reported apart), then every frame only renders.
 
 On each grid and camera (and each single mesh), the cases render in
-interleaved rounds -- each once in turn, --runs times -- so that ratios to
-``zbuffer`` are of times measured side by side. Also: the octree's
+interleaved rounds -- each in turn, --runs times, twice in a row with the
+second frame timed (common.rounds) -- so that ratios to ``zbuffer`` are of
+times measured side by side, each with its own data in the caches. Also: the octree's
 three rules for placing triangles, a leaf-size sweep, and temporal coherence over
 an orbit. Nothing here asserts a speed.
 """
@@ -35,7 +36,7 @@ import time
 import numpy as np
 
 import zbuffer
-from common import HERE, MODELS, Progress, new_report, write_report
+from common import HERE, MODELS, Progress, new_report, rounds, write_report
 
 ALGOS = ["zbuffer", "hiz", "hiz_octree", "hiz_bvh"]
 TREES = ["hiz_octree", "hiz_bvh"]
@@ -97,9 +98,9 @@ def build_trees(mesh):
 def interleaved(mesh, camera, trees, size, runs) -> list:
     """Every algorithm per frame (``zbuffer.render``, trees built in the
     call) and every tree of ``trees`` (build_trees) built once, on one mesh and camera, in
-    rounds: a warm-up each, then ``runs`` rounds in which each case renders
-    once in turn, so that the machine's drift hits them all alike and the
-    ratios to ``zbuffer`` compare like with like. One summary per case."""
+    rounds (common.rounds: each case in turn renders twice, the second frame
+    timed), so that the machine's drift hits them all alike and the ratios
+    to ``zbuffer`` compare like with like. One summary per case."""
     scene, wall_ms = trees
     cases = [("per frame", algo) for algo in ALGOS] + [("built once", algo) for algo in TREES]
 
@@ -109,14 +110,7 @@ def interleaved(mesh, camera, trees, size, runs) -> list:
                                   shading="none")
         return scene.render(camera, algo=algo, width=size, height=size, shading="none")
 
-    for case in cases:
-        render(*case)  # warm-up (and the spatial visiting order of large meshes)
-    times = {case: [] for case in cases}
-    last = {}
-    for _ in range(runs):
-        for case in cases:
-            last[case] = render(*case)
-            times[case].append(last[case].stats["render_ms"])
+    times, last = rounds(cases, lambda case: render(*case), runs)
     out = []
     for mode, algo in cases:
         c = {"algo": algo, "mode": mode,
@@ -223,7 +217,8 @@ def markdown(report: dict) -> str:
         f"- command: `{report['command']}`",
         f"- scene: {report['scene']}; {report['size']}x{report['size']}, depth only, one thread",
         "- ms: median of the runs of the compiled call (`render_ms`); *x zbuffer*: that median",
-        "  over `zbuffer`'s in the same interleaved rounds (below 1 is faster). Per frame:",
+        "  over `zbuffer`'s in the same interleaved rounds, each case's second frame in a row",
+        "  timed (below 1 is faster). Per frame:",
         "  `zbuffer.render`, tree built in the call. Built once: `zbuffer.Scene`, build time",
         "  apart.",
         "",

@@ -7,7 +7,9 @@ implementations' size and at 1024 x 1024, back-face culling off and on.
 Per model, size and culling setting, every algorithm renders the loaded mesh
 (``zbuffer.render``, camera framing the mesh, depth only, one thread) in
 rounds: one warm-up render each, then --runs rounds in which each algorithm
-renders once in turn, so that the machine's drift hits all of them alike.
+in turn renders twice and the second frame is timed, so that the machine's
+drift hits all of them alike and each is timed with its own data in the
+caches (common.rounds).
 Times are the compiled call's ``render_ms`` (the tree algorithms build their
 tree in the call, as a user of ``zbuffer.render`` pays); the table gives
 medians and each algorithm's ratio to ``zbuffer`` in the same rounds; the
@@ -22,7 +24,7 @@ import statistics
 import sys
 
 import zbuffer
-from common import HERE, MODELS, Progress, new_report, write_report
+from common import HERE, MODELS, Progress, new_report, rounds, write_report
 
 MODELS_LIST = ["cube.obj", "diablo3_pose.obj", "bunny_10k.obj", "knob_4k.obj", "spot.obj",
                "teapot_6k.obj", "dragon_20k.obj", "lucy_20k.obj", "venus_43k.obj",
@@ -38,17 +40,10 @@ def measure(mesh, width, height, cull, algos, runs):
         return zbuffer.render(mesh, algo=algo, camera=camera, width=width, height=height,
                               shading="none", cull_backfaces=cull)
 
-    for algo in algos:
-        render(algo)  # warm-up (and the cached visiting order of a large mesh)
-    times = {algo: [] for algo in algos}
-    last = {}
-    for _ in range(runs):
-        for algo in algos:
-            last[algo] = render(algo).stats
-            times[algo].append(last[algo]["render_ms"])
+    times, last = rounds(algos, render, runs)
     cases = {}
     for algo in algos:
-        t, stats = times[algo], last[algo]
+        t, stats = times[algo], last[algo].stats
         median = statistics.median(t)
         cases[algo] = {
             "ms_median": median, "ms_min": min(t), "ms_max": max(t), "times_ms": t,
@@ -73,7 +68,8 @@ def markdown(report: dict) -> str:
         f"- machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}",
         f"- commit: {m['commit']}; raster backend: {m['raster_backend']}",
         f"- command: `{report['command']}`",
-        f"- each cell: median `render_ms` of {report['runs']} interleaved rounds (ms), and in "
+        f"- each cell: median `render_ms` of {report['runs']} interleaved rounds (ms; each "
+        "algorithm's second frame in a row timed), and in "
         "brackets its ratio to `zbuffer` in the same rounds; one thread, depth only, camera "
         "framing the mesh; tree algorithms build their tree in the call. *M tri/s*: input "
         "triangles per second of `zbuffer`. *drawn*: triangles rasterized by `zbuffer` and by "

@@ -1,6 +1,7 @@
 """What every benchmark script shares: where the models are, the header of a
 report (date, machine, versions, git revision, command), writing a report,
-the scenes a suite falls back on in smoke mode, and a progress bar."""
+timing cases side by side, the scenes a suite falls back on in smoke mode,
+and a progress bar."""
 
 from __future__ import annotations
 
@@ -63,6 +64,30 @@ def write_report(out_dir, stem: str, report: dict, text: str) -> None:
     (out / f"{stem}.json").write_text(json.dumps(report, indent=2) + "\n")
     (out / f"{stem}.md").write_text(text)
     print(f"wrote {out / (stem + '.json')} and {out / (stem + '.md')}")
+
+
+def rounds(cases, render, runs: int):
+    """Time every case of `cases` side by side: a warm-up render of each,
+    then `runs` rounds in which each case in turn renders twice in a row and
+    the second frame is timed (its ``render_ms``). Rounds let the machine's
+    drift hit every case alike, so that ratios between cases compare like
+    with like; the frame before each timed one puts the case's own arrays
+    back in the caches, so that each is timed as a user rendering frame
+    after frame sees it, not with the caches full of another case's data (a
+    `Scene` tree's faces and vertex copies: armadillo_86k's built-once
+    octree measured 1.25x `zbuffer`'s time on first frames, 1.20x on second
+    ones, benchmarks/README.md). Returns ({case: [ms, ...]}, {case: the
+    last timed result})."""
+    for case in cases:
+        render(case)  # warm-up (and the cached visiting order of a large mesh)
+    times = {case: [] for case in cases}
+    last = {}
+    for _ in range(runs):
+        for case in cases:
+            render(case)
+            last[case] = render(case)
+            times[case].append(last[case].stats["render_ms"])
+    return times, last
 
 
 def load_model(name: str, quick: bool):
