@@ -844,7 +844,8 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
   // Front to back, depth first: children are pushed farthest first, so the
   // nearest is visited next. Before a node is tested, the batch is flushed
   // if it holds enough triangles (kFlushAt) to be worth bringing the pyramid
-  // up to date.
+  // up to date (which the lazy upkeep above may put off while nothing is
+  // culled).
   std::vector<ProjectedNode> stack;
   uint32_t rank = 0;  // of the clusters reached (TreeFrame::reached_rank)
   ProjectedNode root;
