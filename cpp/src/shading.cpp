@@ -409,7 +409,13 @@ namespace {
 // megabytes of fresh pages). Found faces get rows in the order the image
 // first shows them, so that the pixel pass reads the table almost in
 // order (in face order it waited on a cache miss for most faces: 1.6x as
-// long on bunny_69k at 1024 x 1024, smooth). With fewer faces every face
+// long on bunny_69k at 1024 x 1024, smooth). That pass and the preparation
+// go band by band (kBand rows): a band's new faces are found and prepared,
+// then its pixels shaded, while its ids and the rows just written are
+// still in the caches (smooth shading 0.97-0.98x the time of one pass over
+// the whole image before the pixels on bunny_69k and armadillo_86k at
+// 1024 x 1024, down to 0.85x while the machine was busy; benchmarks/
+// README.md). With fewer faces every face
 // is prepared, which costs less than finding out, and row = face. The
 // tables live on from frame to frame (one per thread, up to kKeptRows
 // rows), so that they are not allocated and faulted in anew each time.
@@ -432,6 +438,15 @@ struct FaceTable {
     }
     row_floats = row_floats_for(bary, map);
     map_at = map_at_for(bary);
+    const size_t floats = size_t(row_floats) * stride;
+    if ((bary || map) && rows.size() < floats) rows.resize(floats);
+  }
+  // Room for rows [0, n), keeping the rows written (by_slot: rows are added
+  // band by band).
+  void grow(size_t n, bool bary, bool map) {
+    if (stride >= n) return;
+    stride = std::max(n, 2 * stride);
+    rgb.resize(stride);
     const size_t floats = size_t(row_floats) * stride;
     if ((bary || map) && rows.size() < floats) rows.resize(floats);
   }
@@ -1038,56 +1053,21 @@ void sight_runs(const int32_t* ids, size_t count, Sight&& sight) {
   }
 }
 
-// Prepares the table for every face that shows up in triangle_id (maybe
-// more): all faces when there are few, else those found by a pass over the
-// ids (each run of one id looked up once), a slot each in the order of
-// their first pixels.
-void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable& table,
-                   bool bary, bool map) {
-  const size_t n_faces = size_t(in.mesh.n_faces);
-  const size_t n_pixels = size_t(in.width) * size_t(in.height);
-  Buffer<int32_t>& list = table.found;
-  std::vector<uint64_t>& seen = table.seen;
-  // (Interpolated shading prepares far more per face -- a row of 16 or 32
-  // floats and FaceShade::exact's checks -- so finding the faces pays
-  // sooner: from 1/64 of the pixels on; 1/8 was 2x slower on bunny_69k.)
-  table.by_slot = n_faces > n_pixels / (bary || map ? 64 : 4);
-  if (table.by_slot) {
-    seen.assign((n_faces + 63) / 64, 0);
-    list.resize(n_faces + 1);  // (room for every face and one more write; cut below)
-    size_t found = 0;
-    // A face seen for the first time is the next row: list[found] is
-    // written for every run of one id, and kept (found advances) only on
-    // the face's first sight -- no branch on it.
-    auto sight = [&](int32_t face) {
-      uint64_t& word = seen[size_t(face) >> 6];
-      const uint64_t bit = uint64_t(1) << (face & 63);
-      list[found] = face;
-      found += (word & bit) == 0;
-      word |= bit;
-    };
-    for_each_run(size_t(in.width), size_t(in.height), in.id_pitch(),
-                 [&](size_t at, size_t n) { sight_runs(triangle_id + at, n, sight); });
-    list.resize(found);
-    if (table.slot.size() < n_faces) {
-      table.slot.clear();
-      table.slot.resize(n_faces);
-    }
-    for (size_t i = 0; i < found; ++i) table.slot[size_t(list[i])] = int32_t(i);
-  }
-  const size_t count = table.by_slot ? list.size() : n_faces;
-  table.exact.clear();
-  table.resize(count, bary, map);
+// Rows [first, count) of the table prepared: row r for the face list[r]
+// (by_slot) or r.
+void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t count, bool bary,
+                  bool map) {
+  const Buffer<int32_t>& list = table.found;
   auto face_at = [&](size_t i) { return table.by_slot ? list[i] : int32_t(i); };
-  // Rows first + j, for the bits j of `lanes`, prepared again the scalar
+  // Rows row0 + j, for the bits j of `lanes`, prepared again the scalar
   // way (the vector preparations leave faces of extreme scale to it).
-  auto prepare_again = [&](size_t first, unsigned lanes) {
+  auto prepare_again = [&](size_t row0, unsigned lanes) {
     for (; lanes; lanes &= lanes - 1) {
-      const size_t r = first + size_t(__builtin_ctz(lanes));
+      const size_t r = row0 + size_t(__builtin_ctz(lanes));
       store_row(table, r, prepare_face(in, face_at(r), bary || map, map), bary, map);
     }
   };
-  size_t i = 0;
+  size_t i = first;
   // (int32 gather indices: 3 n_vertices and 3 n_faces must fit)
   constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
   const bool indexed = in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed;
@@ -1144,13 +1124,75 @@ void prepare_table(const ShadingInput& in, const int32_t* triangle_id, FaceTable
     store_row(table, i, prepare_face(in, face_at(i), bary || map, map), bary, map);
 }
 
+
+// Starts a pass's table. With few faces, every face is prepared now, row =
+// face. Otherwise (by_slot) none yet: prepare_band finds the faces each band
+// of rows shows and prepares those not found before, a slot each in the
+// order of their first pixels.
+void begin_table(const ShadingInput& in, FaceTable& table, bool bary, bool map) {
+  const size_t n_faces = size_t(in.mesh.n_faces);
+  const size_t n_pixels = size_t(in.width) * size_t(in.height);
+  // (Interpolated shading prepares far more per face -- a row of 16 or 32
+  // floats and FaceShade::exact's checks -- so finding the faces pays
+  // sooner: from 1/64 of the pixels on; 1/8 was 2x slower on bunny_69k.)
+  table.by_slot = n_faces > n_pixels / (bary || map ? 64 : 4);
+  table.exact.clear();
+  if (!table.by_slot) {
+    table.resize(n_faces, bary, map);
+    prepare_rows(in, table, 0, n_faces, bary, map);
+    return;
+  }
+  table.seen.assign((n_faces + 63) / 64, 0);
+  table.found.clear();
+  if (table.slot.size() < n_faces) {
+    table.slot.clear();
+    table.slot.resize(n_faces);
+  }
+  table.resize(0, bary, map);
+}
+
+// by_slot: finds the faces rows [j0, j1) of triangle_id show (each run of
+// one id looked up once) and prepares those not found before.
+void prepare_band(const ShadingInput& in, const int32_t* triangle_id, FaceTable& table, bool bary,
+                  bool map, int j0, int j1) {
+  if (!table.by_slot) return;
+  Buffer<int32_t>& list = table.found;
+  std::vector<uint64_t>& seen = table.seen;
+  const size_t first = list.size();
+  // (room for a new face per pixel and one more write; cut below)
+  list.resize(first + size_t(in.width) * size_t(j1 - j0) + 1);
+  size_t found = first;
+  // A face seen for the first time is the next row: list[found] is
+  // written for every run of one id, and kept (found advances) only on
+  // the face's first sight -- no branch on it.
+  auto sight = [&](int32_t face) {
+    uint64_t& word = seen[size_t(face) >> 6];
+    const uint64_t bit = uint64_t(1) << (face & 63);
+    list[found] = face;
+    found += (word & bit) == 0;
+    word |= bit;
+  };
+  for (int j = j0; j < j1; ++j)
+    sight_runs(triangle_id + size_t(j) * in.id_pitch(), size_t(in.width), sight);
+  list.resize(found);
+  for (size_t i = first; i < found; ++i) table.slot[size_t(list[i])] = int32_t(i);
+  table.grow(found, bary, map);
+  prepare_rows(in, table, first, found, bary, map);
+}
+
+// Rows a band holds: the passes prepare the faces of a band of rows, then
+// shade it.
+constexpr int kBand = 16;
+
 // The calling thread's table, prepared for one pass and trimmed after it.
 struct PreparedTable {
   FaceTable& table;
   PreparedTable(const ShadingInput& in, const int32_t* triangle_id, bool bary, bool map)
-      : table(local()) {
-    prepare_table(in, triangle_id, table, bary, map);
+      : table(local()), in_(in), ids_(triangle_id), bary_(bary), map_(map) {
+    begin_table(in, table, bary, map);
   }
+  // Before shading rows [j0, j1): the faces they show prepared.
+  void band(int j0, int j1) { prepare_band(in_, ids_, table, bary_, map_, j0, j1); }
   ~PreparedTable() { table.trim(); }
   PreparedTable(const PreparedTable&) = delete;
   PreparedTable& operator=(const PreparedTable&) = delete;
@@ -1158,6 +1200,11 @@ struct PreparedTable {
     thread_local FaceTable t;
     return t;
   }
+
+ private:
+  const ShadingInput& in_;
+  const int32_t* ids_;
+  bool bary_, map_;
 };
 
 #endif
@@ -1223,10 +1270,10 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   constexpr bool interpolated = smooth || per_vertex;
   constexpr int kRowFloats = FaceTable::row_floats_for(per_vertex, smooth);
   constexpr int kMapAt = FaceTable::map_at_for(per_vertex);
-  const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
+  PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   FaceTable& table = prepared.table;
   size_t n_exact_steps = 0;
-  if (interpolated && !table.exact.empty()) table.reserve_steps(in.width, 16);
+  if (interpolated) table.reserve_steps(in.width, 16);  // (faces are found band by band)
 
   const float half_w = float(0.5 * in.width), half_h = float(0.5 * in.height);
   // x of each column's pixel centres in NDC (and 16 spare entries).
@@ -1251,6 +1298,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
   };
 
   for (int j = 0; j < in.height; ++j) {
+    if (j % kBand == 0) prepared.band(j, std::min(j + kBand, in.height));
     const int32_t* ids = triangle_id + size_t(j) * in.id_pitch();
     uint8_t* row = image + 3 * size_t(j) * size_t(in.width);
     const __m512 yn = _mm512_set1_ps(1.0f - (float(j) + 0.5f) / half_h);
@@ -1415,10 +1463,10 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
   constexpr bool interpolated = smooth || per_vertex;
   constexpr int kRowFloats = FaceTable::row_floats_for(per_vertex, smooth);
   constexpr int kMapAt = FaceTable::map_at_for(per_vertex);
-  const PreparedTable prepared(in, triangle_id, per_vertex, smooth);
+  PreparedTable prepared(in, triangle_id, per_vertex, smooth);
   FaceTable& table = prepared.table;
   size_t n_exact_steps = 0;
-  if (interpolated && !table.exact.empty()) table.reserve_steps(in.width, 8);
+  if (interpolated) table.reserve_steps(in.width, 8);
   const size_t nv = size_t(in.mesh.n_vertices);
   const std::vector<float> vc = per_vertex ? components(in.colors, nv) : std::vector<float>();
 
@@ -1446,6 +1494,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
   };
 
   for (int j = 0; j < in.height; ++j) {
+    if (j % kBand == 0) prepared.band(j, std::min(j + kBand, in.height));
     const int32_t* ids = triangle_id + size_t(j) * in.id_pitch();
     uint8_t* row = image + 3 * size_t(j) * size_t(in.width);
     const __m256 yn = _mm256_set1_ps(1.0f - (float(j) + 0.5f) / half_h);
