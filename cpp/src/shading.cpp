@@ -645,149 +645,151 @@ unsigned prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __m
   __m512d normal[3];
   for (int c = 0; c < 3; ++c)
     normal[c] = _mm512_mul_pd(side, _mm512_maskz_mov_pd(nonzero, _mm512_mul_pd(inv, ng[c])));
-  __m512d to_light[3];
-  for (int c = 0; c < 3; ++c) to_light[c] = _mm512_set1_pd(-1.0 * in.light_dir[c]);
-  const __m512d light = _mm512_add_pd(
-      _mm512_set1_pd(in.ambient),
-      _mm512_mul_pd(_mm512_set1_pd(in.diffuse), _mm512_max_pd(dot(normal, to_light), zero)));
-  __m512i rgb = _mm512_setzero_si512();
-  for (int c = 0; c < 3; ++c) {
-    const __m512d albedo =
-        in.color_source == ColorSource::kPerFace
-            ? _mm512_cvtps_pd(_mm256_mmask_i32gather_ps(_mm256_setzero_ps(), live,
-                                                        _mm256_add_epi32(f3, _mm256_set1_epi32(c)),
-                                                        in.colors, 4))
-            : _mm512_set1_pd(double(in.uniform_color[c]));
-    const __m512d v = _mm512_min_pd(_mm512_max_pd(_mm512_mul_pd(albedo, light), zero), one);
-    const __m512d byte = _mm512_roundscale_pd(
-        _mm512_add_pd(_mm512_mul_pd(v, _mm512_set1_pd(255.0)), _mm512_set1_pd(0.5)),
-        _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-    rgb = _mm512_or_si512(rgb, _mm512_slli_epi64(_mm512_cvtpd_epi64(byte), 8 * c));
+  // Flat shading: the final colour is all a face needs (a masked store).
+  // (Interpolated shading lights each pixel and never reads it.)
+  if (!bary && !map) {
+    __m512d to_light[3];
+    for (int c = 0; c < 3; ++c) to_light[c] = _mm512_set1_pd(-1.0 * in.light_dir[c]);
+    const __m512d light = _mm512_add_pd(
+        _mm512_set1_pd(in.ambient),
+        _mm512_mul_pd(_mm512_set1_pd(in.diffuse), _mm512_max_pd(dot(normal, to_light), zero)));
+    __m512i rgb = _mm512_setzero_si512();
+    for (int c = 0; c < 3; ++c) {
+      const __m512d albedo =
+          in.color_source == ColorSource::kPerFace
+              ? _mm512_cvtps_pd(_mm256_mmask_i32gather_ps(_mm256_setzero_ps(), live,
+                                                          _mm256_add_epi32(f3, _mm256_set1_epi32(c)),
+                                                          in.colors, 4))
+              : _mm512_set1_pd(double(in.uniform_color[c]));
+      const __m512d v = _mm512_min_pd(_mm512_max_pd(_mm512_mul_pd(albedo, light), zero), one);
+      const __m512d byte = _mm512_roundscale_pd(
+          _mm512_add_pd(_mm512_mul_pd(v, _mm512_set1_pd(255.0)), _mm512_set1_pd(0.5)),
+          _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+      rgb = _mm512_or_si512(rgb, _mm512_slli_epi64(_mm512_cvtpd_epi64(byte), 8 * c));
+    }
+    _mm256_mask_storeu_epi32(table.rgb.data() + first, live, _mm512_cvtepi64_epi32(rgb));
+    return robust;
   }
 
   __m512d coef[9], normal_map[9];
   __mmask8 exact = 0;  // FaceShade::exact
-  if (bary || map) {
-    const double* m = in.mvp;
-    __m512d cx[3], cy[3], cw[3];
-    auto row = [&](const double* r, int k) {
-      return _mm512_add_pd(
-          _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(r[0]), p[k][0]),
-                                      _mm512_mul_pd(_mm512_set1_pd(r[1]), p[k][1])),
-                        _mm512_mul_pd(_mm512_set1_pd(r[2]), p[k][2])),
-          _mm512_set1_pd(r[3]));
-    };
-    for (int k = 0; k < 3; ++k) {
-      cx[k] = row(m, k);
-      cy[k] = row(m + 4, k);
-      cw[k] = row(m + 12, k);
-    }
-    __m512d b[9], big = zero;
-    for (int k = 0; k < 3; ++k) {
-      const int a = (k + 1) % 3, c = (k + 2) % 3;
-      b[3 * k + 0] = _mm512_sub_pd(_mm512_mul_pd(cy[a], cw[c]), _mm512_mul_pd(cy[c], cw[a]));
-      b[3 * k + 1] = _mm512_sub_pd(_mm512_mul_pd(cw[a], cx[c]), _mm512_mul_pd(cw[c], cx[a]));
-      b[3 * k + 2] = _mm512_sub_pd(_mm512_mul_pd(cx[a], cy[c]), _mm512_mul_pd(cx[c], cy[a]));
-    }
-    for (const __m512d& v : b) big = _mm512_max_pd(_mm512_abs_pd(v), big);
-    constexpr int kNanOrInf = 0x01 | 0x80 | 0x08 | 0x10;
-    const __mmask8 scale = _mm512_cmp_pd_mask(big, zero, _CMP_GT_OQ) &
-                           ~_mm512_fpclass_pd_mask(big, kNanOrInf);
-    const __m512d inv_big = _mm512_div_pd(one, big);
-    for (int c = 0; c < 9; ++c) coef[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
-    const __m512d det = _mm512_add_pd(
-        _mm512_add_pd(_mm512_mul_pd(coef[0], cx[0]), _mm512_mul_pd(coef[1], cy[0])),
-        _mm512_mul_pd(coef[2], cw[0]));
-    {  // sums_are_close
-      const __m512d w = _mm512_max_pd(cw[2], _mm512_max_pd(cw[1], cw[0]));
-      const __mmask8 close = _mm512_cmp_pd_mask(cw[0], zero, _CMP_GT_OQ) &
-                             _mm512_cmp_pd_mask(cw[1], zero, _CMP_GT_OQ) &
-                             _mm512_cmp_pd_mask(cw[2], zero, _CMP_GT_OQ) &
-                             _mm512_cmp_pd_mask(_mm512_abs_pd(det),
-                                                _mm512_mul_pd(_mm512_set1_pd(kLeastSum), w), _CMP_GE_OQ);
-      exact = __mmask8(~close) & live;
-    }
-    if (map) {
-      __m512d vn[3][3];  // corner k, component c
-      for (int k = 0; k < 3; ++k)
-        for (int c = 0; c < 3; ++c)
-          vn[k][c] = _mm512_mask_i32gather_pd(
-              zero, live, _mm256_add_epi32(v3[k], _mm256_set1_epi32(c)), in.vertex_normals, 8);
-      const __mmask8 usable = scale & _mm512_cmp_pd_mask(det, zero, _CMP_NEQ_OQ) &
-                              ~_mm512_fpclass_pd_mask(det, kNanOrInf);
-      // +1 where det and side have one sign
-      const __mmask8 negative = _mm512_cmp_pd_mask(det, zero, _CMP_LT_OQ);
-      const __m512d sign =
-          _mm512_mask_blend_pd(__mmask8(negative ^ back), one, _mm512_set1_pd(-1.0));
-      __m512d largest = zero;
-      for (int c = 0; c < 3; ++c) {
-        for (int j = 0; j < 3; ++j) {
-          const __m512d m = _mm512_add_pd(
-              _mm512_add_pd(_mm512_mul_pd(vn[0][c], coef[j]), _mm512_mul_pd(vn[1][c], coef[3 + j])),
-              _mm512_mul_pd(vn[2][c], coef[6 + j]));
-          const __m512d corners = _mm512_add_pd(_mm512_add_pd(vn[0][c], vn[1][c]), vn[2][c]);
-          const __m512d mean = j < 2 ? zero : _mm512_mul_pd(side, corners);
-          normal_map[3 * c + j] = _mm512_mask_blend_pd(usable, mean, _mm512_mul_pd(sign, m));
-          largest = _mm512_max_pd(_mm512_abs_pd(normal_map[3 * c + j]), largest);
-        }
+  const double* m = in.mvp;
+  __m512d cx[3], cy[3], cw[3];
+  auto row = [&](const double* r, int k) {
+    return _mm512_add_pd(
+        _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(r[0]), p[k][0]),
+                                    _mm512_mul_pd(_mm512_set1_pd(r[1]), p[k][1])),
+                      _mm512_mul_pd(_mm512_set1_pd(r[2]), p[k][2])),
+        _mm512_set1_pd(r[3]));
+  };
+  for (int k = 0; k < 3; ++k) {
+    cx[k] = row(m, k);
+    cy[k] = row(m + 4, k);
+    cw[k] = row(m + 12, k);
+  }
+  __m512d b[9], big = zero;
+  for (int k = 0; k < 3; ++k) {
+    const int a = (k + 1) % 3, c = (k + 2) % 3;
+    b[3 * k + 0] = _mm512_sub_pd(_mm512_mul_pd(cy[a], cw[c]), _mm512_mul_pd(cy[c], cw[a]));
+    b[3 * k + 1] = _mm512_sub_pd(_mm512_mul_pd(cw[a], cx[c]), _mm512_mul_pd(cw[c], cx[a]));
+    b[3 * k + 2] = _mm512_sub_pd(_mm512_mul_pd(cx[a], cy[c]), _mm512_mul_pd(cx[c], cy[a]));
+  }
+  for (const __m512d& v : b) big = _mm512_max_pd(_mm512_abs_pd(v), big);
+  constexpr int kNanOrInf = 0x01 | 0x80 | 0x08 | 0x10;
+  const __mmask8 scale = _mm512_cmp_pd_mask(big, zero, _CMP_GT_OQ) &
+                         ~_mm512_fpclass_pd_mask(big, kNanOrInf);
+  const __m512d inv_big = _mm512_div_pd(one, big);
+  for (int c = 0; c < 9; ++c) coef[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
+  const __m512d det = _mm512_add_pd(
+      _mm512_add_pd(_mm512_mul_pd(coef[0], cx[0]), _mm512_mul_pd(coef[1], cy[0])),
+      _mm512_mul_pd(coef[2], cw[0]));
+  {  // sums_are_close
+    const __m512d w = _mm512_max_pd(cw[2], _mm512_max_pd(cw[1], cw[0]));
+    const __mmask8 close = _mm512_cmp_pd_mask(cw[0], zero, _CMP_GT_OQ) &
+                           _mm512_cmp_pd_mask(cw[1], zero, _CMP_GT_OQ) &
+                           _mm512_cmp_pd_mask(cw[2], zero, _CMP_GT_OQ) &
+                           _mm512_cmp_pd_mask(_mm512_abs_pd(det),
+                                              _mm512_mul_pd(_mm512_set1_pd(kLeastSum), w), _CMP_GE_OQ);
+    exact = __mmask8(~close) & live;
+  }
+  if (map) {
+    __m512d vn[3][3];  // corner k, component c
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 3; ++c)
+        vn[k][c] = _mm512_mask_i32gather_pd(
+            zero, live, _mm256_add_epi32(v3[k], _mm256_set1_epi32(c)), in.vertex_normals, 8);
+    const __mmask8 usable = scale & _mm512_cmp_pd_mask(det, zero, _CMP_NEQ_OQ) &
+                            ~_mm512_fpclass_pd_mask(det, kNanOrInf);
+    // +1 where det and side have one sign
+    const __mmask8 negative = _mm512_cmp_pd_mask(det, zero, _CMP_LT_OQ);
+    const __m512d sign =
+        _mm512_mask_blend_pd(__mmask8(negative ^ back), one, _mm512_set1_pd(-1.0));
+    __m512d largest = zero;
+    for (int c = 0; c < 3; ++c) {
+      for (int j = 0; j < 3; ++j) {
+        const __m512d m = _mm512_add_pd(
+            _mm512_add_pd(_mm512_mul_pd(vn[0][c], coef[j]), _mm512_mul_pd(vn[1][c], coef[3 + j])),
+            _mm512_mul_pd(vn[2][c], coef[6 + j]));
+        const __m512d corners = _mm512_add_pd(_mm512_add_pd(vn[0][c], vn[1][c]), vn[2][c]);
+        const __m512d mean = j < 2 ? zero : _mm512_mul_pd(side, corners);
+        normal_map[3 * c + j] = _mm512_mask_blend_pd(usable, mean, _mm512_mul_pd(sign, m));
+        largest = _mm512_max_pd(_mm512_abs_pd(normal_map[3 * c + j]), largest);
       }
-      const __mmask8 normalise = _mm512_cmp_pd_mask(largest, zero, _CMP_GT_OQ) &
-                                 ~_mm512_fpclass_pd_mask(largest, kNanOrInf);
-      const __m512d inv_largest = _mm512_div_pd(one, largest);
-      for (auto& m : normal_map) m = _mm512_mask_mul_pd(m, normalise, m, inv_largest);
+    }
+    const __mmask8 normalise = _mm512_cmp_pd_mask(largest, zero, _CMP_GT_OQ) &
+                               ~_mm512_fpclass_pd_mask(largest, kNanOrInf);
+    const __m512d inv_largest = _mm512_div_pd(one, largest);
+    for (auto& m : normal_map) m = _mm512_mask_mul_pd(m, normalise, m, inv_largest);
 
-      // FaceShade::exact, as map_is_close computes it.
-      const __m512d half_w = _mm512_set1_pd(0.5 * in.width), half_h = _mm512_set1_pd(0.5 * in.height);
-      const __m512d least2 = _mm512_set1_pd(kLeastCornerLength * kLeastCornerLength);
-      __mmask8 close = _mm512_cmp_pd_mask(largest, _mm512_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
-      __m512d x[3], y[3];
-      for (int k = 0; k < 3; ++k) {
-        x[k] = _mm512_mul_pd(cx[k], half_w);
-        y[k] = _mm512_mul_pd(cy[k], half_h);
-        __m512d len2 = zero;
-        for (int c = 0; c < 3; ++c) {
-          const __m512d v = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(normal_map[3 * c], cx[k]),
-                                                        _mm512_mul_pd(normal_map[3 * c + 1], cy[k])),
-                                          _mm512_mul_pd(normal_map[3 * c + 2], cw[k]));
-          len2 = _mm512_add_pd(len2, _mm512_mul_pd(v, v));
-        }
-        close &= _mm512_cmp_pd_mask(len2, _mm512_mul_pd(least2, _mm512_mul_pd(cw[k], cw[k])), _CMP_GE_OQ);
+    // FaceShade::exact, as map_is_close computes it.
+    const __m512d half_w = _mm512_set1_pd(0.5 * in.width), half_h = _mm512_set1_pd(0.5 * in.height);
+    const __m512d least2 = _mm512_set1_pd(kLeastCornerLength * kLeastCornerLength);
+    __mmask8 close = _mm512_cmp_pd_mask(largest, _mm512_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
+    __m512d x[3], y[3];
+    for (int k = 0; k < 3; ++k) {
+      x[k] = _mm512_mul_pd(cx[k], half_w);
+      y[k] = _mm512_mul_pd(cy[k], half_h);
+      __m512d len2 = zero;
+      for (int c = 0; c < 3; ++c) {
+        const __m512d v = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(normal_map[3 * c], cx[k]),
+                                                      _mm512_mul_pd(normal_map[3 * c + 1], cy[k])),
+                                        _mm512_mul_pd(normal_map[3 * c + 2], cw[k]));
+        len2 = _mm512_add_pd(len2, _mm512_mul_pd(v, v));
       }
-      auto minor = [&](int a, int b) {  // y_a w_b - y_b w_a
-        return _mm512_sub_pd(_mm512_mul_pd(y[a], cw[b]), _mm512_mul_pd(y[b], cw[a]));
-      };
-      const __m512d area = _mm512_add_pd(
-          _mm512_sub_pd(_mm512_mul_pd(x[0], minor(1, 2)), _mm512_mul_pd(x[1], minor(0, 2))),
-          _mm512_mul_pd(x[2], minor(0, 1)));
-      __m512d edge2 = zero, spread2 = zero;
-      for (int k = 0; k < 3; ++k) {
-        const int a = (k + 1) % 3, m = (k + 2) % 3;
-        const __m512d ex = _mm512_sub_pd(_mm512_mul_pd(x[a], cw[k]), _mm512_mul_pd(x[k], cw[a]));
-        const __m512d ey = _mm512_sub_pd(_mm512_mul_pd(y[a], cw[k]), _mm512_mul_pd(y[k], cw[a]));
-        edge2 = _mm512_max_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(ex, ex), _mm512_mul_pd(ey, ey)),
-                                            _mm512_mul_pd(cw[m], cw[m])),
-                              edge2);
-        __m512d d2 = zero, along = zero;
-        for (int c = 0; c < 3; ++c) {
-          const __m512d d = _mm512_sub_pd(vn[a][c], vn[k][c]);
-          d2 = _mm512_add_pd(d2, _mm512_mul_pd(d, d));
-          along = _mm512_add_pd(along, _mm512_mul_pd(vn[a][c], vn[k][c]));
-        }
-        spread2 = _mm512_max_pd(d2, spread2);
-        close &= _mm512_cmp_pd_mask(along, zero, _CMP_GE_OQ);
-      }
-      const __m512d spread_bound = _mm512_mul_pd(_mm512_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
-                                                 _mm512_mul_pd(area, area));
-      close &= _mm512_cmp_pd_mask(_mm512_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ);
-      exact |= __mmask8(~close) & live;
+      close &= _mm512_cmp_pd_mask(len2, _mm512_mul_pd(least2, _mm512_mul_pd(cw[k], cw[k])), _CMP_GE_OQ);
     }
+    auto minor = [&](int a, int b) {  // y_a w_b - y_b w_a
+      return _mm512_sub_pd(_mm512_mul_pd(y[a], cw[b]), _mm512_mul_pd(y[b], cw[a]));
+    };
+    const __m512d area = _mm512_add_pd(
+        _mm512_sub_pd(_mm512_mul_pd(x[0], minor(1, 2)), _mm512_mul_pd(x[1], minor(0, 2))),
+        _mm512_mul_pd(x[2], minor(0, 1)));
+    __m512d edge2 = zero, spread2 = zero;
+    for (int k = 0; k < 3; ++k) {
+      const int a = (k + 1) % 3, m = (k + 2) % 3;
+      const __m512d ex = _mm512_sub_pd(_mm512_mul_pd(x[a], cw[k]), _mm512_mul_pd(x[k], cw[a]));
+      const __m512d ey = _mm512_sub_pd(_mm512_mul_pd(y[a], cw[k]), _mm512_mul_pd(y[k], cw[a]));
+      edge2 = _mm512_max_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(ex, ex), _mm512_mul_pd(ey, ey)),
+                                          _mm512_mul_pd(cw[m], cw[m])),
+                            edge2);
+      __m512d d2 = zero, along = zero;
+      for (int c = 0; c < 3; ++c) {
+        const __m512d d = _mm512_sub_pd(vn[a][c], vn[k][c]);
+        d2 = _mm512_add_pd(d2, _mm512_mul_pd(d, d));
+        along = _mm512_add_pd(along, _mm512_mul_pd(vn[a][c], vn[k][c]));
+      }
+      spread2 = _mm512_max_pd(d2, spread2);
+      close &= _mm512_cmp_pd_mask(along, zero, _CMP_GE_OQ);
+    }
+    const __m512d spread_bound = _mm512_mul_pd(_mm512_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
+                                               _mm512_mul_pd(area, area));
+    close &= _mm512_cmp_pd_mask(_mm512_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ);
+    exact |= __mmask8(~close) & live;
   }
 
-  // Into the table's rows: the colours by a masked store (flat shading
-  // needs nothing else), the interpolated fields as 8 rows of 16 floats
+
+  // Into the table's rows: the interpolated fields as 8 rows of 16 floats
   // (fields by lane, transposed 8 x 8 at a time).
-  _mm256_mask_storeu_epi32(table.rgb.data() + first, live, _mm512_cvtepi64_epi32(rgb));
-  if (!bary && !map) return robust;
   __m256 field[2 * FaceTable::kLine];
   for (auto& v : field) v = _mm256_setzero_ps();
   if (bary)
@@ -872,144 +874,146 @@ unsigned prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m
   __m256d normal[3];
   for (int c = 0; c < 3; ++c)
     normal[c] = _mm256_mul_pd(side, _mm256_and_pd(nonzero, _mm256_mul_pd(inv, ng[c])));
-  __m256d to_light[3];
-  for (int c = 0; c < 3; ++c) to_light[c] = _mm256_set1_pd(-1.0 * in.light_dir[c]);
-  const __m256d light = _mm256_add_pd(
-      _mm256_set1_pd(in.ambient),
-      _mm256_mul_pd(_mm256_set1_pd(in.diffuse), _mm256_max_pd(dot(normal, to_light), zero)));
-  __m128i rgb = _mm_setzero_si128();
-  for (int c = 0; c < 3; ++c) {
-    const __m256d albedo =
-        in.color_source == ColorSource::kPerFace
-            ? _mm256_cvtps_pd(_mm_mask_i32gather_ps(_mm_setzero_ps(), in.colors,
-                                                    _mm_add_epi32(f3, _mm_set1_epi32(c)),
-                                                    _mm_castsi128_ps(live), 4))
-            : _mm256_set1_pd(double(in.uniform_color[c]));
-    const __m256d v = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(albedo, light), zero), one);
-    const __m256d byte =
-        _mm256_floor_pd(_mm256_add_pd(_mm256_mul_pd(v, _mm256_set1_pd(255.0)), _mm256_set1_pd(0.5)));
-    rgb = _mm_or_si128(rgb, _mm_slli_epi32(_mm256_cvtpd_epi32(byte), 8 * c));
+  // Flat shading: the final colour is all a face needs (a masked store).
+  if (!bary && !map) {
+    __m256d to_light[3];
+    for (int c = 0; c < 3; ++c) to_light[c] = _mm256_set1_pd(-1.0 * in.light_dir[c]);
+    const __m256d light = _mm256_add_pd(
+        _mm256_set1_pd(in.ambient),
+        _mm256_mul_pd(_mm256_set1_pd(in.diffuse), _mm256_max_pd(dot(normal, to_light), zero)));
+    __m128i rgb = _mm_setzero_si128();
+    for (int c = 0; c < 3; ++c) {
+      const __m256d albedo =
+          in.color_source == ColorSource::kPerFace
+              ? _mm256_cvtps_pd(_mm_mask_i32gather_ps(_mm_setzero_ps(), in.colors,
+                                                      _mm_add_epi32(f3, _mm_set1_epi32(c)),
+                                                      _mm_castsi128_ps(live), 4))
+              : _mm256_set1_pd(double(in.uniform_color[c]));
+      const __m256d v = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(albedo, light), zero), one);
+      const __m256d byte =
+          _mm256_floor_pd(_mm256_add_pd(_mm256_mul_pd(v, _mm256_set1_pd(255.0)), _mm256_set1_pd(0.5)));
+      rgb = _mm_or_si128(rgb, _mm_slli_epi32(_mm256_cvtpd_epi32(byte), 8 * c));
+    }
+    _mm_maskstore_epi32(table.rgb.data() + first, live, rgb);
+    return robust;
   }
 
   __m256d coef[9], normal_map[9];
   __m256d exact = zero;  // FaceShade::exact (all bits set)
-  if (bary || map) {
-    const double* m = in.mvp;
-    __m256d cx[3], cy[3], cw[3];
-    auto row = [&](const double* r, int k) {
-      return _mm256_add_pd(
-          _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r[0]), p[k][0]),
-                                      _mm256_mul_pd(_mm256_set1_pd(r[1]), p[k][1])),
-                        _mm256_mul_pd(_mm256_set1_pd(r[2]), p[k][2])),
-          _mm256_set1_pd(r[3]));
-    };
-    for (int k = 0; k < 3; ++k) {
-      cx[k] = row(m, k);
-      cy[k] = row(m + 4, k);
-      cw[k] = row(m + 12, k);
-    }
-    __m256d b[9], big = zero;
-    for (int k = 0; k < 3; ++k) {
-      const int a = (k + 1) % 3, c = (k + 2) % 3;
-      b[3 * k + 0] = _mm256_sub_pd(_mm256_mul_pd(cy[a], cw[c]), _mm256_mul_pd(cy[c], cw[a]));
-      b[3 * k + 1] = _mm256_sub_pd(_mm256_mul_pd(cw[a], cx[c]), _mm256_mul_pd(cw[c], cx[a]));
-      b[3 * k + 2] = _mm256_sub_pd(_mm256_mul_pd(cx[a], cy[c]), _mm256_mul_pd(cx[c], cy[a]));
-    }
-    for (const __m256d& v : b) big = _mm256_max_pd(abs(v), big);
-    const __m256d scale = positive_finite(big);
-    const __m256d inv_big = _mm256_div_pd(one, big);
-    for (int c = 0; c < 9; ++c) coef[c] = _mm256_blendv_pd(b[c], _mm256_mul_pd(b[c], inv_big), scale);
-    const __m256d det = _mm256_add_pd(
-        _mm256_add_pd(_mm256_mul_pd(coef[0], cx[0]), _mm256_mul_pd(coef[1], cy[0])),
-        _mm256_mul_pd(coef[2], cw[0]));
-    {  // sums_are_close
-      const __m256d w = _mm256_max_pd(cw[2], _mm256_max_pd(cw[1], cw[0]));
-      const __m256d close = _mm256_and_pd(
-          _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(cw[0], zero, _CMP_GT_OQ),
-                                      _mm256_cmp_pd(cw[1], zero, _CMP_GT_OQ)),
-                        _mm256_cmp_pd(cw[2], zero, _CMP_GT_OQ)),
-          _mm256_cmp_pd(abs(det), _mm256_mul_pd(_mm256_set1_pd(kLeastSum), w), _CMP_GE_OQ));
-      exact = _mm256_andnot_pd(close, live_d);
-    }
-    if (map) {
-      __m256d vn[3][3];  // corner k, component c
-      for (int k = 0; k < 3; ++k)
-        for (int c = 0; c < 3; ++c)
-          vn[k][c] = _mm256_mask_i32gather_pd(zero, in.vertex_normals,
-                                              _mm_add_epi32(v3[k], _mm_set1_epi32(c)), live_d, 8);
-      // det != 0 and finite: |det| in (0, inf)
-      const __m256d usable = _mm256_and_pd(scale, positive_finite(abs(det)));
-      // +1 where det and side have one sign
-      const __m256d negative = _mm256_cmp_pd(det, zero, _CMP_LT_OQ);
-      const __m256d sign = _mm256_blendv_pd(one, _mm256_set1_pd(-1.0), _mm256_xor_pd(negative, back));
-      __m256d largest = zero;
-      for (int c = 0; c < 3; ++c) {
-        for (int j = 0; j < 3; ++j) {
-          const __m256d mm = _mm256_add_pd(
-              _mm256_add_pd(_mm256_mul_pd(vn[0][c], coef[j]), _mm256_mul_pd(vn[1][c], coef[3 + j])),
-              _mm256_mul_pd(vn[2][c], coef[6 + j]));
-          const __m256d corners = _mm256_add_pd(_mm256_add_pd(vn[0][c], vn[1][c]), vn[2][c]);
-          const __m256d mean = j < 2 ? zero : _mm256_mul_pd(side, corners);
-          normal_map[3 * c + j] = _mm256_blendv_pd(mean, _mm256_mul_pd(sign, mm), usable);
-          largest = _mm256_max_pd(abs(normal_map[3 * c + j]), largest);
-        }
+  const double* m = in.mvp;
+  __m256d cx[3], cy[3], cw[3];
+  auto row = [&](const double* r, int k) {
+    return _mm256_add_pd(
+        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r[0]), p[k][0]),
+                                    _mm256_mul_pd(_mm256_set1_pd(r[1]), p[k][1])),
+                      _mm256_mul_pd(_mm256_set1_pd(r[2]), p[k][2])),
+        _mm256_set1_pd(r[3]));
+  };
+  for (int k = 0; k < 3; ++k) {
+    cx[k] = row(m, k);
+    cy[k] = row(m + 4, k);
+    cw[k] = row(m + 12, k);
+  }
+  __m256d b[9], big = zero;
+  for (int k = 0; k < 3; ++k) {
+    const int a = (k + 1) % 3, c = (k + 2) % 3;
+    b[3 * k + 0] = _mm256_sub_pd(_mm256_mul_pd(cy[a], cw[c]), _mm256_mul_pd(cy[c], cw[a]));
+    b[3 * k + 1] = _mm256_sub_pd(_mm256_mul_pd(cw[a], cx[c]), _mm256_mul_pd(cw[c], cx[a]));
+    b[3 * k + 2] = _mm256_sub_pd(_mm256_mul_pd(cx[a], cy[c]), _mm256_mul_pd(cx[c], cy[a]));
+  }
+  for (const __m256d& v : b) big = _mm256_max_pd(abs(v), big);
+  const __m256d scale = positive_finite(big);
+  const __m256d inv_big = _mm256_div_pd(one, big);
+  for (int c = 0; c < 9; ++c) coef[c] = _mm256_blendv_pd(b[c], _mm256_mul_pd(b[c], inv_big), scale);
+  const __m256d det = _mm256_add_pd(
+      _mm256_add_pd(_mm256_mul_pd(coef[0], cx[0]), _mm256_mul_pd(coef[1], cy[0])),
+      _mm256_mul_pd(coef[2], cw[0]));
+  {  // sums_are_close
+    const __m256d w = _mm256_max_pd(cw[2], _mm256_max_pd(cw[1], cw[0]));
+    const __m256d close = _mm256_and_pd(
+        _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(cw[0], zero, _CMP_GT_OQ),
+                                    _mm256_cmp_pd(cw[1], zero, _CMP_GT_OQ)),
+                      _mm256_cmp_pd(cw[2], zero, _CMP_GT_OQ)),
+        _mm256_cmp_pd(abs(det), _mm256_mul_pd(_mm256_set1_pd(kLeastSum), w), _CMP_GE_OQ));
+    exact = _mm256_andnot_pd(close, live_d);
+  }
+  if (map) {
+    __m256d vn[3][3];  // corner k, component c
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 3; ++c)
+        vn[k][c] = _mm256_mask_i32gather_pd(zero, in.vertex_normals,
+                                            _mm_add_epi32(v3[k], _mm_set1_epi32(c)), live_d, 8);
+    // det != 0 and finite: |det| in (0, inf)
+    const __m256d usable = _mm256_and_pd(scale, positive_finite(abs(det)));
+    // +1 where det and side have one sign
+    const __m256d negative = _mm256_cmp_pd(det, zero, _CMP_LT_OQ);
+    const __m256d sign = _mm256_blendv_pd(one, _mm256_set1_pd(-1.0), _mm256_xor_pd(negative, back));
+    __m256d largest = zero;
+    for (int c = 0; c < 3; ++c) {
+      for (int j = 0; j < 3; ++j) {
+        const __m256d mm = _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(vn[0][c], coef[j]), _mm256_mul_pd(vn[1][c], coef[3 + j])),
+            _mm256_mul_pd(vn[2][c], coef[6 + j]));
+        const __m256d corners = _mm256_add_pd(_mm256_add_pd(vn[0][c], vn[1][c]), vn[2][c]);
+        const __m256d mean = j < 2 ? zero : _mm256_mul_pd(side, corners);
+        normal_map[3 * c + j] = _mm256_blendv_pd(mean, _mm256_mul_pd(sign, mm), usable);
+        largest = _mm256_max_pd(abs(normal_map[3 * c + j]), largest);
       }
-      const __m256d normalise = positive_finite(largest);
-      const __m256d inv_largest = _mm256_div_pd(one, largest);
-      for (auto& v : normal_map) v = _mm256_blendv_pd(v, _mm256_mul_pd(v, inv_largest), normalise);
+    }
+    const __m256d normalise = positive_finite(largest);
+    const __m256d inv_largest = _mm256_div_pd(one, largest);
+    for (auto& v : normal_map) v = _mm256_blendv_pd(v, _mm256_mul_pd(v, inv_largest), normalise);
 
-      // FaceShade::exact, as map_is_close computes it.
-      const __m256d half_w = _mm256_set1_pd(0.5 * in.width), half_h = _mm256_set1_pd(0.5 * in.height);
-      const __m256d least2 = _mm256_set1_pd(kLeastCornerLength * kLeastCornerLength);
-      __m256d close = _mm256_cmp_pd(largest, _mm256_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
-      __m256d x[3], y[3];
-      for (int k = 0; k < 3; ++k) {
-        x[k] = _mm256_mul_pd(cx[k], half_w);
-        y[k] = _mm256_mul_pd(cy[k], half_h);
-        __m256d len2 = zero;
-        for (int c = 0; c < 3; ++c) {
-          const __m256d v = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(normal_map[3 * c], cx[k]),
-                                                        _mm256_mul_pd(normal_map[3 * c + 1], cy[k])),
-                                          _mm256_mul_pd(normal_map[3 * c + 2], cw[k]));
-          len2 = _mm256_add_pd(len2, _mm256_mul_pd(v, v));
-        }
-        close = _mm256_and_pd(close, _mm256_cmp_pd(len2, _mm256_mul_pd(least2, _mm256_mul_pd(cw[k], cw[k])),
-                                                   _CMP_GE_OQ));
+    // FaceShade::exact, as map_is_close computes it.
+    const __m256d half_w = _mm256_set1_pd(0.5 * in.width), half_h = _mm256_set1_pd(0.5 * in.height);
+    const __m256d least2 = _mm256_set1_pd(kLeastCornerLength * kLeastCornerLength);
+    __m256d close = _mm256_cmp_pd(largest, _mm256_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
+    __m256d x[3], y[3];
+    for (int k = 0; k < 3; ++k) {
+      x[k] = _mm256_mul_pd(cx[k], half_w);
+      y[k] = _mm256_mul_pd(cy[k], half_h);
+      __m256d len2 = zero;
+      for (int c = 0; c < 3; ++c) {
+        const __m256d v = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(normal_map[3 * c], cx[k]),
+                                                      _mm256_mul_pd(normal_map[3 * c + 1], cy[k])),
+                                        _mm256_mul_pd(normal_map[3 * c + 2], cw[k]));
+        len2 = _mm256_add_pd(len2, _mm256_mul_pd(v, v));
       }
-      auto minor = [&](int a, int b) {  // y_a w_b - y_b w_a
-        return _mm256_sub_pd(_mm256_mul_pd(y[a], cw[b]), _mm256_mul_pd(y[b], cw[a]));
-      };
-      const __m256d area = _mm256_add_pd(
-          _mm256_sub_pd(_mm256_mul_pd(x[0], minor(1, 2)), _mm256_mul_pd(x[1], minor(0, 2))),
-          _mm256_mul_pd(x[2], minor(0, 1)));
-      __m256d edge2 = zero, spread2 = zero;
-      for (int k = 0; k < 3; ++k) {
-        const int a = (k + 1) % 3, m = (k + 2) % 3;
-        const __m256d ex = _mm256_sub_pd(_mm256_mul_pd(x[a], cw[k]), _mm256_mul_pd(x[k], cw[a]));
-        const __m256d ey = _mm256_sub_pd(_mm256_mul_pd(y[a], cw[k]), _mm256_mul_pd(y[k], cw[a]));
-        edge2 = _mm256_max_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey)),
-                                            _mm256_mul_pd(cw[m], cw[m])),
-                              edge2);
-        __m256d d2 = zero, along = zero;
-        for (int c = 0; c < 3; ++c) {
-          const __m256d d = _mm256_sub_pd(vn[a][c], vn[k][c]);
-          d2 = _mm256_add_pd(d2, _mm256_mul_pd(d, d));
-          along = _mm256_add_pd(along, _mm256_mul_pd(vn[a][c], vn[k][c]));
-        }
-        spread2 = _mm256_max_pd(d2, spread2);
-        close = _mm256_and_pd(close, _mm256_cmp_pd(along, zero, _CMP_GE_OQ));
-      }
-      const __m256d spread_bound = _mm256_mul_pd(_mm256_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
-                                                 _mm256_mul_pd(area, area));
-      close = _mm256_and_pd(close, _mm256_cmp_pd(_mm256_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ));
-      exact = _mm256_or_pd(exact, _mm256_andnot_pd(close, live_d));
+      close = _mm256_and_pd(close, _mm256_cmp_pd(len2, _mm256_mul_pd(least2, _mm256_mul_pd(cw[k], cw[k])),
+                                                 _CMP_GE_OQ));
     }
+    auto minor = [&](int a, int b) {  // y_a w_b - y_b w_a
+      return _mm256_sub_pd(_mm256_mul_pd(y[a], cw[b]), _mm256_mul_pd(y[b], cw[a]));
+    };
+    const __m256d area = _mm256_add_pd(
+        _mm256_sub_pd(_mm256_mul_pd(x[0], minor(1, 2)), _mm256_mul_pd(x[1], minor(0, 2))),
+        _mm256_mul_pd(x[2], minor(0, 1)));
+    __m256d edge2 = zero, spread2 = zero;
+    for (int k = 0; k < 3; ++k) {
+      const int a = (k + 1) % 3, m = (k + 2) % 3;
+      const __m256d ex = _mm256_sub_pd(_mm256_mul_pd(x[a], cw[k]), _mm256_mul_pd(x[k], cw[a]));
+      const __m256d ey = _mm256_sub_pd(_mm256_mul_pd(y[a], cw[k]), _mm256_mul_pd(y[k], cw[a]));
+      edge2 = _mm256_max_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey)),
+                                          _mm256_mul_pd(cw[m], cw[m])),
+                            edge2);
+      __m256d d2 = zero, along = zero;
+      for (int c = 0; c < 3; ++c) {
+        const __m256d d = _mm256_sub_pd(vn[a][c], vn[k][c]);
+        d2 = _mm256_add_pd(d2, _mm256_mul_pd(d, d));
+        along = _mm256_add_pd(along, _mm256_mul_pd(vn[a][c], vn[k][c]));
+      }
+      spread2 = _mm256_max_pd(d2, spread2);
+      close = _mm256_and_pd(close, _mm256_cmp_pd(along, zero, _CMP_GE_OQ));
+    }
+    const __m256d spread_bound = _mm256_mul_pd(_mm256_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
+                                               _mm256_mul_pd(area, area));
+    close = _mm256_and_pd(close, _mm256_cmp_pd(_mm256_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ));
+    exact = _mm256_or_pd(exact, _mm256_andnot_pd(close, live_d));
   }
 
-  // Into the table's rows: the colours by a masked store, the interpolated
-  // fields as 4 rows (fields by lane, transposed 4 x 4 at a time).
-  _mm_maskstore_epi32(table.rgb.data() + first, live, rgb);
-  if (!bary && !map) return robust;
+
+  // Into the table's rows: the interpolated fields as 4 rows (fields by
+  // lane, transposed 4 x 4 at a time).
   __m128 field[2 * FaceTable::kLine];
   for (auto& v : field) v = _mm_setzero_ps();
   if (bary)
