@@ -838,7 +838,11 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
       if (batch.pending() >= kFlushAt) flush();
       draw_cluster(c);
     }
+    // The traversal starts from the pyramid these clusters made: all of it,
+    // whatever updates the lazy upkeep put off.
+    batch.set_lazy_upkeep(false);
     flush();
+    batch.set_lazy_upkeep(true);
   }
 
   // Front to back, depth first: children are pushed farthest first, so the
