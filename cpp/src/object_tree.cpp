@@ -810,9 +810,12 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     stats.raster_ms += ms_between(t1, t2);
     draw_ms += ms_between(t0, t2);
   };
-  auto flush = [&] {
+  auto flush = [&](bool last = false) {
     const auto t0 = Clock::now();
-    batch.flush();
+    if (last)
+      batch.finish();  // (no pyramid upkeep: nothing tests against it any more)
+    else
+      batch.flush();
     const double ms = ms_between(t0, Clock::now());
     stats.raster_ms += ms;
     draw_ms += ms;
@@ -900,7 +903,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     }
     for (int k = 0; k < n; ++k) stack.push_back(kids[k]);
   }
-  flush();
+  flush(/*last=*/true);
   stats.culled_in_nodes += tree.n_input_faces - reached;
   stats.depth_storage_bytes = pyramid.storage_bytes();
   frame.drawn_positions = positions;

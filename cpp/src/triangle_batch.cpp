@@ -46,7 +46,7 @@ void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderS
     batch.add_faces(input.mesh, input.mvp, vp, screen, 0, input.mesh.n_faces,
                     input.cull_backfaces);
   }
-  batch.flush();
+  batch.finish();
   stats.raster_ms += ms_since(t0);
 }
 
@@ -285,8 +285,10 @@ void TriangleBatch::flush() {
     // Only a test against an up-to-date pyramid says whether testing pays.
     const bool useless = pyramid_fresh_ && batch_culled_ * 64 < tested;
     batch_culled_ = 0;
-    if (lazy_upkeep_ && (useless || (skipped_updates_ > 0 &&
-                                     skipped_updates_ < kMaxSkippedUpdates))) {
+    if (finishing_) {
+      pyramid_fresh_ = false;  // (the blocks drawn stay marked)
+    } else if (lazy_upkeep_ && (useless || (skipped_updates_ > 0 &&
+                                            skipped_updates_ < kMaxSkippedUpdates))) {
       ++skipped_updates_;
       pyramid_fresh_ = false;
     } else {
@@ -298,6 +300,12 @@ void TriangleBatch::flush() {
   n_small_ = 0;
   small_tested_ = 0;
   for (int& g : group_size_) g = 0;
+}
+
+void TriangleBatch::finish() {
+  finishing_ = true;
+  flush();
+  finishing_ = false;
 }
 
 // Occlusion Culling

@@ -76,6 +76,10 @@ class TriangleBatch {
   // Draw everything added so far and empty the batch. Call before reading
   // the target.
   void flush();
+  // flush() for the end of a render: the pyramid is not brought up to date
+  // (nothing tests against it any more; RenderResult.pyramid() is computed
+  // from the final depth).
+  void finish();
 
   // With a pyramid: let flush() skip bringing the pyramid up to date (for
   // up to kMaxSkippedUpdates batches in a row) after a batch tested against
@@ -167,6 +171,7 @@ class TriangleBatch {
   ZPyramid* pyramid_;
   int capacity_;
   bool lazy_upkeep_ = false;
+  bool finishing_ = false;  // in finish(): no pyramid upkeep
   int skipped_updates_ = 0;
   bool pyramid_fresh_ = false;  // updated at the end of the last flush
   static constexpr int kTileShift = 3;   // 8 x 8 pixel tiles (pyramid level 3)
