@@ -74,10 +74,11 @@ void ClusterBuilder::reserve(int64_t references) {
   // huge pages (a fresh tree faults in hundreds of MB: 20% of a Scene build
   // of 11.7 million triangles in 4 KiB pages).
   // Faces index the tree's vertex copies, at most three per reference.
-  if (references > (int64_t(std::numeric_limits<int32_t>::max()) - 1) / 3)
+  constexpr int64_t kMostReferences = (int64_t(std::numeric_limits<int32_t>::max()) - 1) / 3;
+  if (references > kMostReferences)
     throw std::length_error("a tree of " + std::to_string(references) +
                             " triangle references is too large: at most " +
-                            std::to_string((int64_t(std::numeric_limits<int32_t>::max()) - 1) / 3));
+                            std::to_string(kMostReferences));
   const size_t n = size_t(references);
   reserve_huge(tree_.faces, 3 * n);
   reserve_huge(tree_.ids, n);
@@ -810,12 +811,9 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     stats.raster_ms += ms_between(t1, t2);
     draw_ms += ms_between(t0, t2);
   };
-  auto flush = [&](bool last = false) {
+  auto flush = [&](TriangleBatch::Upkeep upkeep = TriangleBatch::Upkeep::kAsSet) {
     const auto t0 = Clock::now();
-    if (last)
-      batch.finish();  // (no pyramid upkeep: nothing tests against it any more)
-    else
-      batch.flush();
+    batch.flush(upkeep);
     const double ms = ms_between(t0, Clock::now());
     stats.raster_ms += ms;
     draw_ms += ms;
@@ -843,9 +841,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     }
     // The traversal starts from the pyramid these clusters made: all of it,
     // whatever updates the lazy upkeep put off.
-    batch.set_lazy_upkeep(false);
-    flush();
-    batch.set_lazy_upkeep(true);
+    flush(TriangleBatch::Upkeep::kNow);
   }
 
   // Front to back, depth first: children are pushed farthest first, so the
@@ -903,7 +899,7 @@ void render_object_tree(const ObjectTree& tree, const RenderInput& input, DepthT
     }
     for (int k = 0; k < n; ++k) stack.push_back(kids[k]);
   }
-  flush(/*last=*/true);
+  flush(TriangleBatch::Upkeep::kNone);
   stats.culled_in_nodes += tree.n_input_faces - reached;
   stats.depth_storage_bytes = pyramid.storage_bytes();
   frame.drawn_positions = positions;

@@ -438,17 +438,20 @@ struct FaceTable {
     }
     row_floats = row_floats_for(bary, map);
     map_at = map_at_for(bary);
-    const size_t floats = size_t(row_floats) * stride;
-    if ((bary || map) && rows.size() < floats) rows.resize(floats);
+    fit_rows(bary || map);
   }
   // Room for rows [0, n), keeping the rows written (by_slot: rows are added
-  // band by band).
+  // band by band). After resize, with the same fields.
   void grow(size_t n, bool bary, bool map) {
     if (stride >= n) return;
     stride = std::max(n, 2 * stride);
     rgb.resize(stride);
+    fit_rows(bary || map);
+  }
+  // Interpolation rows for every row allocated (stride).
+  void fit_rows(bool interpolated) {
     const size_t floats = size_t(row_floats) * stride;
-    if ((bary || map) && rows.size() < floats) rows.resize(floats);
+    if (interpolated && rows.size() < floats) rows.resize(floats);
   }
   // After a pass: give back the memory of arrays too large to keep.
   void trim() {
@@ -787,7 +790,6 @@ unsigned prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __m
     exact |= __mmask8(~close) & live;
   }
 
-
   // Into the table's rows: the interpolated fields as 8 rows of 16 floats
   // (fields by lane, transposed 8 x 8 at a time).
   __m256 field[2 * FaceTable::kLine];
@@ -1011,7 +1013,6 @@ unsigned prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m
     exact = _mm256_or_pd(exact, _mm256_andnot_pd(close, live_d));
   }
 
-
   // Into the table's rows: the interpolated fields as 4 rows (fields by
   // lane, transposed 4 x 4 at a time).
   __m128 field[2 * FaceTable::kLine];
@@ -1127,7 +1128,6 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
   for (; i < count; ++i)
     store_row(table, i, prepare_face(in, face_at(i), bary || map, map), bary, map);
 }
-
 
 // Starts a pass's table. With few faces, every face is prepared now, row =
 // face. Otherwise (by_slot) none yet: prepare_band finds the faces each band

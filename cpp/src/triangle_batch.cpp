@@ -46,7 +46,7 @@ void render_faces_batched(const RenderInput& input, DepthTarget& target, RenderS
     batch.add_faces(input.mesh, input.mvp, vp, screen, 0, input.mesh.n_faces,
                     input.cull_backfaces);
   }
-  batch.finish();
+  batch.flush(TriangleBatch::Upkeep::kNone);
   stats.raster_ms += ms_since(t0);
 }
 
@@ -245,7 +245,7 @@ void TriangleBatch::add_unbatched(const Faces& f, unsigned large, const MeshView
 
 // Drawing
 
-void TriangleBatch::flush() {
+void TriangleBatch::flush(Upkeep upkeep) {
   if (pyramid_) cull_large();
   const int64_t tested = pending() + batch_culled_;  // every triangle of this batch
   int64_t covered = 0, written = 0;
@@ -285,10 +285,10 @@ void TriangleBatch::flush() {
     // Only a test against an up-to-date pyramid says whether testing pays.
     const bool useless = pyramid_fresh_ && batch_culled_ * 64 < tested;
     batch_culled_ = 0;
-    if (finishing_) {
+    if (upkeep == Upkeep::kNone) {
       pyramid_fresh_ = false;  // (the blocks drawn stay marked)
-    } else if (lazy_upkeep_ && (useless || (skipped_updates_ > 0 &&
-                                            skipped_updates_ < kMaxSkippedUpdates))) {
+    } else if (upkeep == Upkeep::kAsSet && lazy_upkeep_ &&
+               (useless || (skipped_updates_ > 0 && skipped_updates_ < kMaxSkippedUpdates))) {
       ++skipped_updates_;
       pyramid_fresh_ = false;
     } else {
@@ -300,12 +300,6 @@ void TriangleBatch::flush() {
   n_small_ = 0;
   small_tested_ = 0;
   for (int& g : group_size_) g = 0;
-}
-
-void TriangleBatch::finish() {
-  finishing_ = true;
-  flush();
-  finishing_ = false;
 }
 
 // Occlusion Culling
@@ -481,23 +475,20 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
 void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
   const int tx0 = s.x_min >> kTileShift, tx1 = s.x_max >> kTileShift;
   const int ty0 = s.y_min >> kTileShift, ty1 = s.y_max >> kTileShift;
-  if (!tile_cells_ || (tx0 == tx1 && ty0 == ty1)) {
-    rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target_, stats_);
-    mark_blocks(s.x_min, s.y_min, s.x_max, s.y_max);
-    return;
-  }
-  const float* tile_max = pyramid_->level(kTileShift);
-  const int tiles_wide = pyramid_->width(kTileShift);
-  // No tile nearer than the whole triangle (most of a mesh's large
-  // triangles): one rectangle, as without a pyramid. (Walking it run by run
-  // of tiles regardless cost `hiz` 1.1-1.2x the time on meshes of large
-  // triangles: the spans stepped row by row between the runs, and a
-  // rectangle set up for every 8 rows; benchmarks/README.md.)
+  const float* tile_max = tile_cells_ ? pyramid_->level(kTileShift) : nullptr;
+  const int tiles_wide = tile_cells_ ? pyramid_->width(kTileShift) : 0;
+  // Drawn whole, as without a pyramid: without tiles to skip (no 8 x 8
+  // cells kept, or a box in one tile), or where no tile is nearer than the
+  // whole triangle (most of a mesh's large triangles). (Walking the latter
+  // run by run of tiles regardless cost `hiz` 1.1-1.2x the time on meshes
+  // of large triangles: the spans stepped row by row between the runs, and
+  // a rectangle set up for every 8 rows; benchmarks/README.md.)
   bool any_nearer = false;
-  for (int ty = ty0; ty <= ty1 && !any_nearer; ++ty) {
-    const float* row = tile_max + size_t(ty) * tiles_wide;
-    for (int tx = tx0; tx <= tx1; ++tx) any_nearer |= s.z_lo > row[tx];
-  }
+  if (tile_cells_ && (tx0 != tx1 || ty0 != ty1))
+    for (int ty = ty0; ty <= ty1 && !any_nearer; ++ty) {
+      const float* row = tile_max + size_t(ty) * tiles_wide;
+      for (int tx = tx0; tx <= tx1; ++tx) any_nearer |= s.z_lo > row[tx];
+    }
   if (!any_nearer) {
     rasterize_rect(s, s.x_min, s.y_min, s.x_max, s.y_max, target_, stats_);
     mark_blocks(s.x_min, s.y_min, s.x_max, s.y_max);

@@ -583,14 +583,6 @@ void test_frame_tree_bounds_when_the_cube_rounds() {
   }
 }
 
-// The per-frame builders' vector face pass and scatter (AVX-512 builds)
-// give the very tree of the scalar ones: same nodes, bounds, clusters and
-// face order -- and the same decision whether the faces came in bucket
-// order. Faces are passed as they are, in spatial order with their ids (the
-// per-frame BVH's buckets are then in order: no copy), and in spatial order
-// with the last face moved to the last lane of the first 16, to the second
-// lane of the next 16, or the first face moved to the end (out of order:
-// copied).
 // A per-frame octree gives each face one bucket: Greene's rule, which gives
 // it several cells, is refused.
 void test_frame_octree_refuses_greene_rule() {
@@ -607,6 +599,14 @@ void test_frame_octree_refuses_greene_rule() {
   CHECK(threw);
 }
 
+// The per-frame builders' vector face pass and scatter (AVX-512 builds)
+// give the very tree of the scalar ones: same nodes, bounds, clusters and
+// face order -- and the same decision whether the faces came in bucket
+// order. Faces are passed as they are, in spatial order with their ids (the
+// per-frame BVH's buckets are then in order: no copy), and in spatial order
+// with the last face moved to the last lane of the first 16, to the second
+// lane of the next 16, or the first face moved to the end (out of order:
+// copied).
 void test_frame_tree_vector_pass_equals_scalar() {
   const Soup soups[] = {random_soup(7, 5001), wavy_sheet(90), wavy_sheet(17)};
   for (const Soup& soup : soups)

@@ -73,13 +73,16 @@ class TriangleBatch {
   // Add one assembled triangle (area > 0); the caller counts it.
   void add(const ScreenTriangle& t);
 
+  // What a flush does about the pyramid (with one) after drawing: bring it
+  // up to date over the blocks drawn into, or not when the lazy upkeep set
+  // below says it does not pay (kAsSet); bring it up to date whatever that
+  // put off (kNow: a caller about to test against all of it); leave it
+  // (kNone: the end of a render -- nothing tests against it any more, and
+  // RenderResult.pyramid() is computed from the final depth).
+  enum class Upkeep { kAsSet, kNow, kNone };
   // Draw everything added so far and empty the batch. Call before reading
   // the target.
-  void flush();
-  // flush() for the end of a render: the pyramid is not brought up to date
-  // (nothing tests against it any more; RenderResult.pyramid() is computed
-  // from the final depth).
-  void finish();
+  void flush(Upkeep upkeep = Upkeep::kAsSet);
 
   // With a pyramid: let flush() skip bringing the pyramid up to date (for
   // up to kMaxSkippedUpdates batches in a row) after a batch tested against
@@ -171,7 +174,6 @@ class TriangleBatch {
   ZPyramid* pyramid_;
   int capacity_;
   bool lazy_upkeep_ = false;
-  bool finishing_ = false;  // in finish(): no pyramid upkeep
   int skipped_updates_ = 0;
   bool pyramid_fresh_ = false;  // updated at the end of the last flush
   static constexpr int kTileShift = 3;   // 8 x 8 pixel tiles (pyramid level 3)
