@@ -1234,7 +1234,17 @@ inline void store_rgb16(uint8_t* out, __m512i rgba, __mmask16 lanes) {
   // Then the three useful dwords of each 128-bit lane next to each other.
   const __m512i dwords = _mm512_set_epi32(15, 15, 15, 15, 14, 13, 12, 10, 9, 8, 6, 5, 4, 2, 1, 0);
   const __m512i line = _mm512_permutexvar_epi32(dwords, packed);
-  // 3 bytes per lane: byte mask of the first 3 * count bytes.
+  // 16 lanes: the 48 bytes as 32 + 16, unmasked. (A byte-masked store of
+  // them, as below, made smooth shading 1.06-1.08x and flat shading
+  // 1.10-1.13x as slow on Zen 4; one unmasked 64-byte store, its last 16
+  // bytes overwritten by the next step, 1.01-1.05x as slow as these two:
+  // benchmarks/README.md.)
+  if (lanes == 0xFFFF) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), _mm512_castsi512_si256(line));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 32), _mm512_extracti32x4_epi32(line, 2));
+    return;
+  }
+  // Fewer: a byte mask of the first 3 * count bytes.
   const int count = 32 - __builtin_clz(uint32_t(lanes) | 1u);  // lanes are a prefix
   const __mmask64 keep = count >= 16 ? __mmask64(0xFFFFFFFFFFFFull) : ((__mmask64(1) << (3 * count)) - 1);
   _mm512_mask_storeu_epi8(out, keep, line);
@@ -1639,9 +1649,14 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
       alignas(32) uint8_t packed[32];
       _mm256_store_si256(reinterpret_cast<__m256i*>(packed), _mm256_shuffle_epi8(rgba, rgb_bytes));
       uint8_t* out = row + 3 * size_t(i);
-      const int low = std::min(count, 4);
-      std::memcpy(out, packed, 3 * size_t(low));
-      if (count > 4) std::memcpy(out + 12, packed + 16, 3 * size_t(count - 4));
+      if (count == 8) {  // (copies of a constant size: a few moves, no call)
+        std::memcpy(out, packed, 12);
+        std::memcpy(out + 12, packed + 16, 12);
+      } else {
+        const int low = std::min(count, 4);
+        std::memcpy(out, packed, 3 * size_t(low));
+        if (count > 4) std::memcpy(out + 12, packed + 16, 3 * size_t(count - 4));
+      }
     }
     if (n_exact_steps) {
       finish_exact(in, table, triangle_id, image, n_exact_steps);
