@@ -85,7 +85,11 @@ def test_indented_records_and_trailing_comments(tmp_path):
     ("v 0 0 0\r\nv 1 0 0\r\nv inf 1 0\r\nf 1 2 3\r\n",
      r"line 3: a vertex coordinate is NaN or infinite, got \[inf, 1.0, 0.0\]"),
     ("v 0 0 0 300 0 0\nv 1 0 0 0 0 0\nv 0 1 0 0 0 0\nf 1 2 3\n",
-     r"line 1: a vertex colour must lie in 0-255 \(or 0-1\), got \[300.0, 0.0, 0.0\]"),
+     r"line 1: a vertex colour must lie in \[0, 1\], or in 0-255 with every colour of the "
+     r"file a whole number, got \[300.0, 0.0, 0.0\]"),
+    # a fraction above 1: not read as 0-255 (which would darken every colour)
+    ("v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 1.0000001 0 0\nf 1 2 3\n",
+     r"line 3: a vertex colour must lie in \[0, 1\], or .* got \[1.0000001, 0.0, 0.0\]"),
     ("v 1_0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "line 1: a number may hold only ASCII"),
     ("v 0 0 0\nv 1 0 0\nv 0 \u0661 0\nf 1 2 3\n", "line 3: a number may hold only ASCII"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 1_0\n", "line 4: a number may hold only ASCII"),
@@ -291,6 +295,14 @@ def test_vertex_colours_written_0_255_and_records_of_mixed_lengths(tmp_path):
     path.write_text("v 0 0 0 255 0 0\nv 1 0 0 0 255 0\nv 0 1 0 0 0 51\nf 1 2 3\n")
     np.testing.assert_allclose(read_obj(str(path)).vertex_colors,
                                [[1, 0, 0], [0, 1, 0], [0, 0, 0.2]])
+    # whole numbers written with a point are bytes too; 0 and 1 alone are
+    # fractions, as are values with fractional parts
+    path.write_text("v 0 0 0 255.0 0 0\nv 1 0 0 0 255 0\nv 0 1 0 0 0 5.1e1\nf 1 2 3\n")
+    np.testing.assert_allclose(read_obj(str(path)).vertex_colors,
+                               [[1, 0, 0], [0, 1, 0], [0, 0, 0.2]])
+    path.write_text("v 0 0 0 1 0 0\nv 1 0 0 0 1.0 0\nv 0 1 0 0 0.5 1\nf 1 2 3\n")
+    np.testing.assert_array_equal(read_obj(str(path)).vertex_colors,
+                                  [[1, 0, 0], [0, 1, 0], [0, 0.5, 1]])
     # x y z, x y z r g b, x y z w: the positions, and no colours (not every
     # record has them)
     path.write_text("v 0 0 0\nv 1 2 3 0.5 0.5 0.5\nv 4 5 6 1\nv 7 8 9\nf 1 2 3\nf 2 3 4\n")

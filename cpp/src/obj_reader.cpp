@@ -1,6 +1,8 @@
 // The fast path of the OBJ reader (obj_reader.h).
 #include "zbuffer/obj_reader.h"
 
+#include <cmath>
+
 #include "text_records.h"
 
 namespace zbuffer {
@@ -74,8 +76,16 @@ bool read_obj_records(std::string_view text, ObjRecords& out) {
   if (!taken) return false;
   const int64_t n = int64_t(out.positions.size() / 3);
   if (colored != n || n == 0) out.colors.clear();
-  for (double c : out.colors)  // (read only when every vertex has one)
+  // Colours (read only when every vertex has one): fractions in [0, 1], or
+  // bytes 0-255 when every value is a whole number (obj.py); the others
+  // are left to the Python reader's message.
+  bool whole = true, above_one = false;
+  for (double c : out.colors) {
     if (!(c >= 0.0 && c <= 255.0)) return false;
+    whole &= c == std::floor(c);
+    above_one |= c > 1.0;
+  }
+  if (above_one && !whole) return false;
   for (int64_t k : out.indices)
     if (k < 0 || k >= n) return false;
   return true;

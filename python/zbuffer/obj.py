@@ -52,14 +52,16 @@ def read_obj(path: str) -> PolygonData:
         ``vertices`` (the ``v`` records' x, y, z; ``w`` is dropped), the
         faces as written with 0-based indices (relative ones resolved
         against the vertices defined before their record), and
-        ``vertex_colors`` when every ``v`` record has r g b (divided by
-        255 when any exceeds 1); no ``face_colors``.
+        ``vertex_colors`` when every ``v`` record has r g b: fractions
+        in [0, 1], or bytes 0-255 (divided by 255) when every value is a
+        whole number and some exceed 1; no ``face_colors``.
 
     Raises
     ------
     ValueError
         A malformed ``v`` or ``f`` record, a vertex coordinate that is not
-        a finite number, a vertex colour outside 0-255, or an index outside
+        a finite number, a vertex colour outside [0, 1] (outside 0-255
+        when every colour is a whole number), or an index outside
         the vertices (each naming the line).
     """
     # Most files go through the compiled reader of the format's common
@@ -166,10 +168,13 @@ def _read_obj_text(text: str) -> PolygonData:
     if n and (counts == 6).all():
         colors = np.ascontiguousarray(table[:, 3:6])
         bad = ~(np.isfinite(colors) & (colors >= 0.0) & (colors <= 255.0)).all(axis=1)
+        if not bad.any() and not _whole(colors):
+            bad = (colors > 1.0).any(axis=1)  # fractions: all in [0, 1]
         if bad.any():
             k = int(np.argmax(bad))
-            raise ValueError(f"line {vertex_lines[k]}: a vertex colour must lie in 0-255 (or "
-                             f"0-1), got {colors[k].tolist()}")
+            raise ValueError(f"line {vertex_lines[k]}: a vertex colour must lie in [0, 1], or "
+                             f"in 0-255 with every colour of the file a whole number, got "
+                             f"{colors[k].tolist()}")
 
     polygon_sizes = np.array(sizes, dtype=np.int64)
     polygon_indices = np.array(corners, dtype=np.int64)
@@ -185,10 +190,17 @@ def _read_obj_text(text: str) -> PolygonData:
 
 def _unit_colors(colors):
     """The v records' colours in [0, 1]: divided by 255 when any exceeds 1
-    (some exporters write 0-255)."""
+    (some exporters write 0-255; the readers have checked that every value
+    is then a whole number)."""
     if colors is not None and colors.max(initial=0.0) > 1.0:
         return colors / 255.0
     return colors
+
+
+def _whole(colors: np.ndarray) -> bool:
+    """Whether every colour value is a whole number (written as bytes 0-255,
+    or 0 and 1 as fractions are)."""
+    return bool((colors == np.floor(colors)).all())
 
 
 def _is_float(text: str) -> bool:

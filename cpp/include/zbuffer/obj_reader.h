@@ -40,7 +40,8 @@ struct ObjRecords {
 // w` or `v x y z r g b`, each number [+-]?(digits[.digits?] | .digits)
 // ([eE][+-]?digits)? whose double is finite and not subnormal (nor a
 // nonzero number rounded to zero: text_records.h, parse_number); colours
-// kept when every v record has them, and then each in [0, 255]. `f` with
+// kept when every v record has them, and then each in [0, 1], or each a
+// whole number in [0, 255] (bytes). `f` with
 // at least 3 corners, each an integer [+-]?digits (at most 20 digits,
 // |k| <= 2^31, not 0; negative: relative to the vertices defined so far)
 // optionally followed by `/` and anything; every index resolved into
