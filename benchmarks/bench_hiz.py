@@ -36,7 +36,7 @@ import time
 import numpy as np
 
 import zbuffer
-from common import HERE, MODELS, Progress, new_report, rounds, write_report
+from common import MODELS, Progress, add_out_argument, new_report, out_folder, rounds, write_report
 
 ALGOS = ["zbuffer", "hiz", "hiz_octree", "hiz_bvh"]
 TREES = ["hiz_octree", "hiz_bvh"]
@@ -308,7 +308,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=None, help="renders per case (default 7)")
     parser.add_argument("--grid", type=int, nargs="*", default=None,
                         help="values of N (default 10 20 40 80)")
-    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     runs = args.runs or (3 if args.quick else 7)
     sizes = args.grid or ([1, 2] if args.quick else [10, 20, 40, 80])
@@ -395,7 +395,7 @@ def main(argv=None) -> int:
     progress(f"orbit of N={n_orbit}: {t['without']['fps']:.1f} fps without temporal coherence, "
              f"{t['with']['fps']:.1f} with ({t['ratio_median']:.2f}x the time)")
 
-    write_report(args.out, "hiz", report, markdown(report))
+    write_report(out_folder(args), "hiz", report, markdown(report))
     return 0
 
 

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 import zbuffer
-from common import HERE, MODELS, Progress, new_report, write_report
+from common import MODELS, Progress, add_out_argument, new_report, out_folder, write_report
 from zbuffer import _core, ply
 from zbuffer.obj import _read_obj_text
 from zbuffer.off import _read_off_text
@@ -104,7 +104,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smoke mode: one small mesh, 2 runs")
     parser.add_argument("--runs", type=int, default=None, help="calls per case (default 7)")
-    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     import trimesh
 
@@ -149,7 +149,7 @@ def main(argv=None) -> int:
                 report["cases"].append(case)
                 progress(f"{path.name} as {fmt}: load {case['load_ms']:.1f} ms, trimesh "
                          + (f"{case['trimesh_ms']:.1f} ms" if "trimesh_ms" in case else "failed"))
-    write_report(args.out, "load", report, markdown(report))
+    write_report(out_folder(args), "load", report, markdown(report))
     return 0
 
 

@@ -24,7 +24,7 @@ import statistics
 import sys
 
 import zbuffer
-from common import HERE, MODELS, Progress, new_report, rounds, write_report
+from common import MODELS, Progress, add_out_argument, new_report, out_folder, rounds, write_report
 
 MODELS_LIST = ["cube.obj", "diablo3_pose.obj", "bunny_10k.obj", "knob_4k.obj", "spot.obj",
                "teapot_6k.obj", "dragon_20k.obj", "lucy_20k.obj", "venus_43k.obj",
@@ -99,7 +99,7 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="smoke mode: quarter-size images, 2 rounds")
     parser.add_argument("--runs", type=int, default=None, help="rounds per case (default 11)")
     parser.add_argument("--models", nargs="*", default=None, help=f"model files (default: {' '.join(MODELS_LIST)})")
-    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     runs = args.runs or (2 if args.quick else 11)
     names = args.models or MODELS_LIST
@@ -122,7 +122,7 @@ def main(argv=None) -> int:
                     progress(f"{name} {width}x{height} cull {'on' if cull else 'off'}: " + ", ".join(
                         f"{x} {c['ms_median']:.2f} ms" for x, c in case["algorithms"].items()))
                 report["cases"].append(case)
-    write_report(args.out, "models", report, markdown(report))
+    write_report(out_folder(args), "models", report, markdown(report))
     return 0
 
 

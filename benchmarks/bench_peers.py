@@ -36,7 +36,7 @@ import numpy as np
 
 import zbuffer
 from bench_hiz import grid_camera, spot
-from common import HERE, MODELS, Progress, new_report, write_report
+from common import MODELS, Progress, add_out_argument, new_report, out_folder, write_report
 
 
 def pixel_rays(result: zbuffer.RenderResult):
@@ -279,7 +279,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=None, help="frames per case (default 5)")
     parser.add_argument("--builds", type=int, default=None,
                         help="builds per case, ours and Open3D's (default 3)")
-    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     runs = args.runs or (2 if args.quick else 5)
     builds = args.builds or (1 if args.quick else 3)
@@ -328,7 +328,7 @@ def main(argv=None) -> int:
                     said.append(f"{key} skipped ({type(err).__name__}: {err})")
             progress(f"{name} {projection}: " + "; ".join(said))
             report["cases"].append(case)
-    write_report(args.out, "peers", report, markdown(report))
+    write_report(out_folder(args), "peers", report, markdown(report))
     return 0
 
 

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 import zbuffer
-from common import HERE, MODELS, Progress, load_model, new_report, write_report
+from common import (MODELS, Progress, add_out_argument, load_model, new_report, out_folder,
+                    write_report)
 
 # (model file, width, height, shading, algorithm, what the issues ask of it)
 CASES = [
@@ -204,7 +205,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smoke mode: 3 runs, small images")
     parser.add_argument("--runs", type=int, default=None, help="renders per case (default 21)")
-    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     runs = args.runs or (3 if args.quick else 21)
 
@@ -260,7 +261,7 @@ def main(argv=None) -> int:
                      f"{rows[-1]['new_ms_median']:.2f} ms")
         report["out"] = {"mesh": label, "sizes": rows}
 
-    write_report(args.out, "render", report, markdown(report))
+    write_report(out_folder(args), "render", report, markdown(report))
     return 0
 
 

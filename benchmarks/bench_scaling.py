@@ -28,7 +28,7 @@ import sys
 
 import zbuffer
 from bench_hiz import grid_camera, spot
-from common import HERE, MODELS, Progress, new_report, write_report
+from common import HERE, MODELS, Progress, add_out_argument, new_report, out_folder, write_report
 
 SIZES = [256, 512, 1024, 2048, 4096]
 GRIDS = [(1, 1, 1), (2, 2, 3), (5, 5, 4), (5, 5, 20), (5, 5, 70)]
@@ -126,7 +126,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smoke mode: small sizes, 2 runs")
     parser.add_argument("--runs", type=int, default=None, help="renders per case (default 5)")
-    parser.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     runs = args.runs or (2 if args.quick else 5)
     sizes = [64, 128] if args.quick else SIZES
@@ -165,7 +165,7 @@ def main(argv=None) -> int:
                                  "triangles": report["triangles"][-1]["triangles"], **peak})
         progress(f"memory {algo}: +{(peak['peak_kib'] - peak['before_kib']) / 1024:.0f} MiB peak")
 
-    write_report(args.out, "scaling", report, markdown(report))
+    write_report(out_folder(args), "scaling", report, markdown(report))
     return 0
 
 

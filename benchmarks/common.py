@@ -57,6 +57,26 @@ def new_report(script: str, argv) -> dict:
     }
 
 
+RESULTS = HERE / "results"                             # the recorded results
+QUICK_RESULTS = HERE.parent / "build" / "bench-quick"  # smoke runs' (not kept in git)
+
+
+def add_out_argument(parser) -> None:
+    """The suites' ``--out``: by default the recorded results, or, for a
+    smoke run (``--quick``), a scratch folder -- a smoke run's few small
+    inputs must not overwrite the record."""
+    parser.add_argument("--out", default=None,
+                        help="output folder (default: benchmarks/results, the recorded results; "
+                             "with --quick, build/bench-quick)")
+
+
+def out_folder(args) -> Path:
+    """Where a suite parsed by a parser with add_out_argument writes."""
+    if args.out is not None:
+        return Path(args.out)
+    return QUICK_RESULTS if args.quick else RESULTS
+
+
 def write_report(out_dir, stem: str, report: dict, text: str) -> None:
     """Write <out_dir>/<stem>.json (everything measured) and <stem>.md (the tables)."""
     out = Path(out_dir)

@@ -2,7 +2,7 @@
 
     python benchmarks/run.py                     # every suite -> benchmarks/results/
     python benchmarks/run.py hiz peers           # some suites (render hiz scaling peers load)
-    python benchmarks/run.py --quick --out DIR   # smoke mode (CI), somewhere else
+    python benchmarks/run.py --quick             # smoke mode (CI) -> build/bench-quick/
 
 Suites (each also runs alone, see its docstring):
 
@@ -49,7 +49,7 @@ import bench_peers
 import bench_render
 import bench_scaling
 import targets
-from common import HERE, new_report
+from common import add_out_argument, new_report, out_folder
 
 SUITES = {"models": bench_models, "render": bench_render, "hiz": bench_hiz,
           "scaling": bench_scaling, "peers": bench_peers, "load": bench_load}
@@ -152,14 +152,13 @@ def main(argv=None) -> int:
     parser.add_argument("suites", nargs="*", default=[], metavar="SUITE",
                         help=f"suites to run, of {', '.join(SUITES)} (default: all)")
     parser.add_argument("--quick", action="store_true", help="smoke mode: small inputs, few runs")
-    parser.add_argument("--out", default=str(HERE / "results"),
-                        help="output folder (default: benchmarks/results, the recorded results)")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     unknown = [name for name in args.suites if name not in SUITES]
     if unknown:
         parser.error(f"unknown suite {unknown[0]!r}; valid suites are {', '.join(SUITES)}")
     names = args.suites or list(SUITES)
-    out = Path(args.out)
+    out = out_folder(args)
     record = {**new_report("run.py", argv), "quick": args.quick, "suites": {}}
     started = time.perf_counter()
     for k, name in enumerate(names, 1):

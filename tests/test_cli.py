@@ -108,6 +108,22 @@ def test_output_cut_short_by_a_closed_pipe_is_quiet():
     assert err == ""
 
 
+def test_files_are_written_whatever_happens_to_the_report(tmp_path):
+    # The report printed before the files were written: with unbuffered
+    # output, a closed pipe stopped the command before them.
+    code = "import sys; from zbuffer.cli import main; sys.exit(main(sys.argv[1:]))"
+    files = [tmp_path / "a.png", tmp_path / "a_depth.png", tmp_path / "a_ids.npy"]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    with subprocess.Popen([sys.executable, "-c", code, "render", "--size", "32x24",
+                           "--out", str(files[0]), "--depth", str(files[1]), "--ids", str(files[2])],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env) as proc:
+        proc.stdout.close()
+        assert proc.stderr.read().decode() == ""
+        assert proc.wait() == 1
+    assert all(f.exists() for f in files)
+    assert np.load(files[2]).shape == (24, 32)
+
+
 @pytest.mark.parametrize("size, message", [("big", "size must look like 800x600"),
                                            ("0x10", "must be positive"),
                                            ("5x0", "must be positive")])
@@ -287,3 +303,23 @@ def test_an_eye_without_a_target_looks_at_the_mesh_centre():
     mesh = zbuffer.Mesh(*zbuffer.scenes.box((5, 6, 7), (1, 1, 1)))
     args = build_parser().parse_args(["render", "x.obj", "--eye", "0,0,0"])
     assert render_camera(args, mesh, 64, 48).target == (5.0, 6.0, 7.0)
+
+
+def test_a_smoke_run_of_the_benchmarks_does_not_write_over_the_record():
+    # `zbuffer bench --quick` wrote its few small inputs' numbers into
+    # benchmarks/results, the recorded results.
+    import argparse
+    import importlib.util
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[1] / "benchmarks"
+    spec = importlib.util.spec_from_file_location("bench_common", folder / "common.py")
+    common = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(common)
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--quick", action="store_true")
+    common.add_out_argument(parser)
+    assert common.out_folder(parser.parse_args([])) == folder / "results"
+    quick = common.out_folder(parser.parse_args(["--quick"]))
+    assert quick != folder / "results" and "build" in quick.parts
+    assert common.out_folder(parser.parse_args(["--quick", "--out", "x"])) == Path("x")

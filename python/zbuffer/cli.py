@@ -232,19 +232,20 @@ def _cmd_render(args) -> int:
     shading = "none" if args.out is None else args.shading
     result = zbuffer.render(mesh, algo=args.algo, camera=camera, width=width, height=height,
                             cull_backfaces=args.cull_backfaces, shading=shading)
+    # The files first: a report cut short (its reader closed standard
+    # output: `zbuffer render | head -1`) must not cost them.
+    if args.out is not None:
+        _write(args.out, "the image", lambda p: save_image(p, result.image))
+    if args.depth is not None:
+        _write(args.depth, "the depth map", lambda p: save_depth(p, result.eye_depth()))
+    if args.ids is not None:
+        _write(args.ids, "the triangle ids", lambda p: save_ids(p, result.triangle_id))
     name = mesh.name or "mesh"
     print(f"{name}: {len(mesh.faces):,} triangles, {width}x{height}, algo={args.algo}, "
           f"{int(result.mask.sum()):,} pixels drawn")
     _print_stats(result.stats, sys.stdout)
-    if args.out is not None:
-        _write(args.out, "the image", lambda p: save_image(p, result.image))
-        print(f"wrote {args.out}")
-    if args.depth is not None:
-        _write(args.depth, "the depth map", lambda p: save_depth(p, result.eye_depth()))
-        print(f"wrote {args.depth}")
-    if args.ids is not None:
-        _write(args.ids, "the triangle ids", lambda p: save_ids(p, result.triangle_id))
-        print(f"wrote {args.ids}")
+    for _, path in outputs:
+        print(f"wrote {path}")
     return 0
 
 
@@ -405,7 +406,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"{', '.join(BENCH_SUITES)} (default: all)")
     b.add_argument("--quick", action="store_true", help="smoke mode: small inputs, few runs")
     b.add_argument("--out", default=None, metavar="DIR",
-                   help="output folder (default benchmarks/results)")
+                   help="output folder (default benchmarks/results, the recorded results; "
+                   "with --quick, build/bench-quick of the checkout)")
     b.set_defaults(func=_cmd_bench)
 
     a = sub.add_parser("algorithms", help="list the depth algorithms")
