@@ -288,8 +288,23 @@ def test_files_whose_faces_do_not_come_through_are_refused(tmp_path, name, conte
 
 
 def test_huge_coordinates_cannot_be_framed_automatically():
-    with pytest.raises(ValueError, match="too large to frame automatically"):
-        zbuffer.render(([[0, 0, 0], [1e300, 0, 0], [0, 1e300, 0]], [[0, 1, 2]]), width=4, height=4)
+    huge = ([[0, 0, 0], [1e300, 0, 0], [0, 1e300, 0]], [[0, 1, 2]])
+    with pytest.raises(ValueError, match="too large to frame automatically.*; pass a camera$"):
+        zbuffer.render(huge, width=4, height=4)
+    # A camera whose clip planes are left to be fitted: the message names
+    # what to set (it said "pass a camera" to a call that passed one).
+    for camera, unset in [(zbuffer.Camera.look_at((0, 0, 3)), "near and far"),
+                          (zbuffer.Camera.look_at((0, 0, 3), near=0.1), "far instead of leaving it"),
+                          (zbuffer.Camera.look_at((0, 0, 3), projection="orthographic"),
+                           "near, far and ortho_height")]:
+        with pytest.raises(ValueError, match=f"too large to frame .*; give the camera {unset}"):
+            zbuffer.render(huge, camera=camera, width=4, height=4)
+        with pytest.raises(ValueError, match=f"give the camera {unset}"):
+            camera.resolve(zbuffer.Mesh(*huge))
+    # Given them, it renders (faces whose clip coordinates overflow are
+    # counted as invalid, as docs/api.md says).
+    camera = zbuffer.Camera.look_at((0, 0, 3), near=0.1, far=10)
+    assert zbuffer.render(huge, camera=camera, width=4, height=4).stats["triangles_in"] == 1
 
 
 def test_tiny_clip_w_counts_as_behind_the_eye():

@@ -306,7 +306,13 @@ class Camera:
             self.projection == "perspective" or self.ortho_height is not None
         ):
             return self
-        center, radius = bounding_sphere(vertices)
+        unset = [name for name in ("near", "far") if getattr(self, name) is None]
+        if self.projection == "orthographic" and self.ortho_height is None:
+            unset.append("ortho_height")
+        names = " and ".join([", ".join(unset[:-1]), unset[-1]] if len(unset) > 1 else unset)
+        center, radius = bounding_sphere(
+            vertices, f"give the camera {names} instead of leaving "
+                      f"{'them' if len(unset) > 1 else 'it'} to be fitted")
         eye = np.asarray(self.eye)
         forward, _ = _unit(np.asarray(self.target) - eye)
         dist = float(np.dot(center - eye, forward))  # along the view axis
@@ -489,14 +495,28 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                      a[0] * b[1] - a[1] * b[0]])
 
 
-def bounding_sphere(vertices) -> Tuple[np.ndarray, float]:
+class _TooLargeToFrame(ValueError):
+    """Vertex coordinates so large that a camera framing them would
+    overflow; the message ends with what the caller can do instead."""
+
+    def __init__(self, advice: str):
+        super().__init__("vertex coordinates are too large to frame automatically "
+                         f"(the camera's matrices would overflow); {advice}")
+
+
+def bounding_sphere(vertices, advice: str = "pass a camera") -> Tuple[np.ndarray, float]:
     """Centre of the bounding box and the radius of the sphere around it that
     holds every point; a unit sphere at the origin for no points.
 
     ``vertices`` may be an (N, 3) array or anything with a ``bounding_sphere``
-    attribute (a :class:`zbuffer.Mesh` caches its own)."""
-    if hasattr(vertices, "bounding_sphere"):
-        return vertices.bounding_sphere
+    attribute (a :class:`zbuffer.Mesh` caches its own). ``advice`` ends the
+    message for coordinates too large to frame: what the caller can do
+    instead."""
+    if hasattr(type(vertices), "bounding_sphere"):  # (not hasattr(vertices): that computes it)
+        try:
+            return vertices.bounding_sphere
+        except _TooLargeToFrame:
+            raise _TooLargeToFrame(advice) from None
     if vertices is None:
         return np.zeros(3), 1.0
     try:
@@ -529,8 +549,7 @@ def bounding_sphere(vertices) -> Tuple[np.ndarray, float]:
             radius = 0.0
     # (Beyond ~1e150 the camera's matrices, products of such lengths, overflow.)
     if not (math.isfinite(radius) and radius < 1e150) or not np.all(np.abs(center) < 1e150):
-        raise ValueError("vertex coordinates are too large to frame automatically "
-                         "(the camera's matrices would overflow); pass a camera")
+        raise _TooLargeToFrame(advice)
     if radius == 0.0:
         radius = max(1e-6, float(np.abs(center).max()) * 1e-6)
     return center, radius
