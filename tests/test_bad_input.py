@@ -445,6 +445,10 @@ def test_odd_inputs_get_clear_messages(tmp_path):
         most_culling_cells(np.ones((2, 2), np.int64), -1)
     with pytest.raises(TypeError, match="n must be an integer, got 5.0"):
         most_culling_cells(np.ones((2, 2), np.int64), 5.0)
+    with pytest.raises(TypeError, match=r"one level of RenderResult.culls \(res.culls\[k\]\)"):
+        most_culling_cells([np.ones((2, 2), np.int64), np.ones((1, 1), np.int64)], 5)
+    with pytest.raises(ValueError, match=r"one level's \(h, w\) array, got shape \(2, 2, 2\)"):
+        most_culling_cells(np.ones((2, 2, 2), np.int64), 5)
     with pytest.raises(ValueError, match="n must be in 1 .. "):
         scenes.tessellated_square(0)
     with pytest.raises(ValueError, match="n_lat must be in 2 .. "):

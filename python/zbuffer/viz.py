@@ -377,10 +377,16 @@ def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
         position).
     """
     n = check_int("n", n, 0)
-    flat = np.asarray(counts).ravel()
+    if isinstance(counts, (list, tuple)):
+        raise TypeError("counts: one level of RenderResult.culls (res.culls[k]), not the list "
+                        "of levels")
+    counts = np.asarray(counts)
+    if counts.ndim != 2:
+        raise ValueError(f"counts must be one level's (h, w) array, got shape {counts.shape}")
+    flat = counts.ravel()
     order = np.argsort(-flat, kind="stable")[:n]
     order = order[flat[order] > 0]
-    return np.stack(np.unravel_index(order, np.shape(counts)), axis=1)
+    return np.stack(np.unravel_index(order, counts.shape), axis=1)
 
 
 def _cell_outlines(pv, cells: np.ndarray, h: int):
@@ -459,9 +465,10 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
         As for :func:`zbuffer.render` (None: framed); every algorithm the same.
     width, height : int
         Image size; small by default (320 x 240).
-    algos : sequence of str, optional
-        The algorithms, in the order shown (default: ``zbuffer.algorithms()``);
-        the depth differences are from the first.
+    algos : str or sequence of str, optional
+        The algorithm, or the algorithms (each once), in the order shown
+        (default: ``zbuffer.algorithms()``); the depth differences are from
+        the first.
     screenshot : str or True, optional
         Write a picture of the figure there (PNG, or JPEG, BMP or TIFF by the
         file's suffix) instead of opening a window (True:
@@ -479,9 +486,14 @@ def compare_algorithms(mesh, camera=None, width: int = 320, height: int = 240,
     from .api import algorithms, render
 
     pv = require_pyvista()
+    if isinstance(algos, str):  # one name (not its letters)
+        algos = [algos]
     names = list(algos) if algos is not None else algorithms()
     if not names:
         raise ValueError("algos: give at least one algorithm to compare")
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:  # (the results are a dict by name: one would hide the other)
+        raise ValueError(f"algos names {repeated[0]!r} more than once")
     # (record_culls: for the algorithms with a Z-pyramid; the others have none to record)
     record = render_options.pop("record_culls", False)
     with_pyramid = set(_core.pyramid_algorithms())

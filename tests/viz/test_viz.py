@@ -140,6 +140,9 @@ def test_views_refuse_what_they_cannot_show(result):
             viz.show_pyramid(result, screenshot=True, levels=bad)
     with pytest.raises(ValueError, match="at least one algorithm"):
         viz.compare_algorithms(scenes.default_scene(), algos=[], screenshot=True)
+    with pytest.raises(ValueError, match="algos names 'hiz' more than once"):
+        viz.compare_algorithms(scenes.default_scene(), algos=["hiz", "zbuffer", "hiz"],
+                               screenshot=True)
     with pytest.raises(ValueError, match="no pyramid levels to show"):
         viz.show_pyramid_stack([], screenshot=True)
 
@@ -170,6 +173,9 @@ def test_compare_algorithms_shows_zero_differences(tmp_path):
     for res in results.values():
         np.testing.assert_array_equal(res.depth, first.depth)
     assert (tmp_path / "cmp.png").is_file()
+    # One name is one algorithm, not its letters.
+    assert list(viz.compare_algorithms(scenes.default_scene(), width=32, height=24,
+                                       algos="zbuffer", screenshot=True)) == ["zbuffer"]
 
 
 def test_repr_png_for_notebooks(result):
