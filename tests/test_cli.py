@@ -240,7 +240,7 @@ def test_render_view_options_given_frame_the_built_in_scene(option):
 def test_render_takes_clip_planes_with_eye():
     # --near and --far set the camera's clip planes (fitted to the mesh
     # otherwise), so that a mesh the camera cannot frame by itself (the
-    # error says "pass a camera") can still be rendered from the CLI.
+    # error says to set them) can still be rendered from the CLI.
     from zbuffer.cli import build_parser, render_camera
 
     mesh = zbuffer.Mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float) * 1e151, [[0, 1, 2]])
@@ -253,8 +253,24 @@ def test_render_takes_clip_planes_with_eye():
     assert res.mask.any()
     np.testing.assert_array_equal(res.depth, ref.depth)
     args = build_parser().parse_args(["render", *eye])
-    with pytest.raises(ValueError, match="pass a camera"):
+    with pytest.raises(ValueError, match="give the camera near and far"):
         zbuffer.render(mesh, camera=render_camera(args, mesh, 64, 48), width=64, height=48)
+
+
+def test_render_says_which_options_set_what_a_huge_mesh_needs(tmp_path, capsys):
+    path = tmp_path / "huge.obj"
+    path.write_text("v 0 0 0\nv 1e300 0 0\nv 0 1e300 0\nf 1 2 3\n")
+    assert main(["render", str(path), "--out", "none"]) == 2
+    assert capsys.readouterr().err.endswith(
+        "; pass a camera (here: --eye, --target, --near and --far)\n")
+    assert main(["render", str(path), "--out", "none", "--eye", "0,0,3"]) == 2  # (no centre)
+    assert capsys.readouterr().err.endswith("(here: --eye, --target, --near and --far)\n")
+    assert main(["render", str(path), "--out", "none", "--eye", "0,0,3", "--target", "0,0,0"]) == 2
+    assert capsys.readouterr().err.endswith(
+        "; give the camera near and far instead of leaving them to be fitted "
+        "(here: --near and --far)\n")
+    assert main(["render", str(path), "--out", "none", "--eye", "0,0,3", "--target", "0,0,0",
+                 "--near", "0.1", "--far", "10"]) == 0
 
 
 def test_bench_knows_the_harness_suites():

@@ -204,6 +204,7 @@ def render_camera(args, mesh, width: int, height: int):
 def _cmd_render(args) -> int:
     import zbuffer
 
+    from .camera import _TooLargeToFrame
     from .scenes import default_scene
 
     width, height = args.size
@@ -228,10 +229,15 @@ def _cmd_render(args) -> int:
                 raise ValueError(f"{what} and {other} name the same file {path!r}: "
                                  f"one would overwrite the other")
     mesh = default_scene() if args.mesh is None else zbuffer.load(args.mesh)
-    camera = render_camera(args, mesh, width, height)
     shading = "none" if args.out is None else args.shading
-    result = zbuffer.render(mesh, algo=args.algo, camera=camera, width=width, height=height,
-                            cull_backfaces=args.cull_backfaces, shading=shading)
+    try:
+        camera = render_camera(args, mesh, width, height)
+        result = zbuffer.render(mesh, algo=args.algo, camera=camera, width=width, height=height,
+                                cull_backfaces=args.cull_backfaces, shading=shading)
+    except _TooLargeToFrame as err:  # (its advice in this command's terms)
+        placed = args.eye is not None and args.target is not None
+        options = "--near and --far" if placed else "--eye, --target, --near and --far"
+        raise ValueError(f"{err} (here: {options})") from None
     # The files first: a report cut short (its reader closed standard
     # output: `zbuffer render | head -1`) must not cost them.
     if args.out is not None:
