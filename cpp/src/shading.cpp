@@ -14,6 +14,7 @@
 #include <memory>
 #include <vector>
 
+#include "double_lanes.h"
 #include "id_runs.h"
 #include "simd.h"
 
@@ -572,472 +573,190 @@ __attribute__((noinline)) void finish_exact(const ShadingInput& in, const FaceTa
   }
 }
 
-#ifdef ZBUFFER_AVX512
-// Transposes 8 x 8 floats held as 8 rows: afterwards r[j] holds what was
-// column j.
-inline void transpose8(__m256* r) {
-  const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
-  const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
-  const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
-  const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
-  const __m256 s0 = _mm256_shuffle_ps(t0, t2, 0x44), s1 = _mm256_shuffle_ps(t0, t2, 0xEE);
-  const __m256 s2 = _mm256_shuffle_ps(t1, t3, 0x44), s3 = _mm256_shuffle_ps(t1, t3, 0xEE);
-  const __m256 s4 = _mm256_shuffle_ps(t4, t6, 0x44), s5 = _mm256_shuffle_ps(t4, t6, 0xEE);
-  const __m256 s6 = _mm256_shuffle_ps(t5, t7, 0x44), s7 = _mm256_shuffle_ps(t5, t7, 0xEE);
-  r[0] = _mm256_permute2f128_ps(s0, s4, 0x20);
-  r[1] = _mm256_permute2f128_ps(s1, s5, 0x20);
-  r[2] = _mm256_permute2f128_ps(s2, s6, 0x20);
-  r[3] = _mm256_permute2f128_ps(s3, s7, 0x20);
-  r[4] = _mm256_permute2f128_ps(s0, s4, 0x31);
-  r[5] = _mm256_permute2f128_ps(s1, s5, 0x31);
-  r[6] = _mm256_permute2f128_ps(s2, s6, 0x31);
-  r[7] = _mm256_permute2f128_ps(s3, s7, 0x31);
-}
-#endif
-
-#ifdef ZBUFFER_AVX512
-// prepare_face for the 8 faces f (lanes `live`), in double: the same
-// operations in the same order, so the same bits; into rows first ..
-// first + 7. Returns the lanes whose normal lies outside [kNormalLow,
-// kNormalHigh] (face_normal_direction), left for prepare_face to prepare
-// again (their rows are written, with normals of no use).
-unsigned prepare_faces8(const ShadingInput& in, FaceTable& table, __m256i f, __mmask8 live,
-                        bool bary, bool map, size_t first) {
-  const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
-  const __m256i f3 = _mm256_mullo_epi32(f, _mm256_set1_epi32(3));
-  __m512d p[3][3];  // corner k, coordinate c
-  __m256i v3[3];    // 3 x corner k's vertex
-  for (int k = 0; k < 3; ++k) {
-    const __m256i v = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live,
-                                                   _mm256_add_epi32(f3, _mm256_set1_epi32(k)),
-                                                   in.mesh.faces, 4);
-    v3[k] = _mm256_mullo_epi32(v, _mm256_set1_epi32(3));
-    for (int c = 0; c < 3; ++c)
-      p[k][c] = _mm512_mask_i32gather_pd(zero, live, _mm256_add_epi32(v3[k], _mm256_set1_epi32(c)),
-                                         in.mesh.positions, 8);
-  }
-  auto dot = [](const __m512d* a, const __m512d* b) {
-    return _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(a[0], b[0]), _mm512_mul_pd(a[1], b[1])),
-                         _mm512_mul_pd(a[2], b[2]));
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+// prepare_face for V::kWidth faces f at once (lanes `live`; double_lanes.h:
+// 8 in AVX-512 builds, 4 in AVX2 builds), in double: the same operations in
+// the same order, so the same bits; into rows first .. first + kWidth - 1.
+// Returns the lanes whose normal lies outside [kNormalLow, kNormalHigh]
+// (face_normal_direction), left for prepare_face to prepare again (their
+// rows are written, with normals of no use). One function per kind of
+// row (bary: barycentric coefficients, map: smooth shading's normal map;
+// neither: a flat colour), so that each keeps in registers what it needs.
+template <class V, bool bary, bool map>
+unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Index f,
+                       typename V::IndexMask live_index, size_t first) {
+  using D = typename V::D;
+  using Mask = typename V::Mask;
+  const D zero = V::set(0.0), one = V::set(1.0);
+  const Mask live = V::widen(live_index);
+  auto positive_finite = [](D v) {  // 0 < v < inf (not NaN)
+    return V::gt(v, V::set(0.0)) & V::lt(v, V::set(std::numeric_limits<double>::infinity()));
   };
-  __m512d e1[3], e2[3], ng[3], to_viewer[3];
+  const typename V::Index f3 = V::times3(f);
+  D p[3][3];                  // corner k, coordinate c
+  typename V::Index v3[3];    // 3 x corner k's vertex
+  for (int k = 0; k < 3; ++k) {
+    v3[k] = V::times3(V::gather(in.mesh.faces, V::add(f3, V::index(k)), live_index));
+    for (int c = 0; c < 3; ++c)
+      p[k][c] = V::gather(in.mesh.positions, V::add(v3[k], V::index(c)), live);
+  }
+  auto dot = [](const D* a, const D* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+  D e1[3], e2[3], ng[3], to_viewer[3];
   for (int c = 0; c < 3; ++c) {
-    e1[c] = _mm512_sub_pd(p[1][c], p[0][c]);
-    e2[c] = _mm512_sub_pd(p[2][c], p[0][c]);
+    e1[c] = p[1][c] - p[0][c];
+    e2[c] = p[2][c] - p[0][c];
   }
   for (int c = 0; c < 3; ++c) {
     const int a = (c + 1) % 3, b = (c + 2) % 3;
-    ng[c] = _mm512_sub_pd(_mm512_mul_pd(e1[a], e2[b]), _mm512_mul_pd(e1[b], e2[a]));
-    to_viewer[c] = _mm512_sub_pd(_mm512_set1_pd(in.viewer[c]),
-                                 _mm512_mul_pd(_mm512_set1_pd(in.viewer[3]), p[0][c]));
+    ng[c] = e1[a] * e2[b] - e1[b] * e2[a];
+    to_viewer[c] = V::set(in.viewer[c]) - V::set(in.viewer[3]) * p[0][c];
   }
-  __mmask8 robust;  // face_normal_direction's robust way
-  {
-    const __m512d sign_bit = _mm512_set1_pd(-0.0);
-    const __m512d m = _mm512_max_pd(_mm512_andnot_pd(sign_bit, ng[2]),
-                                    _mm512_max_pd(_mm512_andnot_pd(sign_bit, ng[1]),
-                                                  _mm512_andnot_pd(sign_bit, ng[0])));
-    robust = live & __mmask8(~(_mm512_cmp_pd_mask(m, _mm512_set1_pd(kNormalLow), _CMP_GE_OQ) &
-                               _mm512_cmp_pd_mask(m, _mm512_set1_pd(kNormalHigh), _CMP_LE_OQ)));
-  }
-  const __mmask8 back = _mm512_cmp_pd_mask(dot(ng, to_viewer), zero, _CMP_LT_OQ);
-  const __m512d side = _mm512_mask_blend_pd(back, one, _mm512_set1_pd(-1.0));
-  const __m512d len = _mm512_sqrt_pd(dot(ng, ng));
-  const __mmask8 nonzero = _mm512_cmp_pd_mask(len, zero, _CMP_GT_OQ);
-  const __m512d inv = _mm512_div_pd(one, len);
-  __m512d normal[3];
-  for (int c = 0; c < 3; ++c)
-    normal[c] = _mm512_mul_pd(side, _mm512_maskz_mov_pd(nonzero, _mm512_mul_pd(inv, ng[c])));
+  // face_normal_direction's robust way
+  const D largest_ng = V::max(V::abs(ng[2]), V::max(V::abs(ng[1]), V::abs(ng[0])));
+  const unsigned robust = V::bits(V::andnot(V::ge(largest_ng, V::set(kNormalLow)) &
+                                                V::le(largest_ng, V::set(kNormalHigh)),
+                                            live));
+  const Mask back = V::lt(dot(ng, to_viewer), zero);
+  const D side = V::blend(back, one, V::set(-1.0));
+  const D len = V::sqrt(dot(ng, ng));
+  const Mask nonzero = V::gt(len, zero);
+  const D inv = one / len;
+  D normal[3];
+  for (int c = 0; c < 3; ++c) normal[c] = side * V::blend(nonzero, zero, inv * ng[c]);
   // Flat shading: the final colour is all a face needs (a masked store).
   // (Interpolated shading lights each pixel and never reads it.)
-  if (!bary && !map) {
-    __m512d to_light[3];
-    for (int c = 0; c < 3; ++c) to_light[c] = _mm512_set1_pd(-1.0 * in.light_dir[c]);
-    const __m512d light = _mm512_add_pd(
-        _mm512_set1_pd(in.ambient),
-        _mm512_mul_pd(_mm512_set1_pd(in.diffuse), _mm512_max_pd(dot(normal, to_light), zero)));
-    __m512i rgb = _mm512_setzero_si512();
-    for (int c = 0; c < 3; ++c) {
-      const __m512d albedo =
-          in.color_source == ColorSource::kPerFace
-              ? _mm512_cvtps_pd(_mm256_mmask_i32gather_ps(_mm256_setzero_ps(), live,
-                                                          _mm256_add_epi32(f3, _mm256_set1_epi32(c)),
-                                                          in.colors, 4))
-              : _mm512_set1_pd(double(in.uniform_color[c]));
-      const __m512d v = _mm512_min_pd(_mm512_max_pd(_mm512_mul_pd(albedo, light), zero), one);
-      const __m512d byte = _mm512_roundscale_pd(
-          _mm512_add_pd(_mm512_mul_pd(v, _mm512_set1_pd(255.0)), _mm512_set1_pd(0.5)),
-          _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-      rgb = _mm512_or_si512(rgb, _mm512_slli_epi64(_mm512_cvtpd_epi64(byte), 8 * c));
-    }
-    _mm256_mask_storeu_epi32(table.rgb.data() + first, live, _mm512_cvtepi64_epi32(rgb));
+  if constexpr (!bary && !map) {
+    D to_light[3];
+    for (int c = 0; c < 3; ++c) to_light[c] = V::set(-1.0 * in.light_dir[c]);
+    const D light = V::set(in.ambient) + V::set(in.diffuse) * V::max(dot(normal, to_light), zero);
+    auto byte = [&](int c) {
+      const D albedo = in.color_source == ColorSource::kPerFace
+                           ? V::gather(in.colors, V::add(f3, V::index(c)), live_index)
+                           : V::set(double(in.uniform_color[c]));
+      const D v = V::min(V::max(albedo * light, zero), one);
+      return V::floor(v * V::set(255.0) + V::set(0.5));
+    };
+    V::store_rgb(table.rgb.data() + first, live_index, byte(0), byte(1), byte(2));
     return robust;
   }
 
-  __m512d coef[9], normal_map[9];
-  __mmask8 exact = 0;  // FaceShade::exact
+  D coef[9], normal_map[9];
   const double* m = in.mvp;
-  __m512d cx[3], cy[3], cw[3];
+  D cx[3], cy[3], cw[3];
   auto row = [&](const double* r, int k) {
-    return _mm512_add_pd(
-        _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(r[0]), p[k][0]),
-                                    _mm512_mul_pd(_mm512_set1_pd(r[1]), p[k][1])),
-                      _mm512_mul_pd(_mm512_set1_pd(r[2]), p[k][2])),
-        _mm512_set1_pd(r[3]));
+    return V::set(r[0]) * p[k][0] + V::set(r[1]) * p[k][1] + V::set(r[2]) * p[k][2] + V::set(r[3]);
   };
   for (int k = 0; k < 3; ++k) {
     cx[k] = row(m, k);
     cy[k] = row(m + 4, k);
     cw[k] = row(m + 12, k);
   }
-  __m512d b[9], big = zero;
+  D b[9], big = zero;
   for (int k = 0; k < 3; ++k) {
     const int a = (k + 1) % 3, c = (k + 2) % 3;
-    b[3 * k + 0] = _mm512_sub_pd(_mm512_mul_pd(cy[a], cw[c]), _mm512_mul_pd(cy[c], cw[a]));
-    b[3 * k + 1] = _mm512_sub_pd(_mm512_mul_pd(cw[a], cx[c]), _mm512_mul_pd(cw[c], cx[a]));
-    b[3 * k + 2] = _mm512_sub_pd(_mm512_mul_pd(cx[a], cy[c]), _mm512_mul_pd(cx[c], cy[a]));
+    b[3 * k + 0] = cy[a] * cw[c] - cy[c] * cw[a];
+    b[3 * k + 1] = cw[a] * cx[c] - cw[c] * cx[a];
+    b[3 * k + 2] = cx[a] * cy[c] - cx[c] * cy[a];
   }
-  for (const __m512d& v : b) big = _mm512_max_pd(_mm512_abs_pd(v), big);
-  constexpr int kNanOrInf = 0x01 | 0x80 | 0x08 | 0x10;
-  const __mmask8 scale = _mm512_cmp_pd_mask(big, zero, _CMP_GT_OQ) &
-                         ~_mm512_fpclass_pd_mask(big, kNanOrInf);
-  const __m512d inv_big = _mm512_div_pd(one, big);
-  for (int c = 0; c < 9; ++c) coef[c] = _mm512_mask_mul_pd(b[c], scale, b[c], inv_big);
-  const __m512d det = _mm512_add_pd(
-      _mm512_add_pd(_mm512_mul_pd(coef[0], cx[0]), _mm512_mul_pd(coef[1], cy[0])),
-      _mm512_mul_pd(coef[2], cw[0]));
-  {  // sums_are_close
-    const __m512d w = _mm512_max_pd(cw[2], _mm512_max_pd(cw[1], cw[0]));
-    const __mmask8 close = _mm512_cmp_pd_mask(cw[0], zero, _CMP_GT_OQ) &
-                           _mm512_cmp_pd_mask(cw[1], zero, _CMP_GT_OQ) &
-                           _mm512_cmp_pd_mask(cw[2], zero, _CMP_GT_OQ) &
-                           _mm512_cmp_pd_mask(_mm512_abs_pd(det),
-                                              _mm512_mul_pd(_mm512_set1_pd(kLeastSum), w), _CMP_GE_OQ);
-    exact = __mmask8(~close) & live;
-  }
-  if (map) {
-    __m512d vn[3][3];  // corner k, component c
+  for (const D& v : b) big = V::max(V::abs(v), big);
+  const Mask scale = positive_finite(big);
+  const D inv_big = one / big;
+  for (int c = 0; c < 9; ++c) coef[c] = V::blend(scale, b[c], b[c] * inv_big);
+  const D det = coef[0] * cx[0] + coef[1] * cy[0] + coef[2] * cw[0];
+  // FaceShade::exact: not sums_are_close ...
+  const D w = V::max(cw[2], V::max(cw[1], cw[0]));
+  Mask exact = V::andnot(V::gt(cw[0], zero) & V::gt(cw[1], zero) & V::gt(cw[2], zero) &
+                             V::ge(V::abs(det), V::set(kLeastSum) * w),
+                         live);
+  if constexpr (map) {
+    D vn[3][3];  // corner k, component c
     for (int k = 0; k < 3; ++k)
       for (int c = 0; c < 3; ++c)
-        vn[k][c] = _mm512_mask_i32gather_pd(
-            zero, live, _mm256_add_epi32(v3[k], _mm256_set1_epi32(c)), in.vertex_normals, 8);
-    const __mmask8 usable = scale & _mm512_cmp_pd_mask(det, zero, _CMP_NEQ_OQ) &
-                            ~_mm512_fpclass_pd_mask(det, kNanOrInf);
-    // +1 where det and side have one sign
-    const __mmask8 negative = _mm512_cmp_pd_mask(det, zero, _CMP_LT_OQ);
-    const __m512d sign =
-        _mm512_mask_blend_pd(__mmask8(negative ^ back), one, _mm512_set1_pd(-1.0));
-    __m512d largest = zero;
+        vn[k][c] = V::gather(in.vertex_normals, V::add(v3[k], V::index(c)), live);
+    const Mask usable = scale & positive_finite(V::abs(det));  // det finite and not 0
+    const Mask opposite = V::lt(det, zero) ^ back;             // det and side of two signs
+    const D sign = V::blend(opposite, one, V::set(-1.0));     // +1 where of one sign
+    D largest = zero;
     for (int c = 0; c < 3; ++c) {
       for (int j = 0; j < 3; ++j) {
-        const __m512d m = _mm512_add_pd(
-            _mm512_add_pd(_mm512_mul_pd(vn[0][c], coef[j]), _mm512_mul_pd(vn[1][c], coef[3 + j])),
-            _mm512_mul_pd(vn[2][c], coef[6 + j]));
-        const __m512d corners = _mm512_add_pd(_mm512_add_pd(vn[0][c], vn[1][c]), vn[2][c]);
-        const __m512d mean = j < 2 ? zero : _mm512_mul_pd(side, corners);
-        normal_map[3 * c + j] = _mm512_mask_blend_pd(usable, mean, _mm512_mul_pd(sign, m));
-        largest = _mm512_max_pd(_mm512_abs_pd(normal_map[3 * c + j]), largest);
+        const D mapped = vn[0][c] * coef[j] + vn[1][c] * coef[3 + j] + vn[2][c] * coef[6 + j];
+        const D mean = j < 2 ? zero : side * (vn[0][c] + vn[1][c] + vn[2][c]);
+        normal_map[3 * c + j] = V::blend(usable, mean, sign * mapped);
+        largest = V::max(V::abs(normal_map[3 * c + j]), largest);
       }
     }
-    const __mmask8 normalise = _mm512_cmp_pd_mask(largest, zero, _CMP_GT_OQ) &
-                               ~_mm512_fpclass_pd_mask(largest, kNanOrInf);
-    const __m512d inv_largest = _mm512_div_pd(one, largest);
-    for (auto& m : normal_map) m = _mm512_mask_mul_pd(m, normalise, m, inv_largest);
+    const Mask normalise = positive_finite(largest);
+    const D inv_largest = one / largest;
+    for (D& v : normal_map) v = V::blend(normalise, v, v * inv_largest);
 
-    // FaceShade::exact, as map_is_close computes it.
-    const __m512d half_w = _mm512_set1_pd(0.5 * in.width), half_h = _mm512_set1_pd(0.5 * in.height);
-    const __m512d least2 = _mm512_set1_pd(kLeastCornerLength * kLeastCornerLength);
-    __mmask8 close = _mm512_cmp_pd_mask(largest, _mm512_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
-    __m512d x[3], y[3];
+    // ... or not map_is_close.
+    const D half_w = V::set(0.5 * in.width), half_h = V::set(0.5 * in.height);
+    const D least2 = V::set(kLeastCornerLength * kLeastCornerLength);
+    Mask close = V::ge(largest, V::set(kLeastMapEntry));
+    D x[3], y[3];
     for (int k = 0; k < 3; ++k) {
-      x[k] = _mm512_mul_pd(cx[k], half_w);
-      y[k] = _mm512_mul_pd(cy[k], half_h);
-      __m512d len2 = zero;
+      x[k] = cx[k] * half_w;
+      y[k] = cy[k] * half_h;
+      D len2 = zero;
       for (int c = 0; c < 3; ++c) {
-        const __m512d v = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(normal_map[3 * c], cx[k]),
-                                                      _mm512_mul_pd(normal_map[3 * c + 1], cy[k])),
-                                        _mm512_mul_pd(normal_map[3 * c + 2], cw[k]));
-        len2 = _mm512_add_pd(len2, _mm512_mul_pd(v, v));
+        const D v = normal_map[3 * c] * cx[k] + normal_map[3 * c + 1] * cy[k] +
+                    normal_map[3 * c + 2] * cw[k];
+        len2 = len2 + v * v;
       }
-      close &= _mm512_cmp_pd_mask(len2, _mm512_mul_pd(least2, _mm512_mul_pd(cw[k], cw[k])), _CMP_GE_OQ);
+      close &= V::ge(len2, least2 * (cw[k] * cw[k]));
     }
-    auto minor = [&](int a, int b) {  // y_a w_b - y_b w_a
-      return _mm512_sub_pd(_mm512_mul_pd(y[a], cw[b]), _mm512_mul_pd(y[b], cw[a]));
-    };
-    const __m512d area = _mm512_add_pd(
-        _mm512_sub_pd(_mm512_mul_pd(x[0], minor(1, 2)), _mm512_mul_pd(x[1], minor(0, 2))),
-        _mm512_mul_pd(x[2], minor(0, 1)));
-    __m512d edge2 = zero, spread2 = zero;
+    auto minor = [&](int a, int b) { return y[a] * cw[b] - y[b] * cw[a]; };
+    const D area = x[0] * minor(1, 2) - x[1] * minor(0, 2) + x[2] * minor(0, 1);
+    D edge2 = zero, spread2 = zero;
     for (int k = 0; k < 3; ++k) {
-      const int a = (k + 1) % 3, m = (k + 2) % 3;
-      const __m512d ex = _mm512_sub_pd(_mm512_mul_pd(x[a], cw[k]), _mm512_mul_pd(x[k], cw[a]));
-      const __m512d ey = _mm512_sub_pd(_mm512_mul_pd(y[a], cw[k]), _mm512_mul_pd(y[k], cw[a]));
-      edge2 = _mm512_max_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(ex, ex), _mm512_mul_pd(ey, ey)),
-                                          _mm512_mul_pd(cw[m], cw[m])),
-                            edge2);
-      __m512d d2 = zero, along = zero;
+      const int a = (k + 1) % 3, mk = (k + 2) % 3;
+      const D ex = x[a] * cw[k] - x[k] * cw[a];
+      const D ey = y[a] * cw[k] - y[k] * cw[a];
+      edge2 = V::max((ex * ex + ey * ey) * (cw[mk] * cw[mk]), edge2);
+      D d2 = zero, along = zero;
       for (int c = 0; c < 3; ++c) {
-        const __m512d d = _mm512_sub_pd(vn[a][c], vn[k][c]);
-        d2 = _mm512_add_pd(d2, _mm512_mul_pd(d, d));
-        along = _mm512_add_pd(along, _mm512_mul_pd(vn[a][c], vn[k][c]));
+        const D d = vn[a][c] - vn[k][c];
+        d2 = d2 + d * d;
+        along = along + vn[a][c] * vn[k][c];
       }
-      spread2 = _mm512_max_pd(d2, spread2);
-      close &= _mm512_cmp_pd_mask(along, zero, _CMP_GE_OQ);
+      spread2 = V::max(d2, spread2);
+      close &= V::ge(along, zero);
     }
-    const __m512d spread_bound = _mm512_mul_pd(_mm512_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
-                                               _mm512_mul_pd(area, area));
-    close &= _mm512_cmp_pd_mask(_mm512_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ);
-    exact |= __mmask8(~close) & live;
+    const D spread_bound = V::set(kSpreadPerPixel * kSpreadPerPixel) * (area * area);
+    close &= V::le(spread2 * edge2, spread_bound);
+    exact |= V::andnot(close, live);
   }
 
-  // Into the table's rows: the interpolated fields as 8 rows of 16 floats
-  // (fields by lane, transposed 8 x 8 at a time).
-  __m256 field[2 * FaceTable::kLine];
-  for (auto& v : field) v = _mm256_setzero_ps();
-  if (bary)
-    for (int c = 0; c < 9; ++c) field[FaceTable::kBary + c] = _mm512_cvtpd_ps(coef[c]);
-  if (map)
-    for (int c = 0; c < 9; ++c) field[table.map_at + c] = _mm512_cvtpd_ps(normal_map[c]);
-  for (int c = 0; c < 3; ++c) field[FaceTable::kNormal + c] = _mm512_cvtpd_ps(normal[c]);
-  const int n = table.row_floats;
-  float* rows = table.rows.data() + size_t(n) * first;
-  for (int g = 0; g < n; g += 8) {
-    transpose8(field + g);
-    for (unsigned lanes = live; lanes; lanes &= lanes - 1) {
-      const int j = __builtin_ctz(lanes);
-      _mm256_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
-    }
-  }
-  exact &= __mmask8(~robust);
-  if (exact) {
-    alignas(64) double fields[13][8];
-    for (int c = 0; c < 9; ++c) _mm512_store_pd(fields[c], coef[c]);
-    _mm512_store_pd(fields[9], side);
-    for (int c = 0; c < 3; ++c) _mm512_store_pd(fields[10 + c], normal[c]);
-    add_exact_lanes(table, first, exact, fields);
-  }
-  return robust;
-}
-#endif
-
-#ifdef ZBUFFER_AVX2
-// prepare_faces8 for AVX2: the 4 faces f (lanes `live`, all bits set or
-// clear), in double, the same operations in the same order as
-// prepare_face; into rows first .. first + 3. Returns the lanes left for
-// prepare_face to prepare again, as prepare_faces8 does.
-unsigned prepare_faces4(const ShadingInput& in, FaceTable& table, __m128i f, __m128i live,
-                        bool bary, bool map, size_t first) {
-  const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
-  const __m256d live_d = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(live));
-  const __m256d inf = _mm256_set1_pd(std::numeric_limits<double>::infinity());
-  const __m256d sign_bit = _mm256_set1_pd(-0.0);
-  auto abs = [&](__m256d v) { return _mm256_andnot_pd(sign_bit, v); };
-  auto positive_finite = [&](__m256d v) {  // 0 < v < inf (no NaN)
-    return _mm256_and_pd(_mm256_cmp_pd(v, zero, _CMP_GT_OQ), _mm256_cmp_pd(v, inf, _CMP_LT_OQ));
-  };
-  const __m128i f3 = _mm_mullo_epi32(f, _mm_set1_epi32(3));
-  __m256d p[3][3];  // corner k, coordinate c
-  __m128i v3[3];    // 3 x corner k's vertex
-  for (int k = 0; k < 3; ++k) {
-    const __m128i v = _mm_mask_i32gather_epi32(_mm_setzero_si128(), in.mesh.faces,
-                                               _mm_add_epi32(f3, _mm_set1_epi32(k)), live, 4);
-    v3[k] = _mm_mullo_epi32(v, _mm_set1_epi32(3));
-    for (int c = 0; c < 3; ++c)
-      p[k][c] = _mm256_mask_i32gather_pd(zero, in.mesh.positions,
-                                         _mm_add_epi32(v3[k], _mm_set1_epi32(c)), live_d, 8);
-  }
-  auto dot = [](const __m256d* a, const __m256d* b) {
-    return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a[0], b[0]), _mm256_mul_pd(a[1], b[1])),
-                         _mm256_mul_pd(a[2], b[2]));
-  };
-  __m256d e1[3], e2[3], ng[3], to_viewer[3];
-  for (int c = 0; c < 3; ++c) {
-    e1[c] = _mm256_sub_pd(p[1][c], p[0][c]);
-    e2[c] = _mm256_sub_pd(p[2][c], p[0][c]);
-  }
-  for (int c = 0; c < 3; ++c) {
-    const int a = (c + 1) % 3, b = (c + 2) % 3;
-    ng[c] = _mm256_sub_pd(_mm256_mul_pd(e1[a], e2[b]), _mm256_mul_pd(e1[b], e2[a]));
-    to_viewer[c] = _mm256_sub_pd(_mm256_set1_pd(in.viewer[c]),
-                                 _mm256_mul_pd(_mm256_set1_pd(in.viewer[3]), p[0][c]));
-  }
-  unsigned robust;  // face_normal_direction's robust way
-  {
-    const __m256d m = _mm256_max_pd(abs(ng[2]), _mm256_max_pd(abs(ng[1]), abs(ng[0])));
-    const __m256d in_range = _mm256_and_pd(_mm256_cmp_pd(m, _mm256_set1_pd(kNormalLow), _CMP_GE_OQ),
-                                           _mm256_cmp_pd(m, _mm256_set1_pd(kNormalHigh), _CMP_LE_OQ));
-    robust = unsigned(_mm256_movemask_pd(_mm256_andnot_pd(in_range, live_d)));
-  }
-  const __m256d back = _mm256_cmp_pd(dot(ng, to_viewer), zero, _CMP_LT_OQ);
-  const __m256d side = _mm256_blendv_pd(one, _mm256_set1_pd(-1.0), back);
-  const __m256d len = _mm256_sqrt_pd(dot(ng, ng));
-  const __m256d nonzero = _mm256_cmp_pd(len, zero, _CMP_GT_OQ);
-  const __m256d inv = _mm256_div_pd(one, len);
-  __m256d normal[3];
-  for (int c = 0; c < 3; ++c)
-    normal[c] = _mm256_mul_pd(side, _mm256_and_pd(nonzero, _mm256_mul_pd(inv, ng[c])));
-  // Flat shading: the final colour is all a face needs (a masked store).
-  if (!bary && !map) {
-    __m256d to_light[3];
-    for (int c = 0; c < 3; ++c) to_light[c] = _mm256_set1_pd(-1.0 * in.light_dir[c]);
-    const __m256d light = _mm256_add_pd(
-        _mm256_set1_pd(in.ambient),
-        _mm256_mul_pd(_mm256_set1_pd(in.diffuse), _mm256_max_pd(dot(normal, to_light), zero)));
-    __m128i rgb = _mm_setzero_si128();
-    for (int c = 0; c < 3; ++c) {
-      const __m256d albedo =
-          in.color_source == ColorSource::kPerFace
-              ? _mm256_cvtps_pd(_mm_mask_i32gather_ps(_mm_setzero_ps(), in.colors,
-                                                      _mm_add_epi32(f3, _mm_set1_epi32(c)),
-                                                      _mm_castsi128_ps(live), 4))
-              : _mm256_set1_pd(double(in.uniform_color[c]));
-      const __m256d v = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(albedo, light), zero), one);
-      const __m256d byte =
-          _mm256_floor_pd(_mm256_add_pd(_mm256_mul_pd(v, _mm256_set1_pd(255.0)), _mm256_set1_pd(0.5)));
-      rgb = _mm_or_si128(rgb, _mm_slli_epi32(_mm256_cvtpd_epi32(byte), 8 * c));
-    }
-    _mm_maskstore_epi32(table.rgb.data() + first, live, rgb);
-    return robust;
-  }
-
-  __m256d coef[9], normal_map[9];
-  __m256d exact = zero;  // FaceShade::exact (all bits set)
-  const double* m = in.mvp;
-  __m256d cx[3], cy[3], cw[3];
-  auto row = [&](const double* r, int k) {
-    return _mm256_add_pd(
-        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r[0]), p[k][0]),
-                                    _mm256_mul_pd(_mm256_set1_pd(r[1]), p[k][1])),
-                      _mm256_mul_pd(_mm256_set1_pd(r[2]), p[k][2])),
-        _mm256_set1_pd(r[3]));
-  };
-  for (int k = 0; k < 3; ++k) {
-    cx[k] = row(m, k);
-    cy[k] = row(m + 4, k);
-    cw[k] = row(m + 12, k);
-  }
-  __m256d b[9], big = zero;
-  for (int k = 0; k < 3; ++k) {
-    const int a = (k + 1) % 3, c = (k + 2) % 3;
-    b[3 * k + 0] = _mm256_sub_pd(_mm256_mul_pd(cy[a], cw[c]), _mm256_mul_pd(cy[c], cw[a]));
-    b[3 * k + 1] = _mm256_sub_pd(_mm256_mul_pd(cw[a], cx[c]), _mm256_mul_pd(cw[c], cx[a]));
-    b[3 * k + 2] = _mm256_sub_pd(_mm256_mul_pd(cx[a], cy[c]), _mm256_mul_pd(cx[c], cy[a]));
-  }
-  for (const __m256d& v : b) big = _mm256_max_pd(abs(v), big);
-  const __m256d scale = positive_finite(big);
-  const __m256d inv_big = _mm256_div_pd(one, big);
-  for (int c = 0; c < 9; ++c) coef[c] = _mm256_blendv_pd(b[c], _mm256_mul_pd(b[c], inv_big), scale);
-  const __m256d det = _mm256_add_pd(
-      _mm256_add_pd(_mm256_mul_pd(coef[0], cx[0]), _mm256_mul_pd(coef[1], cy[0])),
-      _mm256_mul_pd(coef[2], cw[0]));
-  {  // sums_are_close
-    const __m256d w = _mm256_max_pd(cw[2], _mm256_max_pd(cw[1], cw[0]));
-    const __m256d close = _mm256_and_pd(
-        _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(cw[0], zero, _CMP_GT_OQ),
-                                    _mm256_cmp_pd(cw[1], zero, _CMP_GT_OQ)),
-                      _mm256_cmp_pd(cw[2], zero, _CMP_GT_OQ)),
-        _mm256_cmp_pd(abs(det), _mm256_mul_pd(_mm256_set1_pd(kLeastSum), w), _CMP_GE_OQ));
-    exact = _mm256_andnot_pd(close, live_d);
-  }
-  if (map) {
-    __m256d vn[3][3];  // corner k, component c
-    for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c)
-        vn[k][c] = _mm256_mask_i32gather_pd(zero, in.vertex_normals,
-                                            _mm_add_epi32(v3[k], _mm_set1_epi32(c)), live_d, 8);
-    // det != 0 and finite: |det| in (0, inf)
-    const __m256d usable = _mm256_and_pd(scale, positive_finite(abs(det)));
-    // +1 where det and side have one sign
-    const __m256d negative = _mm256_cmp_pd(det, zero, _CMP_LT_OQ);
-    const __m256d sign = _mm256_blendv_pd(one, _mm256_set1_pd(-1.0), _mm256_xor_pd(negative, back));
-    __m256d largest = zero;
-    for (int c = 0; c < 3; ++c) {
-      for (int j = 0; j < 3; ++j) {
-        const __m256d mm = _mm256_add_pd(
-            _mm256_add_pd(_mm256_mul_pd(vn[0][c], coef[j]), _mm256_mul_pd(vn[1][c], coef[3 + j])),
-            _mm256_mul_pd(vn[2][c], coef[6 + j]));
-        const __m256d corners = _mm256_add_pd(_mm256_add_pd(vn[0][c], vn[1][c]), vn[2][c]);
-        const __m256d mean = j < 2 ? zero : _mm256_mul_pd(side, corners);
-        normal_map[3 * c + j] = _mm256_blendv_pd(mean, _mm256_mul_pd(sign, mm), usable);
-        largest = _mm256_max_pd(abs(normal_map[3 * c + j]), largest);
-      }
-    }
-    const __m256d normalise = positive_finite(largest);
-    const __m256d inv_largest = _mm256_div_pd(one, largest);
-    for (auto& v : normal_map) v = _mm256_blendv_pd(v, _mm256_mul_pd(v, inv_largest), normalise);
-
-    // FaceShade::exact, as map_is_close computes it.
-    const __m256d half_w = _mm256_set1_pd(0.5 * in.width), half_h = _mm256_set1_pd(0.5 * in.height);
-    const __m256d least2 = _mm256_set1_pd(kLeastCornerLength * kLeastCornerLength);
-    __m256d close = _mm256_cmp_pd(largest, _mm256_set1_pd(kLeastMapEntry), _CMP_GE_OQ);
-    __m256d x[3], y[3];
-    for (int k = 0; k < 3; ++k) {
-      x[k] = _mm256_mul_pd(cx[k], half_w);
-      y[k] = _mm256_mul_pd(cy[k], half_h);
-      __m256d len2 = zero;
-      for (int c = 0; c < 3; ++c) {
-        const __m256d v = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(normal_map[3 * c], cx[k]),
-                                                      _mm256_mul_pd(normal_map[3 * c + 1], cy[k])),
-                                        _mm256_mul_pd(normal_map[3 * c + 2], cw[k]));
-        len2 = _mm256_add_pd(len2, _mm256_mul_pd(v, v));
-      }
-      close = _mm256_and_pd(close, _mm256_cmp_pd(len2, _mm256_mul_pd(least2, _mm256_mul_pd(cw[k], cw[k])),
-                                                 _CMP_GE_OQ));
-    }
-    auto minor = [&](int a, int b) {  // y_a w_b - y_b w_a
-      return _mm256_sub_pd(_mm256_mul_pd(y[a], cw[b]), _mm256_mul_pd(y[b], cw[a]));
-    };
-    const __m256d area = _mm256_add_pd(
-        _mm256_sub_pd(_mm256_mul_pd(x[0], minor(1, 2)), _mm256_mul_pd(x[1], minor(0, 2))),
-        _mm256_mul_pd(x[2], minor(0, 1)));
-    __m256d edge2 = zero, spread2 = zero;
-    for (int k = 0; k < 3; ++k) {
-      const int a = (k + 1) % 3, m = (k + 2) % 3;
-      const __m256d ex = _mm256_sub_pd(_mm256_mul_pd(x[a], cw[k]), _mm256_mul_pd(x[k], cw[a]));
-      const __m256d ey = _mm256_sub_pd(_mm256_mul_pd(y[a], cw[k]), _mm256_mul_pd(y[k], cw[a]));
-      edge2 = _mm256_max_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey)),
-                                          _mm256_mul_pd(cw[m], cw[m])),
-                            edge2);
-      __m256d d2 = zero, along = zero;
-      for (int c = 0; c < 3; ++c) {
-        const __m256d d = _mm256_sub_pd(vn[a][c], vn[k][c]);
-        d2 = _mm256_add_pd(d2, _mm256_mul_pd(d, d));
-        along = _mm256_add_pd(along, _mm256_mul_pd(vn[a][c], vn[k][c]));
-      }
-      spread2 = _mm256_max_pd(d2, spread2);
-      close = _mm256_and_pd(close, _mm256_cmp_pd(along, zero, _CMP_GE_OQ));
-    }
-    const __m256d spread_bound = _mm256_mul_pd(_mm256_set1_pd(kSpreadPerPixel * kSpreadPerPixel),
-                                               _mm256_mul_pd(area, area));
-    close = _mm256_and_pd(close, _mm256_cmp_pd(_mm256_mul_pd(spread2, edge2), spread_bound, _CMP_LE_OQ));
-    exact = _mm256_or_pd(exact, _mm256_andnot_pd(close, live_d));
-  }
-
-  // Into the table's rows: the interpolated fields as 4 rows (fields by
-  // lane, transposed 4 x 4 at a time).
-  __m128 field[2 * FaceTable::kLine];
-  for (auto& v : field) v = _mm_setzero_ps();
-  if (bary)
-    for (int c = 0; c < 9; ++c) field[FaceTable::kBary + c] = _mm256_cvtpd_ps(coef[c]);
-  if (map)
-    for (int c = 0; c < 9; ++c) field[table.map_at + c] = _mm256_cvtpd_ps(normal_map[c]);
-  for (int c = 0; c < 3; ++c) field[FaceTable::kNormal + c] = _mm256_cvtpd_ps(normal[c]);
-  const int n = table.row_floats;
-  const int lanes = _mm_movemask_ps(_mm_castsi128_ps(live));
-  float* rows = table.rows.data() + size_t(n) * first;
-  for (int g = 0; g < n; g += 4) {
-    _MM_TRANSPOSE4_PS(field[g], field[g + 1], field[g + 2], field[g + 3]);
-    for (int j = 0; j < 4; ++j)
-      if (lanes & (1 << j)) _mm_storeu_ps(rows + size_t(n) * j + g, field[g + j]);
-  }
-  if (const unsigned exact_lanes = unsigned(_mm256_movemask_pd(exact)) & ~robust) {
-    alignas(32) double fields[13][4];
-    for (int c = 0; c < 9; ++c) _mm256_store_pd(fields[c], coef[c]);
-    _mm256_store_pd(fields[9], side);
-    for (int c = 0; c < 3; ++c) _mm256_store_pd(fields[10 + c], normal[c]);
+  // Into the table's rows: the interpolated fields as rows of 16 or 32
+  // floats (fields by lane, transposed a square at a time).
+  typename V::F field[2 * FaceTable::kLine];
+  for (auto& v : field) v = V::zero_float();
+  if constexpr (bary)
+    for (int c = 0; c < 9; ++c) field[FaceTable::kBary + c] = V::to_float(coef[c]);
+  if constexpr (map)
+    for (int c = 0; c < 9; ++c) field[table.map_at + c] = V::to_float(normal_map[c]);
+  for (int c = 0; c < 3; ++c) field[FaceTable::kNormal + c] = V::to_float(normal[c]);
+  V::store_rows(table.rows.data() + size_t(table.row_floats) * first, table.row_floats, field,
+                V::bits(live));
+  if (const unsigned exact_lanes = V::bits(exact) & ~robust) {
+    double fields[13][V::kWidth];
+    for (int c = 0; c < 9; ++c) V::store(fields[c], coef[c]);
+    V::store(fields[9], side);
+    for (int c = 0; c < 3; ++c) V::store(fields[10 + c], normal[c]);
     add_exact_lanes(table, first, exact_lanes, fields);
   }
   return robust;
+}
+
+// prepare_faces for the kind of rows a pass reads.
+template <class V>
+unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Index f,
+                       typename V::IndexMask live, bool bary, bool map, size_t first) {
+  if (map)
+    return bary ? prepare_faces<V, true, true>(in, table, f, live, first)
+                : prepare_faces<V, false, true>(in, table, f, live, first);
+  return bary ? prepare_faces<V, true, false>(in, table, f, live, first)
+              : prepare_faces<V, false, false>(in, table, f, live, first);
 }
 #endif
 
@@ -1098,7 +817,7 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      prepare_again(i, prepare_faces8(in, table, f, live, bary, map, i));
+      prepare_again(i, prepare_faces<lanes::Lanes8>(in, table, f, live, bary, map, i));
     }
   }
 #elif defined(ZBUFFER_AVX2)
@@ -1121,7 +840,7 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      prepare_again(i, prepare_faces4(in, table, f, live, bary, map, i));
+      prepare_again(i, prepare_faces<lanes::Lanes4>(in, table, f, live, bary, map, i));
     }
   }
 #endif
