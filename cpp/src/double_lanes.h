@@ -1,5 +1,5 @@
 // Private to the core: binary64 lanes for code written once for two
-// instruction sets -- 8 lanes of AVX-512 (Lanes8) or 4 of AVX2 (Lanes4),
+// instruction sets -- 8 lanes of AVX-512 (Doubles8) or 4 of AVX2 (Doubles4),
 // with the same operations, so that a loop over faces reads like its
 // scalar form and gives the same bits lane by lane (IEEE basic operations,
 // no contraction: -ffp-contract=off). shading.cpp's face preparations use
@@ -21,7 +21,7 @@ namespace zbuffer {
 namespace lanes {
 
 #ifdef ZBUFFER_AVX512
-struct Lanes8 {
+struct Doubles8 {
   static constexpr int kWidth = 8;
   using Index = __m256i;
   using IndexMask = __mmask8;
@@ -117,7 +117,7 @@ struct Lanes8 {
 #endif
 
 #ifdef ZBUFFER_AVX2
-struct Lanes4 {
+struct Doubles4 {
   static constexpr int kWidth = 4;
   using Index = __m128i;
   using IndexMask = __m128i;  // int32 lanes of all ones or zeros

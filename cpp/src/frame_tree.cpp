@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "morton.h"
-#include "setup16.h"
 #include "simd.h"
 
 namespace zbuffer {
@@ -26,7 +25,8 @@ constexpr int kMaxFrameDepth = 6;
 // would chain every face to the previous one's store.
 struct Buckets {
   int32_t* of_face = nullptr;  // the tree's face_bucket (reset)
-  std::vector<int64_t> start;  // n_buckets + 1 entries after scatter()
+  std::vector<int64_t> start;  // n_buckets + 1: bucket b's count at b + 1, its first face
+                               // at b after scatter()
   std::vector<uint16_t> box;   // 6 per bucket: lo xyz, hi xyz (grid cells)
   // The first and last face of each bucket (first > last: none).
   std::vector<int64_t> first_face, last_face;

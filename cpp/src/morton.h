@@ -34,7 +34,7 @@ inline uint32_t spread_bits_10(uint32_t v) {
 // per face. Not in AVX2 builds, which run on AMD's Zen 1 and 2 too, where
 // pdep is microcoded, tens to hundreds of cycles).
 inline uint32_t morton_30(uint32_t x, uint32_t y, uint32_t z) {
-#if defined(__BMI2__) && defined(ZBUFFER_AVX512)
+#ifdef ZBUFFER_AVX512  // (which has BMI2: simd.h)
   return _pdep_u32(x, 0x09249249u) | _pdep_u32(y, 0x12492492u) | _pdep_u32(z, 0x24924924u);
 #else
   return spread_bits_10(x) | (spread_bits_10(y) << 1) | (spread_bits_10(z) << 2);

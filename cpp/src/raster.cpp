@@ -1,8 +1,9 @@
 // The raster core's pixel loops.
 //
 // Transcriptions of docs/rasterization.md section 3: a scalar loop, AVX-512
-// loops that evaluate 16 pixels at once with int32 edge values (or 8 with
-// int64 ones for huge triangles), and AVX2 loops of 8 pixels with int32
+// loops that evaluate 16 pixels at once with int32 edge values (huge
+// triangles by exact spans, 16 pixels a step in int64 lanes; an 8-lane
+// int64 loop backs up rasterize_span_avx512), and AVX2 loops of 8 pixels with int32
 // edge values (rasterize_rect_avx2_i32, SpanRun8). They perform the same
 // IEEE operations per pixel (integer -> float32 conversion, two products,
 // two sums, clamp), so they produce the same bits; tests hold the vector

@@ -1,6 +1,6 @@
 // Private to the core: assembly and setup of 16 faces per instruction
 // (AVX-512 builds), shared by TriangleBatch and the scanline's tables (and
-// its interleave helpers by the trees: object_tree.cpp, frame_tree.cpp, morton.h).
+// its interleave helpers by the trees: object_tree.cpp, morton.h).
 //
 // The vector form of vertex_stage.h's assemble_triangle (for faces that need
 // no clipping) and of raster.h's setup_triangle (for faces less than 16

@@ -94,8 +94,8 @@ struct FaceShade {
   // sum_k b_k N_k is (sum_k N_k adj(M)_k) p / sum, and sum = det(M) / w has
   // det's sign wherever w > 0: the map is sign(det) sum_k N_k adj(M)_k,
   // turned to the viewer's side and scaled to a largest entry of 1 (only
-  // the direction counts). A pixel then costs 6 multiply-adds, no division
-  // and no corner normals. Barycentrics are not clamped into [0, 1] here:
+  // the direction counts). A pixel then costs 6 multiply-adds and the
+  // normalisation: no barycentric division and no corner normals. Barycentrics are not clamped into [0, 1] here:
   // a snapped pixel centre a hair outside the triangle extrapolates by that
   // hair. A face without usable barycentrics (det 0 or not finite) maps
   // every pixel to its corners' mean normal, as the scalar pass does.
@@ -431,8 +431,8 @@ struct FaceTable {
   // barycentrics' coefficients if bary, the normal map if map). Not zeroed
   // (Buffer): the passes read only the rows prepared.
   void resize(size_t n, bool bary, bool map) {
-    if (stride < n) {
-      stride = n;
+    if (rows_allocated < n) {
+      rows_allocated = n;
       rgb.clear();  // (emptied first: nothing copied into the new arrays)
       rgb.resize(n);
       rows.clear();
@@ -444,24 +444,24 @@ struct FaceTable {
   // Room for rows [0, n), keeping the rows written (by_slot: rows are added
   // band by band). After resize, with the same fields.
   void grow(size_t n, bool bary, bool map) {
-    if (stride >= n) return;
-    stride = std::max(n, 2 * stride);
-    rgb.resize(stride);
+    if (rows_allocated >= n) return;
+    rows_allocated = std::max(n, 2 * rows_allocated);
+    rgb.resize(rows_allocated);
     fit_rows(bary || map);
   }
-  // Interpolation rows for every row allocated (stride).
+  // Interpolation rows for every row allocated.
   void fit_rows(bool interpolated) {
-    const size_t floats = size_t(row_floats) * stride;
+    const size_t floats = size_t(row_floats) * rows_allocated;
     if (interpolated && rows.size() < floats) rows.resize(floats);
   }
   // After a pass: give back the memory of arrays too large to keep.
   void trim() {
     if (exact.capacity() > kKeptRows / 16) std::vector<FaceShade>().swap(exact);
     if (exact_steps.size() > kKeptSlots) Buffer<uint32_t>().swap(exact_steps);
-    if (stride > kKeptRows || rows.size() > kKeptRowFloats) {
-      stride = 0;
+    if (rows_allocated > kKeptRows || rows.size() > kKeptRowFloats) {
+      rows_allocated = 0;
       Buffer<int32_t>().swap(rgb);
-      Buffer<float>().swap(rows);
+      LineBuffer<float>().swap(rows);
     }
     if (slot.size() > kKeptSlots) Buffer<int32_t>().swap(slot);
     if (found.capacity() > kKeptSlots) Buffer<int32_t>().swap(found);
@@ -473,7 +473,7 @@ struct FaceTable {
   Buffer<int32_t> found;        // by_slot: the faces found, in image order (row r: found[r])
   std::vector<uint64_t> seen;   // by_slot: a bit per face, set where found
   int32_t row(int32_t f) const { return by_slot ? slot[size_t(f)] : f; }
-  size_t stride = 0;     // rows allocated
+  size_t rows_allocated = 0;
   Buffer<int32_t> rgb;   // flat colour of row r, 0x00BBGGRR
   // What interpolation reads, row_floats floats a row (at row_floats r):
   // one cache line a face (two for smooth shading with per-vertex
@@ -491,7 +491,7 @@ struct FaceTable {
   static constexpr int map_at_for(bool bary) { return bary ? kLine : 0; }
   int row_floats = kLine;
   int map_at = 0;  // smooth: FaceShade::normal_map from here (after the barycentrics if kept)
-  Buffer<float> rows;
+  LineBuffer<float> rows;  // (so that each row is one line, not parts of two)
   // Interpolated shading: the faces the vector passes leave to the scalar
   // pass's way (FaceShade::exact), as it prepares them. Row field kExact
   // holds 1 + the face's index here (int32 bits), else 0.
@@ -573,7 +573,6 @@ __attribute__((noinline)) void finish_exact(const ShadingInput& in, const FaceTa
   }
 }
 
-#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
 // prepare_face for V::kWidth faces f at once (lanes `live`; double_lanes.h:
 // 8 in AVX-512 builds, 4 in AVX2 builds), in double: the same operations in
 // the same order, so the same bits; into rows first .. first + kWidth - 1.
@@ -611,9 +610,10 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
     ng[c] = e1[a] * e2[b] - e1[b] * e2[a];
     to_viewer[c] = V::set(in.viewer[c]) - V::set(in.viewer[3]) * p[0][c];
   }
-  // face_normal_direction's robust way
+  // The lanes to prepare again (prepare_face): their normal takes
+  // face_normal_direction's robust way.
   const D largest_ng = V::max(V::abs(ng[2]), V::max(V::abs(ng[1]), V::abs(ng[0])));
-  const unsigned robust = V::bits(V::andnot(V::ge(largest_ng, V::set(kNormalLow)) &
+  const unsigned redo = V::bits(V::andnot(V::ge(largest_ng, V::set(kNormalLow)) &
                                                 V::le(largest_ng, V::set(kNormalHigh)),
                                             live));
   const Mask back = V::lt(dot(ng, to_viewer), zero);
@@ -637,7 +637,7 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
       return V::floor(v * V::set(255.0) + V::set(0.5));
     };
     V::store_rgb(table.rgb.data() + first, live_index, byte(0), byte(1), byte(2));
-    return robust;
+    return redo;
   }
 
   D coef[9], normal_map[9];
@@ -659,9 +659,9 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
     b[3 * k + 2] = cx[a] * cy[c] - cx[c] * cy[a];
   }
   for (const D& v : b) big = V::max(V::abs(v), big);
-  const Mask scale = positive_finite(big);
+  const Mask scalable = positive_finite(big);
   const D inv_big = one / big;
-  for (int c = 0; c < 9; ++c) coef[c] = V::blend(scale, b[c], b[c] * inv_big);
+  for (int c = 0; c < 9; ++c) coef[c] = V::blend(scalable, b[c], b[c] * inv_big);
   const D det = coef[0] * cx[0] + coef[1] * cy[0] + coef[2] * cw[0];
   // FaceShade::exact: not sums_are_close ...
   const D w = V::max(cw[2], V::max(cw[1], cw[0]));
@@ -673,7 +673,7 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
     for (int k = 0; k < 3; ++k)
       for (int c = 0; c < 3; ++c)
         vn[k][c] = V::gather(in.vertex_normals, V::add(v3[k], V::index(c)), live);
-    const Mask usable = scale & positive_finite(V::abs(det));  // det finite and not 0
+    const Mask usable = scalable & positive_finite(V::abs(det));  // det finite and not 0
     const Mask opposite = V::lt(det, zero) ^ back;             // det and side of two signs
     const D sign = V::blend(opposite, one, V::set(-1.0));     // +1 where of one sign
     D largest = zero;
@@ -738,14 +738,14 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
   for (int c = 0; c < 3; ++c) field[FaceTable::kNormal + c] = V::to_float(normal[c]);
   V::store_rows(table.rows.data() + size_t(table.row_floats) * first, table.row_floats, field,
                 V::bits(live));
-  if (const unsigned exact_lanes = V::bits(exact) & ~robust) {
+  if (const unsigned exact_lanes = V::bits(exact) & ~redo) {
     double fields[13][V::kWidth];
     for (int c = 0; c < 9; ++c) V::store(fields[c], coef[c]);
     V::store(fields[9], side);
     for (int c = 0; c < 3; ++c) V::store(fields[10 + c], normal[c]);
     add_exact_lanes(table, first, exact_lanes, fields);
   }
-  return robust;
+  return redo;
 }
 
 // prepare_faces for the kind of rows a pass reads.
@@ -758,7 +758,6 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
   return bary ? prepare_faces<V, true, false>(in, table, f, live, first)
               : prepare_faces<V, false, false>(in, table, f, live, first);
 }
-#endif
 
 // Calls sight(face) for the id of every run of one id among the `count`
 // ids at `ids` (and maybe again for a face sighted before), skipping -1:
@@ -817,7 +816,7 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      prepare_again(i, prepare_faces<lanes::Lanes8>(in, table, f, live, bary, map, i));
+      prepare_again(i, prepare_faces<lanes::Doubles8>(in, table, f, live, bary, map, i));
     }
   }
 #elif defined(ZBUFFER_AVX2)
@@ -840,7 +839,7 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      prepare_again(i, prepare_faces<lanes::Lanes4>(in, table, f, live, bary, map, i));
+      prepare_again(i, prepare_faces<lanes::Doubles4>(in, table, f, live, bary, map, i));
     }
   }
 #endif

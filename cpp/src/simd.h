@@ -2,18 +2,20 @@
 // vector form of the raster core (coverage, depth, depth write) that every
 // vector loop shares.
 //
-// A build with AVX-512 F/DQ/VL/BW (e.g. -march=native on a recent x86) gets
-// the 16-lane loops; a build with AVX2 but not AVX-512 (most AMD processors
-// before Zen 4, Intel's client cores) gets 8-lane loops for the vertex
-// stage, face setup (the scanline's too), rasterization and shading (the
-// scanline's row walk and the per-frame trees' face pass stay scalar
-// there); any other build gets the scalar loops. All perform the same IEEE
+// A build with AVX-512 F/DQ/VL/BW/CD and BMI2 (e.g. -march=native on a
+// recent x86, or -march=x86-64-v4) gets the 16-lane loops (8 lanes for the
+// binary64 vertex stage and shading's face preparation); a build with AVX2
+// but not all of those (most AMD processors before Zen 4, Intel's client
+// cores) gets 8-lane loops for the vertex stage, face setup (the
+// scanline's too), rasterization and shading (4 lanes for the binary64
+// ones; the scanline's row walk and the per-frame trees' face pass stay
+// scalar there); any other build gets the scalar loops. All perform the same IEEE
 // operations per pixel and per vertex, so they produce the same bits; tests
 // hold the vector loops to the scalar ones.
 #pragma once
 
 #if defined(__AVX512F__) && defined(__AVX512DQ__) && defined(__AVX512VL__) && \
-    defined(__AVX512BW__)
+    defined(__AVX512BW__) && defined(__AVX512CD__) && defined(__BMI2__)
 #if defined(__GNUC__) && !defined(__clang__)
 // GCC 12's own avx512fintrin.h trips this warning (_mm512_undefined_*).
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"

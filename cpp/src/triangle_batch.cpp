@@ -813,7 +813,8 @@ void TriangleBatch::draw_narrow(int group, int64_t& covered, int64_t& written) {
   }
 }
 
-// Wide boxes (9 to 16 pixels wide): kRows passes of a row as two halves;
+// Wide boxes (of triangles 8 to 16 pixels across: boxes up to 16 pixels
+// wide): kRows passes of a row as two halves;
 // masks as in draw_narrow.
 template <int kRows>
 void TriangleBatch::draw_wide(int group, int64_t& covered, int64_t& written) {

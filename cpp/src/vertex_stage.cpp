@@ -1,6 +1,6 @@
 // Vertex stage: per-vertex transform and Sutherland-Hodgman clipping.
 //
-// transform_vertices has a scalar loop, an AVX-512 loop (8 vertices per
+// transform_vertex_range has a scalar loop, an AVX-512 loop (8 vertices per
 // instruction) and an AVX2 loop (4). All three evaluate vertex_stage.h's
 // formulas with the same IEEE operations in the same order, so they produce
 // the same bits.

@@ -33,6 +33,22 @@ struct DefaultInitAllocator : std::allocator<T> {
   }
 };
 
+// DefaultInitAllocator whose blocks start on a 64-byte boundary (a cache
+// line), for arrays of records one line long.
+template <class T>
+struct LineAlignedAllocator : DefaultInitAllocator<T> {
+  static constexpr std::align_val_t kLine{64};
+  template <class U>
+  struct rebind {
+    using other = LineAlignedAllocator<U>;
+  };
+  LineAlignedAllocator() noexcept = default;
+  template <class U>
+  LineAlignedAllocator(const LineAlignedAllocator<U>&) noexcept {}
+  T* allocate(size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kLine)); }
+  void deallocate(T* p, size_t) noexcept { ::operator delete(p, kLine); }
+};
+
 // Design decision: a build writes each element of its output exactly once,
 // at places it computes itself, so it grows the array by resize() and then
 // writes through a pointer. Good: no push_back capacity check per element
@@ -41,6 +57,9 @@ struct DefaultInitAllocator : std::allocator<T> {
 // are indeterminate; every writer must fill what it resizes (or shrink back).
 template <class T>
 using Buffer = std::vector<T, DefaultInitAllocator<T>>;
+// A Buffer that starts on a cache line.
+template <class T>
+using LineBuffer = std::vector<T, LineAlignedAllocator<T>>;
 
 // Asks the kernel to back the whole 2 MiB pages of [p, p + bytes) with
 // transparent huge pages (Linux; elsewhere, or if refused, nothing happens).

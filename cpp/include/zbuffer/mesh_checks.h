@@ -9,7 +9,8 @@
 namespace zbuffer {
 
 // Position in the flattened (M * 3) face array of the first index outside
-// [0, n_vertices), or -1 if all are valid.
+// [0, n_vertices), or -1 if all are valid. n_vertices must be below 2^31
+// (it is compared as uint32; the bindings refuse larger meshes first).
 int64_t find_bad_face_index(const MeshView& mesh);
 
 // Index of the first face whose face_ids entry is negative, or -1 (also if

@@ -43,7 +43,8 @@ inline bool is_top_left(int64_t dx, int64_t dy) {
 // (x_min, y_min) of the clamped box plus integer steps per pixel. Good: exact
 // incremental evaluation, identical to evaluating the written formula at every
 // pixel. Bad: values reach 2^51, so the general loop needs int64 lanes; the
-// vector loop switches to int32 lanes when a triangle's box allows it.
+// vector loops use int32 lanes where a triangle's box allows it, and draw
+// the others by exact spans (raster.cpp).
 struct TriangleSetup {
   // Pixel box, clamped to the image; empty if x_min > x_max or y_min > y_max.
   int x_min, y_min, x_max, y_max;
