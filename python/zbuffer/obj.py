@@ -198,8 +198,8 @@ def _unit_colors(colors):
 
 
 def _whole(colors: np.ndarray) -> bool:
-    """Whether every colour value is a whole number (written as bytes 0-255,
-    or 0 and 1 as fractions are)."""
+    """Whether every colour value is a whole number, as bytes 0-255 are (and
+    fractions that are all 0 or 1)."""
     return bool((colors == np.floor(colors)).all())
 
 
