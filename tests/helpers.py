@@ -74,11 +74,23 @@ ALGORITHMS = zbuffer.algorithms()
 POLYGON_ALGORITHMS = frozenset(zbuffer._core.polygon_algorithms())
 
 
+# Algorithms that test triangles against a Z-pyramid (test_hiz.py holds the
+# registry's flag to what each algorithm does).
+PYRAMID_ALGORITHMS = [a for a in ALGORITHMS if a in set(zbuffer._core.pyramid_algorithms())]
+
+
 def reference_for(algo: str, mesh, **kwargs):
     """The reference render an algorithm must reproduce bit for bit."""
     return zbuffer.reference.render(mesh, polygons=algo in POLYGON_ALGORITHMS, **kwargs)
-# The algorithms that cull whole nodes of an object-space tree.
-TREE_ALGORITHMS = [a for a in ALGORITHMS if a in ("hiz_octree", "hiz_bvh")]
+def _visits_tree_nodes(algo: str) -> bool:
+    return zbuffer.render(zbuffer.scenes.default_scene(), algo=algo, width=16, height=12,
+                          shading="none").stats["nodes_visited"] > 0
+
+
+# The algorithms that cull whole nodes of an object-space tree: found by what
+# they do, so that one registered later is not left out of the tests (nor
+# out of zbuffer.Scene: test_scene.py holds the two to each other).
+TREE_ALGORITHMS = [a for a in ALGORITHMS if _visits_tree_nodes(a)]
 
 
 def can_render_offscreen() -> bool:

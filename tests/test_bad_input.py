@@ -228,7 +228,7 @@ def test_unreadable_and_malformed_files(tmp_path):
         zbuffer.load(broken)
     binary = tmp_path / "garbage.stl"
     binary.write_bytes(bytes(range(256)) * 3)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"could not read a mesh from .*garbage.stl.: no vertices"):
         zbuffer.load(binary)
 
 

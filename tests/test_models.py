@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import zbuffer
-from helpers import (ALGORITHMS, assert_same_counters, assert_same_visibility, model_path,
-                     reference_for)
+from helpers import (ALGORITHMS, POLYGON_ALGORITHMS, assert_same_counters,
+                     assert_same_visibility, model_path, reference_for)
 
 pytestmark = pytest.mark.models
 
@@ -55,10 +55,15 @@ def test_large_model_equals_reference_close_up(name):
     depth_along_view = (mesh.vertices - eye) @ ((c - eye) / np.linalg.norm(c - eye))
     near = float(np.quantile(depth_along_view[depth_along_view > 0], 0.1))
     cam = zbuffer.Camera.look_at(eye, c, fov_y=60, near=near, far=4 * r)
-    res = zbuffer.render(mesh, camera=cam, width=128, height=96, shading="none")
-    ref = zbuffer.reference.render(mesh, camera=cam, width=128, height=96, shading="none")
-    assert_same_visibility(res, ref)
-    assert res.stats["clipped"] > 0
+    kw = dict(camera=cam, width=128, height=96, shading="none")
+    refs = {}  # (by the polygons flag: one reference for a mesh of triangles)
+    for algo in ALGORITHMS:
+        res = zbuffer.render(mesh, algo=algo, **kw)
+        polygons = algo in POLYGON_ALGORITHMS
+        if polygons not in refs:
+            refs[polygons] = reference_for(algo, mesh, **kw)
+        assert_same_visibility(res, refs[polygons])
+        assert res.stats["clipped"] > 0
 
 
 def test_african_head_with_its_eyes_as_one_scene():
@@ -67,7 +72,8 @@ def test_african_head_with_its_eyes_as_one_scene():
     head = trimesh.load(model_path("african_head.obj"), force="mesh", process=False)
     eyes = trimesh.load(model_path("african_head_eye_inner.obj"), force="mesh", process=False)
     scene = trimesh.Scene([head, eyes])
-    res = zbuffer.render(scene, width=80, height=80, shading="none")
     ref = zbuffer.reference.render(scene, width=80, height=80, shading="none")
-    assert_same_visibility(res, ref)
-    assert res.stats["triangles_in"] == len(head.faces) + len(eyes.faces)
+    for algo in ALGORITHMS:  # (triangles only: one reference for all)
+        res = zbuffer.render(scene, algo=algo, width=80, height=80, shading="none")
+        assert_same_visibility(res, ref)
+        assert res.stats["triangles_in"] == len(head.faces) + len(eyes.faces)

@@ -140,5 +140,5 @@ def test_counts_run_into_the_header_as_modelnet_writes_them(tmp_path, header):
     np.testing.assert_array_equal(joined.faces, apart.faces)
     assert (joined.vertex_colors is None) == (header != "COFF")
     for text in ["OFFx4 2 0\n", "OFF+4 2 0\n", "XOFF4 2 0\n"]:  # not a header run into a count
-        with pytest.raises(ValueError):
+        with pytest.raises(ValueError, match=r"bad.off.: not an OFF file \(the first record is"):
             zbuffer.load(write(tmp_path, text + body, "bad.off"))

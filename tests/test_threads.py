@@ -11,12 +11,12 @@ from zbuffer import scenes
 def test_parallel_renders_equal_sequential_ones():
     meshes = [scenes.default_scene(), scenes.random_soup(3000, seed=7, scale=0.2),
               scenes.overlapping_boxes(20, seed=3), scenes.tessellated_square(30, 0.4, seed=1)]
-    jobs = [(m, size, shading) for m in meshes for size in [(64, 48), (97, 131)]
-            for shading in ["none", "smooth"]]
+    jobs = [(m, size, shading, algo) for m in meshes for size in [(64, 48), (97, 131)]
+            for shading in ["none", "smooth"] for algo in zbuffer.algorithms()]
 
     def run(job):
-        mesh, (w, h), shading = job
-        return zbuffer.render(mesh, width=w, height=h, shading=shading)
+        mesh, (w, h), shading, algo = job
+        return zbuffer.render(mesh, algo=algo, width=w, height=h, shading=shading)
 
     sequential = [run(job) for job in jobs]
     with ThreadPoolExecutor(max_workers=4) as pool:
