@@ -393,6 +393,10 @@ class OctreeCells {
   OctreeCells(int depth, bool loose) : depth_(depth), loose_(loose) {
     assert(depth >= 1 && depth <= kMaxDepth);
     for (int l = depth_; l >= 0; --l) size_[l] = l == depth_ ? 1 : 1 + 8 * size_[l + 1];
+#ifdef ZBUFFER_AVX512
+    for (int l = 1; l <= depth_; ++l)
+      for (int d = 0; d < 16; ++d) digit_steps_[l][d] = d < 8 ? int32_t(d * size_[l]) : 0;
+#endif
   }
   int depth() const { return depth_; }
   // Cells in the subtree of a cell at `level` (itself included).
@@ -460,12 +464,10 @@ class OctreeCells {
         differ = _mm512_or_si512(differ, _mm512_xor_si512(cell[a], _mm512_srli_epi32(hi[a], coarsen)));
       }
     }
-    // Levels up from depth D: the bit length of `differ`, at most D.
-    __m512i up = _mm512_setzero_si512();
-    const __m512i one = _mm512_set1_epi32(1);
-    for (int k = 0; k < depth_; ++k)
-      up = _mm512_mask_add_epi32(up, _mm512_cmpge_epu32_mask(differ, _mm512_set1_epi32(1 << k)), up, one);
+    // Levels up from depth D: the bit length of `differ` (at most D).
+    const __m512i up = _mm512_sub_epi32(_mm512_set1_epi32(32), _mm512_lzcnt_epi32(differ));
     const __m512i level = _mm512_sub_epi32(_mm512_set1_epi32(depth_), up);
+    const __m512i one = _mm512_set1_epi32(1);
     __m512i index = level;
     for (int l = 1; l <= depth_; ++l) {
       const unsigned bit = unsigned(depth_ - l);
@@ -473,8 +475,9 @@ class OctreeCells {
       for (int a = 0; a < 3; ++a)
         digit = _mm512_or_si512(digit, _mm512_slli_epi32(_mm512_and_si512(_mm512_srli_epi32(cell[a], bit), one), unsigned(a)));
       const __mmask16 in = _mm512_cmple_epi32_mask(_mm512_set1_epi32(l), level);
+      // digit x subtree(l), looked up (a permutation costs less than a product)
       index = _mm512_mask_add_epi32(index, in, index,
-                                    _mm512_mullo_epi32(digit, _mm512_set1_epi32(int32_t(size_[l]))));
+                                    _mm512_permutexvar_epi32(digit, _mm512_load_si512(digit_steps_[l])));
     }
     return index;
   }
@@ -495,6 +498,9 @@ class OctreeCells {
   int depth_;
   bool loose_;
   int64_t size_[kMaxDepth + 1] = {};
+#ifdef ZBUFFER_AVX512
+  alignas(64) int32_t digit_steps_[kMaxDepth + 1][16] = {};  // [l][d]: d x size_[l] (d < 8)
+#endif
 };
 
 // words[f] = key << 32 | f for every face f of the mesh, `keys` giving a
