@@ -39,16 +39,21 @@ std::unique_ptr<Tree> build(const std::string& kind, py::handle positions_obj,
   const zbuffer::MeshView mesh = mesh_view(positions, faces);
   auto out = std::make_unique<Tree>();
   out->kind = kind;
+  bool out_of_memory = false;
   {
     py::gil_scoped_release release;
     const auto t0 = std::chrono::steady_clock::now();
     try {
       out->tree = build_tree(mesh);
     } catch (const std::bad_alloc&) {
-      throw std::runtime_error("not enough memory to build the " + kind);
+      out_of_memory = true;  // (a MemoryError, raised with the GIL held)
     }
     out->build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  if (out_of_memory) {  // (pybind11 has no memory_error class: set the exception, then raise it)
+    PyErr_SetString(PyExc_MemoryError, ("not enough memory to build the " + kind).c_str());
+    throw py::error_already_set();
   }
   return out;
 }

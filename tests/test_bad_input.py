@@ -500,3 +500,40 @@ def test_odd_inputs_get_clear_messages(tmp_path):
     obj.write_bytes("\ufeffv 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n".encode("utf-8"))
     mesh = zbuffer.load(bytes(obj))
     np.testing.assert_array_equal(mesh.vertices[mesh.faces[0]], TRI)
+
+
+def test_projection_matrix_checks_its_aspect():
+    # It divided by it: ZeroDivisionError for 0, a mirrored matrix for -1.
+    camera = zbuffer.Camera.look_at((0, 0, 3), near=1, far=10)
+    for bad in (0, -1.0, float("inf")):
+        with pytest.raises(ValueError, match="aspect must be positive and finite"):
+            camera.projection_matrix(bad)
+    with pytest.raises(TypeError, match="aspect"):
+        camera.projection_matrix("1")
+
+
+def test_combine_checks_each_part_as_a_mesh():
+    # Float faces were truncated, and a part's faces could use the next
+    # part's vertices.
+    tri = np.eye(3)
+    with pytest.raises(TypeError, match=r"parts\[0\]: faces must be integer"):
+        scenes.combine([(tri, [[0, 1.7, 2]])])
+    with pytest.raises(ValueError, match=r"parts\[0\]: face 0 has vertex index 4, outside \[0, 3\)"):
+        scenes.combine([(tri, [[0, 1, 4]]), (tri, [[0, 1, 2]])])
+
+
+def test_results_compare_as_objects_and_no_faces_may_be_a_float_array():
+    # == on a result compared its arrays ("truth value ... is ambiguous").
+    a = zbuffer.render(scenes.default_scene(), width=16, height=12)
+    b = zbuffer.render(scenes.default_scene(), width=16, height=12)
+    assert a == a and a != b and a in [b, a]
+    assert len(zbuffer.Mesh(np.eye(3), np.zeros((0, 3))).faces) == 0  # as with []
+
+
+def test_a_count_of_cells_to_outline_must_be_a_number():
+    from zbuffer import viz
+
+    with pytest.raises(TypeError, match="highlight_culls must be a bool or a count"):
+        viz._highlight_count("yes")
+    with pytest.raises(ValueError, match="highlight_culls must be a bool or a count"):
+        viz._highlight_count(-1)

@@ -22,13 +22,20 @@ def check_scanline_faces(n_faces: int) -> None: ...
 class ObjectTree:
     """A built octree or BVH with the state of its last frame."""
 
-    kind: str
-    build_ms: float
-    n_nodes: int
-    n_clusters: int
-    n_references: int
-    n_faces: int
-    memory_bytes: int
+    @property
+    def kind(self) -> str: ...
+    @property
+    def build_ms(self) -> float: ...
+    @property
+    def n_nodes(self) -> int: ...
+    @property
+    def n_clusters(self) -> int: ...
+    @property
+    def n_references(self) -> int: ...
+    @property
+    def n_faces(self) -> int: ...
+    @property
+    def memory_bytes(self) -> int: ...
     def render(
         self,
         mvp: npt.NDArray[np.float64],

@@ -150,6 +150,8 @@ def render(mesh, algo: str = "zbuffer", camera: Optional[Camera] = None,
     TypeError
         Arguments of the wrong type (``out`` arrays of the wrong dtype among
         them).
+    FileNotFoundError
+        ``mesh`` is a path that does not exist (:func:`load`).
     """
     start = time.perf_counter()
     check_algorithm(algo)

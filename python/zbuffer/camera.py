@@ -380,12 +380,16 @@ class Camera:
         Raises
         ------
         ValueError
-            ``near`` or ``far`` unset, or ``ortho_height`` unset for an
-            orthographic camera (see :meth:`resolve`); a perspective
-            ``near`` and ``far`` so small that the matrix's
-            ``2 far near / (far - near)`` underflows to 0; any entry
-            beyond float range (near and far, or ``ortho_height``, named).
+            ``aspect`` not positive and finite; ``near`` or ``far`` unset,
+            or ``ortho_height`` unset for an orthographic camera (see
+            :meth:`resolve`); a perspective ``near`` and ``far`` so small
+            that the matrix's ``2 far near / (far - near)`` underflows to 0;
+            any entry beyond float range (near and far, or
+            ``ortho_height``, named).
+        TypeError
+            ``aspect`` not a number.
         """
+        aspect = _positive(aspect, "aspect")
         if self.near is None or self.far is None:
             raise ValueError("near/far are not set: call camera.resolve(vertices) first")
         n, f = self.near, self.far

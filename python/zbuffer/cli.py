@@ -124,15 +124,14 @@ def save_depth(path: str, depth: np.ndarray) -> None:
     Raises
     ------
     ImportError
-        scikit-image is not installed (needed for .npy files too).
+        scikit-image is not installed (an image file).
     OSError, ValueError
         As ``np.save`` or ``skimage.io.imsave`` raise them.
     """
-    import skimage.io
-
     if path.lower().endswith(".npy"):
         np.save(path, np.ascontiguousarray(depth))
         return
+    import skimage.io
 
     from .viz import depth_grey
 
@@ -424,8 +423,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``zbuffer`` command; returns the exit status.
 
-    Errors the commands raise as ValueError, TypeError or OSError are
-    printed to standard error as ``zbuffer: error: ...``, not raised.
+    Errors the commands raise as ValueError, TypeError, OSError or
+    MemoryError are printed to standard error as ``zbuffer: error: ...``,
+    not raised.
 
     Parameters
     ----------
@@ -458,7 +458,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         # Python's last flush at exit does not fail again.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
-    except (ValueError, TypeError, OSError) as err:  # (OSError: unreadable files, full disks)
+    # (OSError: unreadable files, full disks; MemoryError: a tree too large)
+    except (ValueError, TypeError, OSError, MemoryError) as err:
         print(f"zbuffer: error: {err}", file=sys.stderr)
         return 2
 

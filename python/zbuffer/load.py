@@ -46,6 +46,8 @@ def load(path, merge_vertices: bool = True) -> Mesh:
         If ``path`` does not exist.
     ValueError
         If the file cannot be parsed as a mesh.
+    TypeError
+        ``path`` not a str or path-like, or ``merge_vertices`` not a bool.
     """
     check_flag("merge_vertices", merge_vertices)
     path = os.fsdecode(os.fspath(path))

@@ -226,8 +226,10 @@ class Mesh:
             v = v.reshape(0, 3)
         if v.ndim != 2 or v.shape[1] != 3:
             raise ValueError(f"vertices must have shape (N, 3), got {v.shape}")
-        if f.size == 0 and f.ndim < 2:
-            f = f.reshape(0, 3).astype(np.int32)
+        if f.size == 0:  # no faces: of any number type (np.zeros((0, 3)) is float)
+            f = f.reshape(0, 3) if f.ndim < 2 else f
+            if number_dtype(f.dtype):
+                f = f.astype(np.int32)
         if not integer_dtype(f.dtype):
             raise TypeError(f"faces must be integer vertex indices, got dtype {f.dtype}")
         if f.ndim != 2 or f.shape[1] != 3:

@@ -229,7 +229,8 @@ def _table_records(table: np.ndarray, props):
 
 
 def _records_ascii(lines, count: int, props):
-    """As _records_binary, from the next ``count`` lines of ASCII records."""
+    """(scalar table, lists per list property) from the next ``count``
+    lines of ASCII records: as _records_binary, without the offset."""
     rows = []
     for _ in range(count):  # (a line a record: stops where they run out, whatever the count)
         line = next(lines, None)

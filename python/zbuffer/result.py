@@ -12,7 +12,7 @@ from .camera import Camera
 __all__ = ["RenderResult"]
 
 
-@dataclass(repr=False)
+@dataclass(repr=False, eq=False)  # (no ==: arrays compare lane by lane)
 class RenderResult:
     """What :func:`render` returns.
 

@@ -119,6 +119,8 @@ class Scene:
             Unknown ``algo``.
         TypeError
             ``algo`` is not a string.
+        MemoryError
+            Not enough memory for the tree.
         """
         check_algorithm(algo)
         if algo not in TREE_ALGORITHMS:
@@ -238,6 +240,8 @@ class Scene:
         ValueError, TypeError
             As :func:`zbuffer.render`; also ValueError for ``temporal=True``
             with an algorithm without a tree.
+        MemoryError
+            Not enough memory to build the tree (a first render builds it).
         """
         start = time.perf_counter()
         check_algorithm(algo)

@@ -245,16 +245,21 @@ def combine(parts: Sequence[Part], colors: Sequence[Sequence[float]] = (),
     Raises
     ------
     ValueError, TypeError
-        What :class:`~zbuffer.Mesh` refuses; colours out of range, or not
-        one per part.
+        What :class:`~zbuffer.Mesh` refuses, in the whole or in a part (a
+        part's faces must index its own vertices; the message names the
+        part); colours out of range, or not one per part.
     """
     verts: List[np.ndarray] = []
     faces: List[np.ndarray] = []
     offset = 0
-    for v, f in parts:
-        verts.append(np.asarray(v, float))
-        faces.append(np.asarray(f, np.int64) + offset)
-        offset += len(v)
+    for k, (v, f) in enumerate(parts):
+        try:  # each part checked as a mesh of its own (indices into its own vertices)
+            part = Mesh(v, f)
+        except (ValueError, TypeError) as err:
+            raise type(err)(f"parts[{k}]: {err}") from None
+        verts.append(part.vertices)
+        faces.append(part.faces.astype(np.int64) + offset)
+        offset += len(part.vertices)
     face_colors = None
     if colors is not None and len(colors):
         if len(colors) != len(parts):

@@ -26,8 +26,9 @@ r     reset the view
 from __future__ import annotations
 
 import math
+import os
 import time
-from typing import Optional
+from typing import IO, Optional, Union
 
 import numpy as np
 
@@ -40,7 +41,7 @@ from .result import RenderResult
 from .scene import NODE_FATES, TREE_ALGORITHMS, Scene
 from .shading import SHADINGS, check_shading
 from .viz import (FATE_COLORS, check_window, depth_for_display, depth_grey, id_colors,
-                  image_plane, require_pyvista, screenshot_target, take_screenshot)
+                  image_plane, offscreen, require_pyvista, screenshot_target, take_screenshot)
 
 __all__ = ["Viewer", "run"]
 
@@ -315,7 +316,7 @@ def _draw_node_rects(picture: np.ndarray, nodes: dict, mvp: np.ndarray) -> None:
         picture[y0:y1 + 1, x1] = color
 
 
-def run(viewer: Viewer, screenshot: Optional[str] = None):
+def run(viewer: Viewer, screenshot: Union[str, os.PathLike, IO, bool, None] = None):
     """Show the viewer in a window (or, with ``screenshot``, render one frame
     offscreen into that file -- viz.screenshot_target -- and return the
     picture).
@@ -325,7 +326,8 @@ def run(viewer: Viewer, screenshot: Optional[str] = None):
     viewer : Viewer
     screenshot : str, os.PathLike, file object or True, optional
         PNG, JPEG, BMP or TIFF by the suffix (none: ``.png`` is appended);
-        a file object gets a PNG; True: offscreen, no file.
+        a file object gets a PNG; True: offscreen, no file; None or False:
+        a window.
 
     Returns
     -------
@@ -343,10 +345,10 @@ def run(viewer: Viewer, screenshot: Optional[str] = None):
         No ``screenshot`` and no display to open a window on.
     """
     pv = require_pyvista()
-    offscreen = screenshot is not None
-    if offscreen:
+    drawn_offscreen = offscreen(screenshot)
+    if drawn_offscreen:
         screenshot_target(screenshot)  # (a bad file name said before anything is drawn)
-    plotter = pv.Plotter(off_screen=True if offscreen else None,  # None: pyvista.OFF_SCREEN
+    plotter = pv.Plotter(off_screen=True if drawn_offscreen else None,  # None: pyvista.OFF_SCREEN
                          window_size=(viewer.width, viewer.height),
                          border=False, title="zbuffer view")
     check_window(plotter)
@@ -365,7 +367,7 @@ def run(viewer: Viewer, screenshot: Optional[str] = None):
         plotter.render()
 
     show()
-    if offscreen:
+    if drawn_offscreen:
         return take_screenshot(plotter, screenshot)
 
     # zbuffer's camera, not VTK's: a style that does nothing, and observers.

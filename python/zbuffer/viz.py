@@ -202,10 +202,17 @@ def take_screenshot(plotter, screenshot):
     return image
 
 
+def offscreen(screenshot) -> bool:
+    """Whether a view's ``screenshot`` argument asks for a picture drawn
+    offscreen (a file, a file object or True) rather than a window (None or
+    False)."""
+    return screenshot is not None and screenshot is not False
+
+
 def _finish(plotter, screenshot):
     """Show the plotter, or with ``screenshot`` (a path, or True for no file)
     render it offscreen and return the picture."""
-    if screenshot is not None and screenshot is not False:
+    if offscreen(screenshot):
         return take_screenshot(plotter, screenshot)
     plotter.show()
     return plotter
@@ -229,11 +236,11 @@ def check_window(plotter) -> None:
 
 
 def _plotter(pv, shape, window_size, screenshot):
-    offscreen = screenshot is not None and screenshot is not False
-    if offscreen:
+    drawn_offscreen = offscreen(screenshot)
+    if drawn_offscreen:
         screenshot_target(screenshot)  # (a bad file name said before anything is drawn)
     # (None: pyvista's own setting, pyvista.OFF_SCREEN)
-    plotter = pv.Plotter(shape=shape, off_screen=True if offscreen else None,
+    plotter = pv.Plotter(shape=shape, off_screen=True if drawn_offscreen else None,
                          window_size=window_size, border=False)
     check_window(plotter)
     plotter.set_background("white")
@@ -354,9 +361,11 @@ def show_pyramid(source: Union[RenderResult, Sequence[np.ndarray]], screenshot: 
 def _highlight_count(highlight) -> int:
     if isinstance(highlight, (bool, np.bool_)):
         return 5 if highlight else 0
-    if isinstance(highlight, (int, np.integer)) and highlight >= 0:
-        return int(highlight)
-    raise ValueError(f"highlight_culls must be a bool or a count >= 0, got {highlight!r}")
+    if not isinstance(highlight, (int, np.integer)):
+        raise TypeError(f"highlight_culls must be a bool or a count >= 0, got {highlight!r}")
+    if highlight < 0:
+        raise ValueError(f"highlight_culls must be a bool or a count >= 0, got {highlight!r}")
+    return int(highlight)
 
 
 def most_culling_cells(counts: np.ndarray, n: int) -> np.ndarray:
@@ -665,7 +674,7 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
         else:
             plotter.remove_actor("tree")
 
-    if level is None and screenshot is None and depth_max > 0:
+    if level is None and not offscreen(screenshot) and depth_max > 0:
         plotter.add_slider_widget(lambda value: draw(int(round(value))), (0, depth_max),
                                   value=0, title="tree depth", fmt="%.0f")
     else:
