@@ -107,3 +107,20 @@ def test_clipped_vertices_rounded_outside_the_guard_band_go_onto_it():
             assert_same_visibility(res, ref)
             assert counters_add_up(res.stats)
     assert drawn[0] == 448 and sum(d > 0 for d in drawn) > 30
+
+
+@pytest.mark.parametrize("algo", ALGORITHMS)
+def test_coordinates_near_the_float_limit_are_clipped_away_alike(algo):
+    # A triangle 3e308 wide crossing the guard band: its clip distances
+    # overflow, and what clipping leaves is dropped by the core and the
+    # reference alike -- which warned of the overflow (an error under the
+    # tests' warning filter) before computing it without warnings.
+    v = np.array([[-1.5e308, 0, -5], [1.5e308, 0, -5], [0, 1, -5]])
+    cam = zbuffer.Camera.look_at((0, 0, 0), (0, 0, -1), fov_y=96, near=1, far=100)
+    res = zbuffer.render((v, [[0, 1, 2]]), algo=algo, camera=cam, width=16, height=16,
+                         shading="none")
+    ref = zbuffer.reference.render((v, [[0, 1, 2]]), camera=cam, width=16, height=16,
+                                   shading="none")
+    assert_same_visibility(res, ref)
+    assert res.stats["clipped"] == ref.stats["clipped"] == 1
+    assert counters_add_up(res.stats)

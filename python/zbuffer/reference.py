@@ -150,6 +150,13 @@ def _intersection(a: np.ndarray, da: float, b: np.ndarray, db: float) -> np.ndar
 def clip_polygon(poly, gx: float, gy: float):
     """Sutherland-Hodgman against near, far and the guard band: a list of
     (4,) clip-space vertices, empty if nothing (or nothing valid) is left."""
+    # Coordinates near the float limit overflow to inf or NaN here, as in
+    # the core, which drops what they leave (below): no warnings.
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _clip_polygon(poly, gx, gy)
+
+
+def _clip_polygon(poly, gx: float, gy: float):
     for plane in range(6):
         if len(poly) < 3:
             break
