@@ -537,3 +537,12 @@ def test_a_count_of_cells_to_outline_must_be_a_number():
         viz._highlight_count("yes")
     with pytest.raises(ValueError, match="highlight_culls must be a bool or a count"):
         viz._highlight_count(-1)
+
+
+def test_default_camera_names_an_aspect_no_image_has():
+    # 1e-300 failed deep inside with "eye must be finite, got (nan, nan, nan)".
+    for bad in (1e-300, 40000.0, 0.0):
+        with pytest.raises(ValueError, match=r"aspect must lie in \[1/32768, 32768\]"):
+            scenes.default_camera(bad)
+    with pytest.raises(TypeError, match="aspect"):
+        scenes.default_camera("wide")

@@ -308,9 +308,20 @@ def default_camera(aspect: float = 4.0 / 3.0, up=(0.0, 1.0, 0.0)):
     Camera
         Perspective, 45 degrees; ``near`` and ``far`` unset (fitted when
         rendering).
+
+    Raises
+    ------
+    ValueError
+        ``aspect`` outside [1/32768, 32768] (what images can have).
+    TypeError
+        ``aspect`` not a number.
     """
     from .camera import Camera
+    from .conventions import MAX_IMAGE_SIDE
 
+    aspect = as_finite("aspect", aspect)
+    if not 1.0 / MAX_IMAGE_SIDE <= aspect <= MAX_IMAGE_SIDE:  # (an image's width / height)
+        raise ValueError(f"aspect must lie in [1/{MAX_IMAGE_SIDE}, {MAX_IMAGE_SIDE}], got {aspect!r}")
     mesh = default_scene()
     camera = Camera.fit(mesh, direction=(0.45, 0.55, 1.0), up=up, aspect=aspect)
     # Fitted to the bounding sphere, the scene (low and wide) would sit in
