@@ -15,9 +15,14 @@ changes are worth. This script builds the core (``cpp/``) of each tree --
 a git revision, or ``.`` for the working tree -- under its own namespace
 (``-Dzbuffer=zb_a`` / ``zb_b``), links both into one runner
 (``benchmarks/ab/``), and renders every case with A and B in alternating
-frames (A B, B A, ...): both see the same noise, and the ratio of their
-medians is stable to about half a percent (an A/A run of one tree against
-itself gives 0.995-1.005). It also checks that the two drew the same bits.
+turns (A B, B A, ...), each turn two frames of its side with the second
+timed, so that every timed frame follows one of its own (as frame after
+frame of one build would; timing every frame of A B B A ... gave each side
+two modes, 7-15% apart at 1024 x 1024, and the median fell between them):
+both see the same noise, and the ratio of their medians is stable to about
+one percent (an A/A run of one tree against itself gave 0.990-1.004, 100
+frames a side: results/ab-aa-warm.md). It also checks that the two drew the
+same bits, in the first frame and in the last.
 
 The inputs are the Python side's, made once by the installed ``zbuffer``
 (the mesh's prepared visiting order, the fitted camera's matrix): the
@@ -252,8 +257,9 @@ def main(argv=None) -> int:
         f"- machine: {m['cpu']}, {m['cores']} cores; --march {args.march}",
         f"- A: {label_a}; B: {label_b}",
         f"- command: `{report['command']}`",
-        f"- each cell: median of {args.frames} frames per side, A and B alternating "
-        "frame by frame (A B, B A, ...); one thread. Shading none: ms is the core's "
+        f"- each cell: median of {args.frames} timed frames per side, A and B in "
+        "alternating turns (A B, B A, ...) of two frames each, the second timed (each "
+        "timed frame follows one of its own side); one thread. Shading none: ms is the core's "
         "`render_ms` (clearing the planes included), depth only; flat or smooth: ms is "
         "the shading call alone, after each render, and *same bits* compares the image "
         "too (the largest difference of a channel in brackets)", "",

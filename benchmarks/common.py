@@ -23,7 +23,8 @@ MODELS = Path(os.environ.get("ZBUFFER_MODELS", HERE.parents[1] / "shared" / "mod
 
 
 def machine() -> dict:
-    """The CPU, core count, versions and git revision a report was measured with."""
+    """The CPU, core count, versions, git revision and installed module a report
+    was measured with."""
     cpu = platform.processor() or ""
     try:
         with open("/proc/cpuinfo") as fh:
@@ -36,16 +37,20 @@ def machine() -> dict:
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE,
                                 capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "cpp", "src", "python"],
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "cpp", "src", "python",
+                                "CMakeLists.txt", "pyproject.toml"],
                                cwd=HERE.parent, capture_output=True, text=True).stdout.strip()
         if dirty:
-            commit += " (with uncommitted changes to the sources)"
+            commit += " (with uncommitted changes to the sources or the build)"
     except (OSError, subprocess.CalledProcessError):
         commit = "unknown"
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
             "numpy": np.__version__, "zbuffer": zbuffer.__version__,
             "raster_backend": zbuffer._core.RASTER_BACKEND,
-            "platform": platform.platform(), "commit": commit}
+            "platform": platform.platform(), "commit": commit,
+            # What was timed: the installed package, which `commit` (the
+            # checkout's) describes only if it was installed from it since.
+            "zbuffer_module": zbuffer._core.__file__}
 
 
 def new_report(script: str, argv) -> dict:

@@ -88,7 +88,9 @@ def results_markdown(out: Path, record: dict) -> str:
                 continue
             note = [f"*Not run by this command: the section below (and \"this run\" in it) "
                     f"is from an earlier run ({report['date']}, `{report['command']}`).*", ""]
-        md = (out / f"{name}.md").read_text().splitlines()
+        # The tables made again from the report judged (the suite's <name>.md may
+        # be another run's: one of the suite alone since the kept one).
+        md = SUITES[name].markdown(report).splitlines()
         title = md[0].lstrip("# ").strip() if md and md[0].startswith("#") else name
         lines += [f"## {title}", "", *note,
                   targets.paragraph(name, report, "--quick" in report["command"]), "",

@@ -61,7 +61,8 @@ def _render(report):
         c = find("bunny_69k.obj", "zbuffer", shading)
         if c and c.get("shade_ms_median") is not None:
             shade = c["shade_ms_median"]
-            render = c["core_ms_median"] - shade
+            # (the render's own median where recorded; older reports: the difference)
+            render = c.get("render_ms_median", c["core_ms_median"] - shade)
             text = (f"`shading=\"{shading}\"` on bunny_69k.obj at {c['size']}: the shading pass "
                     f"takes {shade:.2f} ms of the frame's {c['core_ms_median']:.2f} ms "
                     f"({shade / c['core_ms_median']:.0%}; the render {render:.2f} ms)")
@@ -114,23 +115,27 @@ def _hiz(report):
     ns = sorted({c["N"] for c in grid})
     if not ns:
         return lines
-    top, low = ns[-1], ns[0]
+    top, low = 80, 10  # (issue 4's built-once targets are at N = 80, against N = 10)
+    if top not in ns or low not in ns:
+        lines.append(f"- **not judged**: issue 4's built-once targets (N = 80, and N = 80 "
+                     f"against N = 10): this run has N = {', '.join(map(str, ns))}.")
     # Issue 4 runs the grid in both projections; its built-once targets are
     # checked in both (in orthographic view the copies' silhouettes coincide:
-    # benchmarks/README.md says why few nodes are hidden whole there).
+    # benchmarks/README.md says why few nodes are hidden whole there). They
+    # name `hiz_octree`; the BVH's figures are given beside them, unjudged.
     for projection in ("perspective", "orthographic"):
         base = case(top, projection, "zbuffer", "per frame")
         for algo in ("hiz_octree", "hiz_bvh"):
             c = case(top, projection, algo, "built once")
             if c and base:
                 speedup = base["ms_median"] / c["ms_median"]
-                lines.append(verdict(speedup >= 5 if algo == "hiz_octree" else True,
-                                     f"`{algo}` built once, N={top}, {projection}: "
-                                     f"{speedup:.1f}x faster than `zbuffer`"
-                                     + (" (target >= 5x; issue 4)." if algo == "hiz_octree"
-                                        else ".")))
+                text = (f"`{algo}` built once, N={top}, {projection}: {speedup:.1f}x faster "
+                        "than `zbuffer`")
+                lines.append(verdict(speedup >= 5, text + " (target >= 5x; issue 4).")
+                             if algo == "hiz_octree" else
+                             f"- {text} (issue 4 sets no target for the BVH).")
             c0 = case(low, projection, algo, "built once")
-            if c and c0 and top != low and algo == "hiz_octree":
+            if c and c0 and algo == "hiz_octree":
                 growth = c["ms_median"] / c0["ms_median"]
                 lines.append(verdict(growth <= 2, f"output sensitivity of `{algo}`, {projection}: "
                                      f"time at N={top} is {growth:.2f}x its time at N={low} "

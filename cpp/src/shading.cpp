@@ -953,8 +953,8 @@ inline void store_rgb16(uint8_t* out, __m512i rgba, __mmask16 lanes) {
   const __m512i dwords = _mm512_set_epi32(15, 15, 15, 15, 14, 13, 12, 10, 9, 8, 6, 5, 4, 2, 1, 0);
   const __m512i line = _mm512_permutexvar_epi32(dwords, packed);
   // 16 lanes: the 48 bytes as 32 + 16, unmasked. (A byte-masked store of
-  // them, as below, made smooth shading 1.06-1.08x and flat shading
-  // 1.10-1.13x as slow on Zen 4; one unmasked 64-byte store, its last 16
+  // them, as below, made smooth shading 1.04-1.05x and flat shading
+  // 1.08x as slow on Zen 4; one unmasked 64-byte store, its last 16
   // bytes overwritten by the next step, 1.01-1.05x as slow as these two:
   // benchmarks/README.md.)
   if (lanes == 0xFFFF) {
