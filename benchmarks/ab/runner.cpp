@@ -152,7 +152,8 @@ int main(int argc, char** argv) {
           return 2;
         }
         if (frame == 0) hash[side] = planes[size_t(side)].hash(images[side]);
-        if (frame == kWarmup + frames - 1) last_hash[side] = planes[size_t(side)].hash(images[side]);
+        if (frame == kWarmup + frames - 1)
+          last_hash[side] = planes[size_t(side)].hash(images[side]);
         if (frame >= kWarmup) ms[side].push_back(out[side][0]);
       }
     }
@@ -164,7 +165,8 @@ int main(int argc, char** argv) {
                 "\"pitch\": [%d, %d], \"tested\": [%.0f, %.0f], \"written\": [%.0f, %.0f], "
                 "\"ms\": [[",
                 path, algo, shading.c_str(), w, h, static_cast<long long>(nf),
-                hash[0] == hash[1] && last_hash[0] == last_hash[1] ? "true" : "false", image_diff, planes[0].pitch, planes[1].pitch,
+                hash[0] == hash[1] && last_hash[0] == last_hash[1] ? "true" : "false",
+                image_diff, planes[0].pitch, planes[1].pitch,
                 out[0][1], out[1][1], out[0][2], out[1][2]);
     for (int side = 0; side < 2; ++side) {
       for (size_t k = 0; k < ms[side].size(); ++k)
