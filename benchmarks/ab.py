@@ -3,6 +3,7 @@
     python benchmarks/ab.py 598c1dd                 # that commit against the working tree
     python benchmarks/ab.py HEAD~3 HEAD --algo zbuffer hiz
     python benchmarks/ab.py HEAD . --march haswell  # the AVX2 loops (any x86-64 with AVX2)
+    python benchmarks/ab.py HEAD HEAD --march-b haswell  # one tree's AVX-512 loops against its AVX2 ones
     python benchmarks/ab.py HEAD . --cases bunny_69k.obj@1024x1024 --frames 400
     python benchmarks/ab.py HEAD . --algo hiz_bvh --cases grid20-orthographic@1024x1024
     python benchmarks/ab.py HEAD . --algo hiz_octree@once   # zbuffer.Scene's tree, built once
@@ -188,6 +189,9 @@ def main(argv=None) -> int:
                     "the shading call's time")
     ap.add_argument("--march", choices=sorted(MARCH), default="native",
                     help="instruction set of both builds (haswell: the AVX2 loops)")
+    ap.add_argument("--march-b", choices=sorted(MARCH), default=None,
+                    help="another instruction set for B (A keeps --march): the loops of two "
+                    "instruction sets compared frame by frame, e.g. HEAD HEAD --march-b haswell")
     ap.add_argument("--out", default=str(HERE / "results"), help="folder for the report")
     ap.add_argument("--name", default="ab", help="the report's file names: NAME.json, NAME.md")
     args = ap.parse_args(argv)
@@ -214,9 +218,13 @@ def main(argv=None) -> int:
     BUILD.mkdir(parents=True, exist_ok=True)
     src_a, label_a = tree_of(args.base)
     src_b, label_b = tree_of(args.head)
-    print(f"A = {label_a}, B = {label_b}, --march {args.march}: building ...", flush=True)
-    link = build_side(src_a, "a", args.march) + build_side(src_b, "b", args.march)
-    runner = BUILD / f"runner-{args.march}"
+    march_b = args.march_b or args.march
+    marches = args.march if march_b == args.march else f"{args.march} (A), {march_b} (B)"
+    print(f"A = {label_a}, B = {label_b}, --march {marches}: building ...", flush=True)
+    link = build_side(src_a, "a", args.march) + build_side(src_b, "b", march_b)
+    runner = BUILD / f"runner-{args.march}" if march_b == args.march else \
+        BUILD / f"runner-{args.march}-{march_b}"
+    # (The runner itself has no vector loops: A's flags.)
     run([os.environ.get("CXX", "c++"), "-O2", "-std=c++17", *MARCH[args.march][1],
          str(HERE / "ab" / "runner.cpp"), *map(str, link), "-o", str(runner)])
 
@@ -228,8 +236,9 @@ def main(argv=None) -> int:
 
     report = new_report("ab.py", argv)
     # (The runner's loops are those of --march, not the installed package's.)
-    report["machine"]["raster_backend"] = f"the runner's, --march {args.march}"
-    report.update({"a": label_a, "b": label_b, "march": args.march, "frames": args.frames,
+    report["machine"]["raster_backend"] = f"the runner's, --march {marches}"
+    report.update({"a": label_a, "b": label_b, "march": args.march, "march_b": march_b,
+                   "frames": args.frames,
                    "shading": args.shading, "results": []})
     rows = []
     for algo, shading in itertools.product(args.algo, args.shading):
@@ -254,7 +263,7 @@ def main(argv=None) -> int:
     text = "\n".join([
         "# A/B: two builds of the core in one process", "",
         f"- date: {report['date']}",
-        f"- machine: {m['cpu']}, {m['cores']} cores; --march {args.march}",
+        f"- machine: {m['cpu']}, {m['cores']} cores; --march {marches}",
         f"- A: {label_a}; B: {label_b}",
         f"- command: `{report['command']}`",
         f"- each cell: median of {args.frames} timed frames per side, A and B in "
