@@ -58,7 +58,9 @@ struct Doubles8 {
   static ZBUFFER_INLINE Mask widen(IndexMask m) { return m; }
   static ZBUFFER_INLINE Index index(int32_t k) { return _mm256_set1_epi32(k); }
   static ZBUFFER_INLINE Index add(Index a, Index b) { return _mm256_add_epi32(a, b); }
-  static ZBUFFER_INLINE Index times3(Index a) { return _mm256_mullo_epi32(a, _mm256_set1_epi32(3)); }
+  static ZBUFFER_INLINE Index times3(Index a) {
+    return _mm256_mullo_epi32(a, _mm256_set1_epi32(3));
+  }
   // base[i] of the lanes of m, 0 in the others
   static ZBUFFER_INLINE Index gather(const int32_t* base, Index i, IndexMask m) {
     return _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), m, i, base, 4);
@@ -166,7 +168,8 @@ struct Doubles4 {
     return {_mm256_mask_i32gather_pd(_mm256_setzero_pd(), base, i, m.v, 8)};
   }
   static ZBUFFER_INLINE D gather(const float* base, Index i, IndexMask m) {
-    return {_mm256_cvtps_pd(_mm_mask_i32gather_ps(_mm_setzero_ps(), base, i, _mm_castsi128_ps(m), 4))};
+    return {_mm256_cvtps_pd(
+        _mm_mask_i32gather_ps(_mm_setzero_ps(), base, i, _mm_castsi128_ps(m), 4))};
   }
 
   static ZBUFFER_INLINE void store(double* p, D a) { _mm256_storeu_pd(p, a.v); }
@@ -182,7 +185,8 @@ struct Doubles4 {
     for (int g = 0; g < n; g += 4) {
       _MM_TRANSPOSE4_PS(field[g], field[g + 1], field[g + 2], field[g + 3]);
       for (int j = 0; j < 4; ++j)
-        if (lanes & (1u << j)) _mm_storeu_ps(rows + size_t(n) * size_t(j) + size_t(g), field[g + j]);
+        if (lanes & (1u << j))
+          _mm_storeu_ps(rows + size_t(n) * size_t(j) + size_t(g), field[g + j]);
     }
   }
 };

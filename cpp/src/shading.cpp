@@ -95,10 +95,11 @@ struct FaceShade {
   // det's sign wherever w > 0: the map is sign(det) sum_k N_k adj(M)_k,
   // turned to the viewer's side and scaled to a largest entry of 1 (only
   // the direction counts). A pixel then costs 6 multiply-adds and the
-  // normalisation: no barycentric division and no corner normals. Barycentrics are not clamped into [0, 1] here:
-  // a snapped pixel centre a hair outside the triangle extrapolates by that
-  // hair. A face without usable barycentrics (det 0 or not finite) maps
-  // every pixel to its corners' mean normal, as the scalar pass does.
+  // normalisation: no barycentric division and no corner normals.
+  // Barycentrics are not clamped into [0, 1] here: a snapped pixel centre a
+  // hair outside the triangle extrapolates by that hair. A face without
+  // usable barycentrics (det 0 or not finite) maps every pixel to its
+  // corners' mean normal, as the scalar pass does.
   double normal_map[9];
   // Interpolated shading in the vector passes: true where their float32
   // evaluation could stray from the scalar pass by about a level, and they

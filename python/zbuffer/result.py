@@ -12,7 +12,7 @@ from .camera import Camera
 __all__ = ["RenderResult"]
 
 
-@dataclass(repr=False, eq=False)  # (no ==: arrays compare lane by lane)
+@dataclass(repr=False, eq=False)  # (== by identity: its arrays compare element by element)
 class RenderResult:
     """What :func:`render` returns.
 

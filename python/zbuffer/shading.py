@@ -28,7 +28,7 @@ DEFAULT_DIFFUSE = 0.8
 DEFAULT_BACKGROUND = (255, 255, 255)
 
 
-@dataclass(frozen=True, eq=False)  # (no == nor hash: it holds arrays)
+@dataclass(frozen=True, eq=False)  # (== and hash by identity: it holds arrays)
 class ShadingParams:
     """Resolved shading options (see :func:`zbuffer.render` for their meaning)."""
 

@@ -13,16 +13,28 @@ namespace zbuffer {
 
 // std::allocator, except that value-initialisation (resize(n)) becomes
 // default-initialisation: for the plain numbers stored in Buffers, no write
-// at all.
-template <class T>
+// at all. With kAlign, blocks start on a kAlign-byte boundary (LineBuffer).
+template <class T, size_t kAlign = 0>
 struct DefaultInitAllocator : std::allocator<T> {
   template <class U>
   struct rebind {
-    using other = DefaultInitAllocator<U>;
+    using other = DefaultInitAllocator<U, kAlign>;
   };
   DefaultInitAllocator() noexcept = default;
   template <class U>
-  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  DefaultInitAllocator(const DefaultInitAllocator<U, kAlign>&) noexcept {}
+  T* allocate(size_t n) {
+    if constexpr (kAlign != 0)
+      return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t(kAlign)));
+    else
+      return std::allocator<T>::allocate(n);
+  }
+  void deallocate(T* p, size_t n) noexcept {
+    if constexpr (kAlign != 0)
+      ::operator delete(p, std::align_val_t(kAlign));
+    else
+      std::allocator<T>::deallocate(p, n);
+  }
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
     ::new (static_cast<void*>(p)) U;
@@ -33,22 +45,6 @@ struct DefaultInitAllocator : std::allocator<T> {
   }
 };
 
-// DefaultInitAllocator whose blocks start on a 64-byte boundary (a cache
-// line), for arrays of records one line long.
-template <class T>
-struct LineAlignedAllocator : DefaultInitAllocator<T> {
-  static constexpr std::align_val_t kLine{64};
-  template <class U>
-  struct rebind {
-    using other = LineAlignedAllocator<U>;
-  };
-  LineAlignedAllocator() noexcept = default;
-  template <class U>
-  LineAlignedAllocator(const LineAlignedAllocator<U>&) noexcept {}
-  T* allocate(size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kLine)); }
-  void deallocate(T* p, size_t) noexcept { ::operator delete(p, kLine); }
-};
-
 // Design decision: a build writes each element of its output exactly once,
 // at places it computes itself, so it grows the array by resize() and then
 // writes through a pointer. Good: no push_back capacity check per element
@@ -57,9 +53,9 @@ struct LineAlignedAllocator : DefaultInitAllocator<T> {
 // are indeterminate; every writer must fill what it resizes (or shrink back).
 template <class T>
 using Buffer = std::vector<T, DefaultInitAllocator<T>>;
-// A Buffer that starts on a cache line.
+// A Buffer that starts on a cache line (for arrays of records a line long).
 template <class T>
-using LineBuffer = std::vector<T, LineAlignedAllocator<T>>;
+using LineBuffer = std::vector<T, DefaultInitAllocator<T, 64>>;
 
 // Asks the kernel to back the whole 2 MiB pages of [p, p + bytes) with
 // transparent huge pages (Linux; elsewhere, or if refused, nothing happens).
