@@ -470,6 +470,106 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
   }
   return hidden;
 }
+#elif defined(ZBUFFER_AVX2)
+// cull_small16 for the 8 lanes of an AVX2 assembly (setup8.h's Box8): the
+// same levels, cells and comparison, with vector masks for mask registers
+// and the blocks of the survivors marked lane by lane (AVX2 has no scatter).
+template <class Box, class Vec>
+ZBUFFER_INLINE unsigned TriangleBatch::cull_small8(const Box& box, Vec z_lo, unsigned candidates) {
+  if (!tile_cells_) {  // a pyramid without level 3 (a tiny image): one by one
+    alignas(32) int32_t x0[8], y0[8], x1[8], y1[8];
+    alignas(32) float z[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(x0), box.i0);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(y0), box.j0);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(x1), box.i1);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(y1), box.j1);
+    _mm256_store_ps(z, z_lo);
+    return cull_lanes(x0, y0, x1, y1, z, candidates);
+  }
+  const __m256i two = _mm256_set1_epi32(2);
+  // Each box's level, as test_level finds it (too_wide lanes are -1).
+  __m256i level = _mm256_set1_epi32(fine_);
+  for (int l = fine_; l < kTileShift; ++l) {
+    const __m128i shift = _mm_cvtsi32_si128(l);
+    auto span = [&](__m256i lo, __m256i hi) {
+      return _mm256_sub_epi32(_mm256_sra_epi32(hi, shift), _mm256_sra_epi32(lo, shift));
+    };
+    const __m256i too_wide = _mm256_or_si256(_mm256_cmpgt_epi32(span(box.i0, box.i1), two),
+                                             _mm256_cmpgt_epi32(span(box.j0, box.j1), two));
+    level = _mm256_sub_epi32(level, too_wide);
+  }
+  const __m256i cells_wide = _mm256_permutevar8x32_epi32(
+      _mm256_load_si256(reinterpret_cast<const __m256i*>(level_width_)), level);
+  const __m256i ci0 = _mm256_srav_epi32(box.i0, level), cj0 = _mm256_srav_epi32(box.j0, level);
+  const __m256i ci1 = _mm256_srav_epi32(box.i1, level), cj1 = _mm256_srav_epi32(box.j1, level);
+  const __m256i first = _mm256_add_epi32(
+      _mm256_permutevar8x32_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(level_offset_)),
+                                  level),
+      _mm256_add_epi32(_mm256_mullo_epi32(cj0, cells_wide), ci0));
+  const float* cells = pyramid_->cells();
+  const __m256i wanted = simd::mask8(candidates);
+  __m256 bound = _mm256_set1_ps(-std::numeric_limits<float>::infinity());
+  __m256i row = first;
+  for (int dy = 0; dy < 3; ++dy) {
+    const __m256i in_rows = _mm256_andnot_si256(
+        _mm256_cmpgt_epi32(_mm256_add_epi32(cj0, _mm256_set1_epi32(dy)), cj1), wanted);
+    for (int dx = 0; dx < 3; ++dx) {
+      const __m256i dxv = _mm256_set1_epi32(dx);
+      const __m256i in =
+          _mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_add_epi32(ci0, dxv), ci1), in_rows);
+      if (!_mm256_testz_si256(in, in))  // boxes rarely span three cells
+        bound = _mm256_max_ps(bound, _mm256_mask_i32gather_ps(bound, cells, _mm256_add_epi32(row, dxv),
+                                                              _mm256_castsi256_ps(in), 4));
+    }
+    row = _mm256_add_epi32(row, cells_wide);
+  }
+  const unsigned hidden =
+      candidates & unsigned(_mm256_movemask_ps(_mm256_cmp_ps(z_lo, bound, _CMP_GT_OQ)));
+  const unsigned shown = candidates & ~hidden;
+  alignas(32) int32_t x0[8], y0[8], x1[8], y1[8];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(x0), box.i0);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(y0), box.j0);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(x1), box.i1);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(y1), box.j1);
+  if (hidden) {
+    if (pyramid_->recording_culls()) {  // one by one, with their boxes
+      alignas(32) int32_t lv[8];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(lv), level);
+      for (unsigned m = hidden; m; m &= m - 1) {
+        const int k = __builtin_ctz(m);
+        count_hidden(lv[k], x0[k], y0[k], x1[k], y1[k]);
+      }
+    } else {
+      const int n = __builtin_popcount(hidden);
+      batch_culled_ += n;
+      stats_.culled_hidden += n;
+      stats_.rasterized -= n;  // counted when assembled: they are not drawn after all
+    }
+  }
+  // The blocks under the survivors' boxes, as in cull_small16: their
+  // rectangle whole when it is small, otherwise box by box.
+  if (shown) {
+    int lo_x = 1 << 30, hi_x = -1, lo_y = 1 << 30, hi_y = -1;
+    for (unsigned m = shown; m; m &= m - 1) {
+      const int k = __builtin_ctz(m);
+      lo_x = std::min(lo_x, x0[k]);
+      hi_x = std::max(hi_x, x1[k]);
+      lo_y = std::min(lo_y, y0[k]);
+      hi_y = std::max(hi_y, y1[k]);
+    }
+    if (((hi_x >> kDirtyShift) - (lo_x >> kDirtyShift) + 1) *
+            ((hi_y >> kDirtyShift) - (lo_y >> kDirtyShift) + 1) <=
+        4) {
+      mark_blocks(lo_x, lo_y, hi_x, hi_y);
+    } else {
+      for (unsigned m = shown; m; m &= m - 1) {
+        const int k = __builtin_ctz(m);
+        mark_blocks(x0[k], y0[k], x1[k], y1[k]);
+      }
+    }
+  }
+  return hidden;
+}
 #endif
 
 void TriangleBatch::draw_large_by_tiles(const TriangleSetup& s) {
@@ -883,17 +983,8 @@ void TriangleBatch::add_8_faces(const MeshView& mesh, const double* mvp, const V
   simd::box8(f, target_.width, target_.height, box);
   unsigned vector_setup = f.draw & box.nonempty & box.small;
   const unsigned scalar_setup = f.draw & box.nonempty & ~box.small;
-  // With a pyramid, hidden small faces go no further (tested one by one).
-  if (pyramid_ && vector_setup) {
-    alignas(32) int32_t x0[8], y0[8], x1[8], y1[8];
-    alignas(32) float z_lo[8];
-    _mm256_store_si256(reinterpret_cast<__m256i*>(x0), box.i0);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(y0), box.j0);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(x1), box.i1);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(y1), box.j1);
-    _mm256_store_ps(z_lo, simd::nearest8(f));
-    vector_setup &= ~cull_lanes(x0, y0, x1, y1, z_lo, vector_setup);
-  }
+  // With a pyramid, hidden small faces go no further.
+  if (pyramid_ && vector_setup) vector_setup &= ~cull_small8(box, simd::nearest8(f), vector_setup);
 
   if (vector_setup) {
     simd::Setup8 s;

@@ -144,6 +144,9 @@ class TriangleBatch {
   // (AVX-512 builds, setup16.h's Box16): returns the hidden lanes.
   template <class Box, class Vec, class Mask>
   Mask cull_small16(const Box& box, Vec z_lo, Mask candidates);
+  // The same for the 8 lanes of an AVX2 assembly (setup8.h's Box8).
+  template <class Box, class Vec>
+  unsigned cull_small8(const Box& box, Vec z_lo, unsigned candidates);
   void cull_large();
   void count_hidden(int level, int x0, int y0, int x1, int y1);
   void draw_large_by_tiles(const TriangleSetup& s);
