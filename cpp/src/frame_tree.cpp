@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "morton.h"
+#include "setup8.h"  // (AVX2 builds: bits8)
 #include "simd.h"
 
 namespace zbuffer {
@@ -45,7 +46,7 @@ struct Buckets {
     run_ = -1;
     last_ = -1;
     in_order_ = true;
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
     clear_lanes();
 #endif
   }
@@ -112,6 +113,62 @@ struct Buckets {
         fl[a] = one ? l[a][k] : _mm512_mask_reduce_min_epu32(same, lo[a]);
         fh[a] = one ? h[a][k] : _mm512_mask_reduce_max_epu32(same, hi[a]);
       }
+      add_to_bucket(bs[k], __builtin_popcount(same), f + k, f + 31 - __builtin_clz(same), fl, fh);
+    }
+  }
+#elif defined(ZBUFFER_AVX2)
+  // add16 for faces f .. f + 7 (AVX2 builds): the same runs and buckets.
+  void add8(int64_t f, __m256i b, const __m256i* lo, const __m256i* hi) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(&of_face[size_t(f)]), b);
+    // In order while no face's bucket is below the one before it.
+    const __m256i before = _mm256_blend_epi32(
+        _mm256_permutevar8x32_epi32(b, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)),
+        _mm256_set1_epi32(last_), 0x01);
+    in_order_ &= _mm256_testz_si256(_mm256_cmpgt_epi32(before, b), _mm256_set1_epi32(-1)) != 0;
+    const int32_t last = _mm256_extract_epi32(b, 7);
+    last_ = last;
+    __m256i in_run = _mm256_cmpeq_epi32(b, _mm256_set1_epi32(run_));  // (run_ -1: no bucket)
+    if (_mm256_testz_si256(in_run, in_run)) {
+      end_run();
+      in_run = _mm256_cmpeq_epi32(b, _mm256_set1_epi32(last));
+      run_ = last;
+      run_count_ = 0;
+      run_first_ = f + __builtin_ctz(simd::bits8(in_run));
+      for (int a = 0; a < 3; ++a) {
+        run_lo_[a] = ~uint32_t(0);
+        run_hi_[a] = 0;
+      }
+    }
+    for (int a = 0; a < 3; ++a) {
+      __m256i* run_lo = reinterpret_cast<__m256i*>(lane_lo_[a]);
+      __m256i* run_hi = reinterpret_cast<__m256i*>(lane_hi_[a]);
+      // Lanes out of the run: lo all ones, hi zero, which change nothing.
+      _mm256_storeu_si256(run_lo, _mm256_min_epu32(_mm256_loadu_si256(run_lo),
+                                                   _mm256_or_si256(lo[a], _mm256_xor_si256(in_run, _mm256_set1_epi32(-1)))));
+      _mm256_storeu_si256(run_hi, _mm256_max_epu32(_mm256_loadu_si256(run_hi), _mm256_and_si256(hi[a], in_run)));
+    }
+    const unsigned run_bits = simd::bits8(in_run);
+    run_count_ += __builtin_popcount(run_bits);
+    run_last_ = f + 31 - __builtin_clz(run_bits);
+    unsigned left = ~run_bits & 0xFFu;
+    if (!left) return;
+    alignas(32) int32_t bs[8];
+    alignas(32) uint32_t l[3][8], h[3][8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(bs), b);
+    for (int a = 0; a < 3; ++a) {
+      _mm256_store_si256(reinterpret_cast<__m256i*>(l[a]), lo[a]);
+      _mm256_store_si256(reinterpret_cast<__m256i*>(h[a]), hi[a]);
+    }
+    while (left) {
+      const int k = __builtin_ctz(left);
+      const unsigned same = left & simd::bits8(_mm256_cmpeq_epi32(b, _mm256_set1_epi32(bs[k])));
+      left &= ~same;
+      uint32_t fl[3] = {~uint32_t(0), ~uint32_t(0), ~uint32_t(0)}, fh[3] = {0, 0, 0};
+      for (unsigned m = same; m; m &= m - 1)
+        for (int a = 0; a < 3; ++a) {
+          fl[a] = std::min(fl[a], l[a][__builtin_ctz(m)]);
+          fh[a] = std::max(fh[a], h[a][__builtin_ctz(m)]);
+        }
       add_to_bucket(bs[k], __builtin_popcount(same), f + k, f + 31 - __builtin_clz(same), fl, fh);
     }
   }
@@ -213,6 +270,12 @@ struct Buckets {
       run_hi_[a] = std::max(run_hi_[a], _mm512_reduce_max_epu32(_mm512_loadu_si512(lane_hi_[a])));
     }
     clear_lanes();
+#elif defined(ZBUFFER_AVX2)
+    for (int a = 0; a < 3; ++a) {
+      run_lo_[a] = std::min(run_lo_[a], *std::min_element(lane_lo_[a], lane_lo_[a] + 8));
+      run_hi_[a] = std::max(run_hi_[a], *std::max_element(lane_hi_[a], lane_hi_[a] + 8));
+    }
+    clear_lanes();
 #endif
     add_to_bucket(run_, run_count_, run_first_, run_last_, run_lo_, run_hi_);
     run_ = -1;
@@ -236,8 +299,9 @@ struct Buckets {
   int64_t run_count_ = 0;
   int64_t run_first_ = 0, run_last_ = 0;  // the run's first and last face
   uint32_t run_lo_[3] = {}, run_hi_[3] = {};
-#ifdef ZBUFFER_AVX512
-  // More of the run's bounds, lane by lane (add16), folded in by end_run.
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+  // More of the run's bounds, lane by lane (add16; add8: the first 8),
+  // folded in by end_run.
   // (Plain arrays, moved by unaligned loads and stores: a thread_local in a
   // shared library need not get a vector's alignment.)
   uint32_t lane_lo_[3][16], lane_hi_[3][16];
@@ -321,6 +385,13 @@ class FrameOctree {
         face_cells16(grid_, mesh_.faces + 3 * f, c, lo, hi);
         b_.add16(f, cells_.holder16(c, lo, hi), lo, hi);
       }
+#elif defined(ZBUFFER_AVX2)
+    if (vector)
+      for (; f + 8 <= mesh_.n_faces; f += 8) {
+        __m256i c[3], lo[3], hi[3];
+        face_cells8(grid_, mesh_.faces + 3 * f, c, lo, hi);
+        b_.add8(f, cells_.holder8(c, lo, hi), lo, hi);
+      }
 #endif
     (void)vector;
     for (; f < mesh_.n_faces; ++f) {
@@ -391,6 +462,14 @@ class FrameBvh {
         face_cells16(grid_, mesh_.faces + 3 * f, c, lo, hi);
         const __m512i code = centroid_codes16(c);
         b_.add16(f, _mm512_srli_epi32(code, unsigned(30 - bits_)), lo, hi);
+      }
+    }
+#elif defined(ZBUFFER_AVX2)
+    if (vector) {
+      for (; f + 8 <= mesh_.n_faces; f += 8) {
+        __m256i c[3], lo[3], hi[3];
+        face_cells8(grid_, mesh_.faces + 3 * f, c, lo, hi);
+        b_.add8(f, _mm256_srli_epi32(centroid_codes8(c), 30 - bits_), lo, hi);
       }
     }
 #endif

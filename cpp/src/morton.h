@@ -134,8 +134,8 @@ struct VertexGrid {
                       : origin[a] + (double(hi) + 2.0) * cell_size;
   }
 
-  // `vector`: the AVX-512 loops, 8 vertices per step (same bits; false
-  // only for tests holding them to the scalar ones).
+  // `vector`: the AVX-512 loops, 8 vertices per step, or the AVX2 ones, 4
+  // (same bits; false only for tests holding them to the scalar ones).
   //
   // Design decision: the grid depends on the vertices' bounds, which take a
   // pass of their own -- unless they are known. A grid that is built again
@@ -187,6 +187,22 @@ struct VertexGrid {
       xyz[axis] = _mm512_permutex2var_pd(
           _mm512_permutex2var_pd(a, _mm512_load_si512(kSplit.ab[axis]), b),
           _mm512_load_si512(kSplit.tc[axis]), c);
+  }
+#elif defined(ZBUFFER_AVX2)
+  // The x, y and z of 4 consecutive xyz vertices at p: from a = x0 y0 z0 x1,
+  // b = y1 z1 x2 y2 and c = z2 x3 y3 z3, lane by lane.
+  static void load4(const double* p, __m256d xyz[3]) {
+    const __m256d a = _mm256_loadu_pd(p), b = _mm256_loadu_pd(p + 4), c = _mm256_loadu_pd(p + 8);
+    // x: a0 a3 b2 c1; y: a1 b0 b3 c2; z: a2 b1 c0 c3.
+    xyz[0] = _mm256_blend_pd(_mm256_blend_pd(_mm256_permute4x64_pd(a, 0x0C),
+                                             _mm256_permute4x64_pd(b, 0x20), 0x4),
+                             _mm256_permute4x64_pd(c, 0x40), 0x8);
+    xyz[1] = _mm256_blend_pd(_mm256_blend_pd(_mm256_permute4x64_pd(a, 0x01),
+                                             _mm256_permute4x64_pd(b, 0x30), 0x6),
+                             _mm256_permute4x64_pd(c, 0x80), 0x8);
+    xyz[2] = _mm256_blend_pd(_mm256_blend_pd(_mm256_permute4x64_pd(a, 0x02),
+                                             _mm256_permute4x64_pd(b, 0x04), 0x2),
+                             _mm256_permute4x64_pd(c, 0xC0), 0xC);
   }
 #endif
   static uint32_t axis(uint32_t packed, int a) { return (packed >> (kBits * a)) & kMask; }
@@ -248,6 +264,39 @@ struct VertexGrid {
       for (int a = 0; a < 3; ++a) {
         lo[a] = _mm512_reduce_min_pd(l[a]);
         hi[a] = _mm512_reduce_max_pd(h[a]);
+      }
+    }
+#elif defined(ZBUFFER_AVX2)
+    if (vector && n >= 4) {  // as above, 4 vertices per step
+      __m256d l[3], h[3], o[3], sc = _mm256_set1_pd(scale_);
+      for (int a = 0; a < 3; ++a) {
+        l[a] = h[a] = _mm256_set1_pd(p[a]);
+        o[a] = _mm256_set1_pd(origin[a]);
+      }
+      const __m128i mask = _mm_set1_epi32(int(kMask));
+      for (; v + 4 <= n; v += 4) {
+        __m256d xyz[3];
+        load4(p + 3 * v, xyz);
+        for (int a = 0; a < 3; ++a) {
+          l[a] = _mm256_min_pd(l[a], xyz[a]);
+          h[a] = _mm256_max_pd(h[a], xyz[a]);
+        }
+        if (!quantize) continue;
+        // As above; out of range, the conversion gives 0x80000000, which
+        // the unsigned minimum clamps as AVX-512's unsigned one does.
+        __m128i c[3];
+        for (int a = 0; a < 3; ++a)
+          c[a] = _mm_min_epu32(_mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(xyz[a], o[a]), sc)), mask);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(&cell[size_t(v)]),
+                         _mm_or_si128(c[0], _mm_or_si128(_mm_slli_epi32(c[1], kBits),
+                                                         _mm_slli_epi32(c[2], 2 * kBits))));
+      }
+      for (int a = 0; a < 3; ++a) {
+        alignas(32) double lv[4], hv[4];
+        _mm256_store_pd(lv, l[a]);
+        _mm256_store_pd(hv, h[a]);
+        lo[a] = std::min(std::min(lv[0], lv[1]), std::min(lv[2], lv[3]));
+        hi[a] = std::max(std::max(hv[0], hv[1]), std::max(hv[2], hv[3]));
       }
     }
 #endif
@@ -378,6 +427,62 @@ inline void store_words16(uint64_t* out, __m512i key, __m512i face) {
     _mm512_storeu_si512(out + 8 * half, _mm512_or_si512(_mm512_slli_epi64(k64, 32), f64));
   }
 }
+#elif defined(ZBUFFER_AVX2)
+// The functions above for 8 faces (AVX2 builds), with the same bits.
+inline void face_cells8(const VertexGrid& grid, const int32_t* faces, __m256i* c, __m256i* lo,
+                        __m256i* hi) {
+  const __m256i lane3 = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+  const int* cells = reinterpret_cast<const int*>(grid.cell.data());
+  for (int j = 0; j < 3; ++j)
+    c[j] = _mm256_i32gather_epi32(cells, _mm256_i32gather_epi32(faces + j, lane3, 4), 4);
+  const __m256i mask = _mm256_set1_epi32(int(VertexGrid::kMask));
+  for (int a = 0; a < 3; ++a) {
+    const int shift = VertexGrid::kBits * a;
+    __m256i v[3];
+    for (int j = 0; j < 3; ++j) v[j] = _mm256_and_si256(_mm256_srli_epi32(c[j], shift), mask);
+    lo[a] = _mm256_min_epu32(_mm256_min_epu32(v[0], v[1]), v[2]);
+    hi[a] = _mm256_max_epu32(_mm256_max_epu32(v[0], v[1]), v[2]);
+  }
+}
+
+inline __m256i spread_bits_10_8(__m256i v) {
+  auto step = [](__m256i x, int s, int m) {
+    return _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi32(x, s)), _mm256_set1_epi32(m));
+  };
+  v = _mm256_and_si256(v, _mm256_set1_epi32(0x3FF));
+  v = step(v, 16, 0x030000FF);
+  v = step(v, 8, 0x0300F00F);
+  v = step(v, 4, 0x030C30C3);
+  return step(v, 2, 0x09249249);
+}
+
+inline void centroid_cells8(const __m256i* c, __m256i* q) {
+  const __m256i third = _mm256_set1_epi32(43691), mask = _mm256_set1_epi32(int(VertexGrid::kMask));
+  for (int a = 0; a < 3; ++a) {
+    const int shift = VertexGrid::kBits * a;
+    __m256i sum = _mm256_setzero_si256();
+    for (int j = 0; j < 3; ++j)
+      sum = _mm256_add_epi32(sum, _mm256_and_si256(_mm256_srli_epi32(c[j], shift), mask));
+    q[a] = _mm256_srli_epi32(_mm256_mullo_epi32(sum, third), 17);
+  }
+}
+inline __m256i centroid_codes8(const __m256i* c) {
+  __m256i q[3];
+  centroid_cells8(c, q);
+  __m256i code = _mm256_setzero_si256();
+  for (int a = 0; a < 3; ++a) code = _mm256_or_si256(code, _mm256_slli_epi32(spread_bits_10_8(q[a]), a));
+  return code;
+}
+
+inline void store_words8(uint64_t* out, __m256i key, __m256i face) {
+  for (int half = 0; half < 2; ++half) {
+    const __m128i k = half ? _mm256_extracti128_si256(key, 1) : _mm256_castsi256_si128(key);
+    const __m128i f = half ? _mm256_extracti128_si256(face, 1) : _mm256_castsi256_si128(face);
+    const __m256i word = _mm256_or_si256(_mm256_slli_epi64(_mm256_cvtepu32_epi64(k), 32),
+                                         _mm256_cvtepu32_epi64(f));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + 4 * half), word);
+  }
+}
 #endif
 
 // The cells of a complete octree of depth D (1 .. 10) over the vertex grid,
@@ -393,7 +498,7 @@ class OctreeCells {
   OctreeCells(int depth, bool loose) : depth_(depth), loose_(loose) {
     assert(depth >= 1 && depth <= kMaxDepth);
     for (int l = depth_; l >= 0; --l) size_[l] = l == depth_ ? 1 : 1 + 8 * size_[l + 1];
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
     for (int l = 1; l <= depth_; ++l)
       for (int d = 0; d < 16; ++d) digit_steps_[l][d] = d < 8 ? int32_t(d * size_[l]) : 0;
 #endif
@@ -481,6 +586,44 @@ class OctreeCells {
     }
     return index;
   }
+#elif defined(ZBUFFER_AVX2)
+  // holder16 for 8 faces (face_cells8), with the same bits. The bit length
+  // of `differ` (at most 2^D, D <= 10) is read off its exponent as a float
+  // (AVX2 has no lzcnt of lanes).
+  __m256i holder8(const __m256i* c, const __m256i* lo, const __m256i* hi) const {
+    const int coarsen = VertexGrid::kBits - depth_;
+    __m256i cell[3], differ = _mm256_setzero_si256();
+    if (loose_) {
+      centroid_cells8(c, cell);
+      for (int a = 0; a < 3; ++a) {
+        cell[a] = _mm256_srli_epi32(cell[a], coarsen);
+        differ = _mm256_max_epu32(differ, _mm256_srli_epi32(_mm256_sub_epi32(hi[a], lo[a]), coarsen));
+      }
+    } else {
+      for (int a = 0; a < 3; ++a) {
+        cell[a] = _mm256_srli_epi32(lo[a], coarsen);
+        differ = _mm256_or_si256(differ, _mm256_xor_si256(cell[a], _mm256_srli_epi32(hi[a], coarsen)));
+      }
+    }
+    // differ > 0 is 2^e x 1.m with e = exponent - 127; its bit length e + 1.
+    const __m256i exponent = _mm256_srli_epi32(_mm256_castps_si256(_mm256_cvtepi32_ps(differ)), 23);
+    const __m256i up = _mm256_max_epi32(_mm256_sub_epi32(exponent, _mm256_set1_epi32(126)),
+                                        _mm256_setzero_si256());
+    const __m256i level = _mm256_sub_epi32(_mm256_set1_epi32(depth_), up);
+    const __m256i one = _mm256_set1_epi32(1);
+    __m256i index = level;
+    for (int l = 1; l <= depth_; ++l) {
+      const int bit = depth_ - l;
+      __m256i digit = _mm256_setzero_si256();
+      for (int a = 0; a < 3; ++a)
+        digit = _mm256_or_si256(digit, _mm256_slli_epi32(_mm256_and_si256(_mm256_srli_epi32(cell[a], bit), one), a));
+      const __m256i in = _mm256_cmpgt_epi32(_mm256_set1_epi32(l), level);  // l > level: not in
+      const __m256i step = _mm256_permutevar8x32_epi32(
+          _mm256_load_si256(reinterpret_cast<const __m256i*>(digit_steps_[l])), digit);
+      index = _mm256_add_epi32(index, _mm256_andnot_si256(in, step));
+    }
+    return index;
+  }
 #endif
 
   // As face_words' keys: the number of the cell holding each face.
@@ -492,13 +635,17 @@ class OctreeCells {
   __m512i sixteen(const __m512i* c, const __m512i* lo, const __m512i* hi) const {
     return holder16(c, lo, hi);
   }
+#elif defined(ZBUFFER_AVX2)
+  __m256i eight(const __m256i* c, const __m256i* lo, const __m256i* hi) const {
+    return holder8(c, lo, hi);
+  }
 #endif
 
  private:
   int depth_;
   bool loose_;
   int64_t size_[kMaxDepth + 1] = {};
-#ifdef ZBUFFER_AVX512
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
   alignas(64) int32_t digit_steps_[kMaxDepth + 1][16] = {};  // [l][d]: d x size_[l] (d < 8)
 #endif
 };
@@ -506,7 +653,8 @@ class OctreeCells {
 // words[f] = key << 32 | f for every face f of the mesh, `keys` giving a
 // face's key from its vertex indices (keys.one(grid, idx)) and, in AVX-512
 // builds, 16 faces' keys from their corners' cells and boxes
-// (keys.sixteen(c, lo, hi), as face_cells16 gives them).
+// (keys.sixteen(c, lo, hi), as face_cells16 gives them; AVX2 builds: 8,
+// keys.eight and face_cells8).
 template <class Keys>
 void face_words(const VertexGrid& grid, const MeshView& mesh, const Keys& keys,
                 std::vector<uint64_t>& words) {
@@ -521,6 +669,14 @@ void face_words(const VertexGrid& grid, const MeshView& mesh, const Keys& keys,
     store_words16(&words[size_t(f)], keys.sixteen(c, lo, hi),
                   _mm512_add_epi32(_mm512_set1_epi32(int32_t(f)), lanes));
   }
+#elif defined(ZBUFFER_AVX2)
+  const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  for (; f + 8 <= n; f += 8) {
+    __m256i c[3], lo[3], hi[3];
+    face_cells8(grid, mesh.faces + 3 * f, c, lo, hi);
+    store_words8(&words[size_t(f)], keys.eight(c, lo, hi),
+                 _mm256_add_epi32(_mm256_set1_epi32(int32_t(f)), lanes));
+  }
 #endif
   for (; f < n; ++f) words[size_t(f)] = uint64_t(keys.one(grid, mesh.faces + 3 * f)) << 32 | uint32_t(f);
 }
@@ -532,6 +688,8 @@ struct CentroidKeys {
   __m512i sixteen(const __m512i* c, const __m512i*, const __m512i*) const {
     return centroid_codes16(c);
   }
+#elif defined(ZBUFFER_AVX2)
+  __m256i eight(const __m256i* c, const __m256i*, const __m256i*) const { return centroid_codes8(c); }
 #endif
 };
 
