@@ -15,6 +15,8 @@
 
 #ifdef ZBUFFER_AVX512
 #include "setup16.h"  // deinterleave16 (simd.h has included immintrin.h)
+#elif defined(ZBUFFER_AVX2)
+#include "setup8.h"  // deinterleave8
 #endif
 
 namespace zbuffer {
@@ -431,10 +433,10 @@ inline void store_words16(uint64_t* out, __m512i key, __m512i face) {
 // The functions above for 8 faces (AVX2 builds), with the same bits.
 inline void face_cells8(const VertexGrid& grid, const int32_t* faces, __m256i* c, __m256i* lo,
                         __m256i* hi) {
-  const __m256i lane3 = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+  __m256i idx[3];
+  simd::deinterleave8(faces, 8, idx);
   const int* cells = reinterpret_cast<const int*>(grid.cell.data());
-  for (int j = 0; j < 3; ++j)
-    c[j] = _mm256_i32gather_epi32(cells, _mm256_i32gather_epi32(faces + j, lane3, 4), 4);
+  for (int j = 0; j < 3; ++j) c[j] = _mm256_i32gather_epi32(cells, idx[j], 4);
   const __m256i mask = _mm256_set1_epi32(int(VertexGrid::kMask));
   for (int a = 0; a < 3; ++a) {
     const int shift = VertexGrid::kBits * a;

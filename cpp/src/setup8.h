@@ -10,6 +10,8 @@
 // are counted, and vectors of all-ones / all-zeros lanes where they select.
 #pragma once
 
+#include <algorithm>
+
 #include "simd.h"
 #include "zbuffer/raster.h"
 #include "zbuffer/types.h"
@@ -49,6 +51,33 @@ ZBUFFER_INLINE __m256i compress8(unsigned bits, __m256i v) {
       v, _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress8.lanes[bits])));
 }
 
+// The first `count` (<= 8) int32 triples at p (a face's vertex indices),
+// one vector per position, as setup16.h's deinterleave16: lanes past
+// `count` are 0 and nothing past the triples is read. Eight triples are
+// three loads, a blend of each with the lanes of the others that hold its
+// position's values, and a permutation into order (AVX2 gathers of every
+// third int cost more: on the N = 20 spot grid, half of a per-frame
+// octree's build).
+ZBUFFER_INLINE void deinterleave8(const int32_t* p, int count, __m256i out[3]) {
+  alignas(32) int32_t tail[24] = {};
+  if (count < 8) {
+    std::copy(p, p + 3 * std::max(count, 0), tail);
+    p = tail;
+  }
+  const __m256i a = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  const __m256i b = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + 8));
+  const __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + 16));
+  // Position k of face j is int 3j + k: in a, b or c at lane (3j + k) % 8.
+  // Blended, lane l holds the value of the one of a, b, c that has position
+  // k there; the permutation puts face j in lane j.
+  out[0] = _mm256_permutevar8x32_epi32(_mm256_blend_epi32(_mm256_blend_epi32(a, b, 0x92), c, 0x24),
+                                       _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+  out[1] = _mm256_permutevar8x32_epi32(_mm256_blend_epi32(_mm256_blend_epi32(a, b, 0x24), c, 0x49),
+                                       _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
+  out[2] = _mm256_permutevar8x32_epi32(_mm256_blend_epi32(_mm256_blend_epi32(a, b, 0x49), c, 0x92),
+                                       _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+}
+
 // Eight faces after assembly: the lanes of `draw` are triangles with
 // area > 0 (vertices 1 and 2 of front faces swapped), those of `clip` need
 // the scalar assembly (clipping).
@@ -82,8 +111,8 @@ ZBUFFER_INLINE void assemble8(const MeshView& mesh, const ScreenVertices& sv, in
                               unsigned keep = 0xFFu) {
   f.live = ((1u << count) - 1) & keep;
   const __m256i live = mask8(f.live);
-  const __m256i lane3 = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
-  const int32_t* fp = mesh.faces + 3 * first;
+  __m256i corner[3];
+  deinterleave8(mesh.faces + 3 * first, count, corner);
   __m256i oc[3];
   const bool all_inside = sv.any_outcode == 0;  // then every outcode is 0: not read
   // A corner's (x, y) pair is one 64-bit element (as in setup16.h): two
@@ -91,7 +120,7 @@ ZBUFFER_INLINE void assemble8(const MeshView& mesh, const ScreenVertices& sv, in
   const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
   const long long* xy = reinterpret_cast<const long long*>(sv.xy.data());
   for (int k = 0; k < 3; ++k) {
-    const __m256i idx = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), fp + k, lane3, live, 4);
+    const __m256i idx = _mm256_and_si256(corner[k], live);  // (lanes not live: vertex 0)
     const __m256i lo = _mm256_permutevar8x32_epi32(
         _mm256_i32gather_epi64(xy, _mm256_castsi256_si128(idx), 8), split);  // x0-3, y0-3
     const __m256i hi = _mm256_permutevar8x32_epi32(
