@@ -119,7 +119,8 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   if (!face_ids_obj.is_none()) {
     face_ids = require_array<int32_t>(face_ids_obj, "face_ids", {input.mesh.n_faces});
     input.mesh.face_ids = face_ids.data();
-    const int64_t bad = zbuffer::find_negative_id(input.mesh);
+    const int64_t bad =
+        scan_arrays(input.mesh.n_faces, [&] { return zbuffer::find_negative_id(input.mesh); });
     if (bad >= 0)
       throw py::value_error("face_ids must be >= 0, got " +
                             std::to_string(input.mesh.face_ids[bad]) + " at " + std::to_string(bad));

@@ -27,14 +27,14 @@ void check_image_size(int64_t width, int64_t height, bool allow_empty) {
 }
 
 void check_face_indices(const zbuffer::MeshView& mesh) {
-  const int64_t bad = zbuffer::find_bad_face_index(mesh);
+  const int64_t bad = scan_arrays(3 * mesh.n_faces, [&] { return zbuffer::find_bad_face_index(mesh); });
   if (bad >= 0)
     throw py::value_error("face " + std::to_string(bad / 3) + " has vertex index " +
                           std::to_string(mesh.faces[bad]) + ", outside [0, " +
                           std::to_string(mesh.n_vertices) + ")");
 }
 
-// Checks the mesh arrays and returns a view of them (GIL held).
+// Checks the mesh arrays and returns a view of them (called with the GIL).
 zbuffer::MeshView mesh_view(const py::array_t<double>& positions,
                             const py::array_t<int32_t>& faces) {
   zbuffer::MeshView mesh;
@@ -47,7 +47,8 @@ zbuffer::MeshView mesh_view(const py::array_t<double>& positions,
   if (mesh.n_faces > std::numeric_limits<int32_t>::max())
     throw py::value_error("too many faces: at most 2**31 - 1");
   check_face_indices(mesh);
-  const int64_t nonfinite = zbuffer::find_nonfinite_vertex(mesh);
+  const int64_t nonfinite =
+      scan_arrays(3 * mesh.n_vertices, [&] { return zbuffer::find_nonfinite_vertex(mesh); });
   if (nonfinite >= 0)
     throw py::value_error("vertex " + std::to_string(nonfinite) +
                           " has a NaN or infinite coordinate");

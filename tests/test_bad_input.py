@@ -43,6 +43,30 @@ def test_bad_mesh_arrays(render, vertices, faces, error, match):
         render((vertices, faces), camera=CAM, width=16, height=16)
 
 
+@pytest.mark.parametrize("where", ["first", "middle", "last"])
+def test_compiled_core_checks_large_meshes_without_the_gil(where):
+    # Over 65,536 indices or coordinates the checks run without the GIL
+    # (render_common.cpp): the same errors, naming the same face or vertex.
+    n = 30_000  # 90,000 indices and coordinates
+    rng = np.random.default_rng(5)
+    vertices = rng.random((n, 3))
+    faces = rng.integers(0, n, (n, 3)).astype(np.int32)
+    k = {"first": 0, "middle": n // 2, "last": n - 1}[where]
+    mvp = CAM.resolve(vertices).mvp(16, 16)
+    bad = faces.copy()
+    bad[k, 2] = n
+    with pytest.raises(ValueError, match=f"face {k} has vertex index {n}, outside"):
+        _core.render(vertices, bad, mvp, 16, 16)
+    ids = _core.render(vertices, faces, mvp, 16, 16)[1]
+    shade_args = (np.zeros(4), np.zeros(3), 0.2, 0.8, np.zeros(3, np.uint8), np.ones(3, np.float32))
+    with pytest.raises(ValueError, match=f"face {k} has vertex index {n}, outside"):
+        _core.shade(ids, vertices, bad, mvp, *shade_args)
+    nan = vertices.copy()
+    nan[k, 1] = np.inf
+    with pytest.raises(ValueError, match=f"vertex {k} has a NaN or infinite coordinate"):
+        _core.render(nan, faces, mvp, 16, 16)
+
+
 def test_compiled_core_checks_on_its_own():
     # The private binding is safe to call directly: the same checks in C++.
     mvp = CAM.resolve(V).mvp(16, 16)
