@@ -119,11 +119,15 @@ py::tuple render(py::handle positions_obj, py::handle faces_obj, py::handle mvp_
   if (!face_ids_obj.is_none()) {
     face_ids = require_array<int32_t>(face_ids_obj, "face_ids", {input.mesh.n_faces});
     input.mesh.face_ids = face_ids.data();
-    const int64_t bad =
-        scan_arrays(input.mesh.n_faces, [&] { return zbuffer::find_negative_id(input.mesh); });
+    int32_t id = 0;  // (read in the scan, as check_face_indices does)
+    const int64_t bad = scan_arrays(input.mesh.n_faces, [&] {
+      const int64_t at = zbuffer::find_negative_id(input.mesh);
+      if (at >= 0) id = input.mesh.face_ids[at];
+      return at;
+    });
     if (bad >= 0)
-      throw py::value_error("face_ids must be >= 0, got " +
-                            std::to_string(input.mesh.face_ids[bad]) + " at " + std::to_string(bad));
+      throw py::value_error("face_ids must be >= 0, got " + std::to_string(id) + " at " +
+                            std::to_string(bad));
   }
   py::array_t<int32_t> cell_start;
   py::array_t<double> cell_centre;

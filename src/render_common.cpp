@@ -27,10 +27,15 @@ void check_image_size(int64_t width, int64_t height, bool allow_empty) {
 }
 
 void check_face_indices(const zbuffer::MeshView& mesh) {
-  const int64_t bad = scan_arrays(3 * mesh.n_faces, [&] { return zbuffer::find_bad_face_index(mesh); });
+  int32_t index = 0;  // read in the scan: after it, another thread may have changed it
+  const int64_t bad = scan_arrays(3 * mesh.n_faces, [&] {
+    const int64_t at = zbuffer::find_bad_face_index(mesh);
+    if (at >= 0) index = mesh.faces[at];
+    return at;
+  });
   if (bad >= 0)
     throw py::value_error("face " + std::to_string(bad / 3) + " has vertex index " +
-                          std::to_string(mesh.faces[bad]) + ", outside [0, " +
+                          std::to_string(index) + ", outside [0, " +
                           std::to_string(mesh.n_vertices) + ")");
 }
 

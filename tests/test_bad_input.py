@@ -45,9 +45,9 @@ def test_bad_mesh_arrays(render, vertices, faces, error, match):
 
 @pytest.mark.parametrize("where", ["first", "middle", "last"])
 def test_compiled_core_checks_large_meshes_without_the_gil(where):
-    # Over 65,536 indices or coordinates the checks run without the GIL
-    # (render_common.cpp): the same errors, naming the same face or vertex.
-    n = 30_000  # 90,000 indices and coordinates
+    # Over 65,536 indices, coordinates or face ids the checks run without
+    # the GIL (render_common.h): the same errors, naming the same face or vertex.
+    n = 70_000
     rng = np.random.default_rng(5)
     vertices = rng.random((n, 3))
     faces = rng.integers(0, n, (n, 3)).astype(np.int32)
@@ -65,6 +65,10 @@ def test_compiled_core_checks_large_meshes_without_the_gil(where):
     nan[k, 1] = np.inf
     with pytest.raises(ValueError, match=f"vertex {k} has a NaN or infinite coordinate"):
         _core.render(nan, faces, mvp, 16, 16)
+    ids = np.arange(n, dtype=np.int32)
+    ids[k] = -7
+    with pytest.raises(ValueError, match=f"face_ids must be >= 0, got -7 at {k}"):
+        _core.render(vertices, faces, mvp, 16, 16, face_ids=ids)
 
 
 def test_compiled_core_checks_on_its_own():

@@ -240,25 +240,28 @@ struct VertexGrid {
 #ifdef ZBUFFER_AVX512
     if (vector && n >= 8) {
       __m512d l[3], h[3], o[3], sc = _mm512_set1_pd(scale_);
+      const __m512d zero = _mm512_setzero_pd(), top = _mm512_set1_pd(double(kMask));
       for (int a = 0; a < 3; ++a) {
-        l[a] = h[a] = _mm512_set1_pd(p[a]);
+        l[a] = _mm512_set1_pd(lo[a]);  // from +inf and -inf, as the scalar loop
+        h[a] = _mm512_set1_pd(hi[a]);
         o[a] = _mm512_set1_pd(origin[a]);
       }
-      const __m256i mask = _mm256_set1_epi32(int(kMask));
       for (; v + 8 <= n; v += 8) {
         __m512d xyz[3];
         load8(p + 3 * v, xyz);
         for (int a = 0; a < 3; ++a) {
-          l[a] = _mm512_min_pd(l[a], xyz[a]);
-          h[a] = _mm512_max_pd(h[a], xyz[a]);
+          // (xyz first: a NaN coordinate leaves the bound, as std::min does)
+          l[a] = _mm512_min_pd(xyz[a], l[a]);
+          h[a] = _mm512_max_pd(xyz[a], h[a]);
         }
         if (!quantize) continue;
-        // Within the cube, (p - origin) * scale is in [0, 1024]: truncation
-        // is floor and only 1024 needs clamping (outside it, the bounds
-        // differ and these cells are not kept).
+        // The scalar loop's cell: t clamped to [0, 1023] (max with 0 first:
+        // it gives 0 for a NaN t, as `t > 0.0` does), then truncated.
         __m256i c[3];
-        for (int a = 0; a < 3; ++a)
-          c[a] = _mm256_min_epu32(_mm512_cvttpd_epu32(_mm512_mul_pd(_mm512_sub_pd(xyz[a], o[a]), sc)), mask);
+        for (int a = 0; a < 3; ++a) {
+          const __m512d t = _mm512_mul_pd(_mm512_sub_pd(xyz[a], o[a]), sc);
+          c[a] = _mm512_cvttpd_epu32(_mm512_min_pd(_mm512_max_pd(t, zero), top));
+        }
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(&cell[size_t(v)]),
                             _mm256_or_si256(c[0], _mm256_or_si256(_mm256_slli_epi32(c[1], kBits),
                                                                   _mm256_slli_epi32(c[2], 2 * kBits))));
@@ -271,24 +274,26 @@ struct VertexGrid {
 #elif defined(ZBUFFER_AVX2)
     if (vector && n >= 4) {  // as above, 4 vertices per step
       __m256d l[3], h[3], o[3], sc = _mm256_set1_pd(scale_);
+      const __m256d zero = _mm256_setzero_pd(), top = _mm256_set1_pd(double(kMask));
       for (int a = 0; a < 3; ++a) {
-        l[a] = h[a] = _mm256_set1_pd(p[a]);
+        l[a] = _mm256_set1_pd(lo[a]);  // from +inf and -inf, as the scalar loop
+        h[a] = _mm256_set1_pd(hi[a]);
         o[a] = _mm256_set1_pd(origin[a]);
       }
-      const __m128i mask = _mm_set1_epi32(int(kMask));
       for (; v + 4 <= n; v += 4) {
         __m256d xyz[3];
         load4(p + 3 * v, xyz);
         for (int a = 0; a < 3; ++a) {
-          l[a] = _mm256_min_pd(l[a], xyz[a]);
-          h[a] = _mm256_max_pd(h[a], xyz[a]);
+          // (xyz first: a NaN coordinate leaves the bound, as std::min does)
+          l[a] = _mm256_min_pd(xyz[a], l[a]);
+          h[a] = _mm256_max_pd(xyz[a], h[a]);
         }
         if (!quantize) continue;
-        // As above; out of range, the conversion gives 0x80000000, which
-        // the unsigned minimum clamps as AVX-512's unsigned one does.
-        __m128i c[3];
-        for (int a = 0; a < 3; ++a)
-          c[a] = _mm_min_epu32(_mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(xyz[a], o[a]), sc)), mask);
+        __m128i c[3];  // as above
+        for (int a = 0; a < 3; ++a) {
+          const __m256d t = _mm256_mul_pd(_mm256_sub_pd(xyz[a], o[a]), sc);
+          c[a] = _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(t, zero), top));
+        }
         _mm_storeu_si128(reinterpret_cast<__m128i*>(&cell[size_t(v)]),
                          _mm_or_si128(c[0], _mm_or_si128(_mm_slli_epi32(c[1], kBits),
                                                          _mm_slli_epi32(c[2], 2 * kBits))));
@@ -590,8 +595,9 @@ class OctreeCells {
   }
 #elif defined(ZBUFFER_AVX2)
   // holder16 for 8 faces (face_cells8), with the same bits. The bit length
-  // of `differ` (at most 2^D, D <= 10) is read off its exponent as a float
-  // (AVX2 has no lzcnt of lanes).
+  // of `differ` (below 2^D, D <= 10: exact as a float) is read off its
+  // float exponent (AVX2 has no lzcnt of lanes); 0 has exponent 0, clamped
+  // to a length of 0.
   __m256i holder8(const __m256i* c, const __m256i* lo, const __m256i* hi) const {
     const int coarsen = VertexGrid::kBits - depth_;
     __m256i cell[3], differ = _mm256_setzero_si256();
@@ -619,10 +625,10 @@ class OctreeCells {
       __m256i digit = _mm256_setzero_si256();
       for (int a = 0; a < 3; ++a)
         digit = _mm256_or_si256(digit, _mm256_slli_epi32(_mm256_and_si256(_mm256_srli_epi32(cell[a], bit), one), a));
-      const __m256i in = _mm256_cmpgt_epi32(_mm256_set1_epi32(l), level);  // l > level: not in
+      const __m256i above = _mm256_cmpgt_epi32(_mm256_set1_epi32(l), level);  // digit l not the face's
       const __m256i step = _mm256_permutevar8x32_epi32(
           _mm256_load_si256(reinterpret_cast<const __m256i*>(digit_steps_[l])), digit);
-      index = _mm256_add_epi32(index, _mm256_andnot_si256(in, step));
+      index = _mm256_add_epi32(index, _mm256_andnot_si256(above, step));
     }
     return index;
   }

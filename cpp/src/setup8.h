@@ -59,9 +59,9 @@ ZBUFFER_INLINE __m256i compress8(unsigned bits, __m256i v) {
 // third int cost more: on the N = 20 spot grid, half of a per-frame
 // octree's build).
 ZBUFFER_INLINE void deinterleave8(const int32_t* p, int count, __m256i out[3]) {
-  alignas(32) int32_t tail[24] = {};
+  alignas(32) int32_t tail[24];  // (zeroed only when used: this runs every 8 faces)
   if (count < 8) {
-    std::copy(p, p + 3 * std::max(count, 0), tail);
+    std::fill_n(std::copy(p, p + 3 * std::max(count, 0), tail), 24 - 3 * std::max(count, 0), 0);
     p = tail;
   }
   const __m256i a = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));

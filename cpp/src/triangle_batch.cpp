@@ -471,20 +471,29 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
   return hidden;
 }
 #elif defined(ZBUFFER_AVX2)
+namespace {
+// The pixel boxes and nearest depths of 8 faces, stored by lane.
+struct BoxLanes8 {
+  alignas(32) int32_t x0[8], y0[8], x1[8], y1[8];
+  alignas(32) float z_lo[8];
+  BoxLanes8(const simd::Box8& box, __m256 z) {
+    _mm256_store_si256(reinterpret_cast<__m256i*>(x0), box.i0);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(y0), box.j0);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(x1), box.i1);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(y1), box.j1);
+    _mm256_store_ps(z_lo, z);
+  }
+};
+}  // namespace
+
 // cull_small16 for the 8 lanes of an AVX2 assembly (setup8.h's Box8): the
 // same levels, cells and comparison, with vector masks for mask registers
 // and the blocks of the survivors marked lane by lane (AVX2 has no scatter).
 template <class Box, class Vec>
 ZBUFFER_INLINE unsigned TriangleBatch::cull_small8(const Box& box, Vec z_lo, unsigned candidates) {
   if (!tile_cells_) {  // a pyramid without level 3 (a tiny image): one by one
-    alignas(32) int32_t x0[8], y0[8], x1[8], y1[8];
-    alignas(32) float z[8];
-    _mm256_store_si256(reinterpret_cast<__m256i*>(x0), box.i0);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(y0), box.j0);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(x1), box.i1);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(y1), box.j1);
-    _mm256_store_ps(z, z_lo);
-    return cull_lanes(x0, y0, x1, y1, z, candidates);
+    const BoxLanes8 lanes(box, z_lo);
+    return cull_lanes(lanes.x0, lanes.y0, lanes.x1, lanes.y1, lanes.z_lo, candidates);
   }
   const __m256i two = _mm256_set1_epi32(2);
   // Each box's level, as test_level finds it (too_wide lanes are -1).
@@ -526,11 +535,8 @@ ZBUFFER_INLINE unsigned TriangleBatch::cull_small8(const Box& box, Vec z_lo, uns
   const unsigned hidden =
       candidates & unsigned(_mm256_movemask_ps(_mm256_cmp_ps(z_lo, bound, _CMP_GT_OQ)));
   const unsigned shown = candidates & ~hidden;
-  alignas(32) int32_t x0[8], y0[8], x1[8], y1[8];
-  _mm256_store_si256(reinterpret_cast<__m256i*>(x0), box.i0);
-  _mm256_store_si256(reinterpret_cast<__m256i*>(y0), box.j0);
-  _mm256_store_si256(reinterpret_cast<__m256i*>(x1), box.i1);
-  _mm256_store_si256(reinterpret_cast<__m256i*>(y1), box.j1);
+  const BoxLanes8 lanes(box, z_lo);
+  const int32_t *x0 = lanes.x0, *y0 = lanes.y0, *x1 = lanes.x1, *y1 = lanes.y1;
   if (hidden) {
     if (pyramid_->recording_culls()) {  // one by one, with their boxes
       alignas(32) int32_t lv[8];

@@ -47,8 +47,9 @@ namespace zbuffer {
 // Bad: leaves can only be as fine as depth T (a dense cell is one large
 // leaf), and bounds are those of grid cells, up to two cells looser than the
 // triangles'.
-// The face pass (each face's bucket and box) and the listing in bucket order
-// run 16 faces per instruction in AVX-512 builds; `vector = false` runs the
+// The face pass (each face's bucket and box) runs 16 faces per instruction
+// in AVX-512 builds and 8 in AVX2 ones, the listing in bucket order 16 in
+// AVX-512 builds (one by one otherwise); `vector = false` runs the
 // scalar loops instead (tests hold the two to the same tree). The octree
 // reads params' leaf_size, max_depth and rule, the loose or the simpler one
 // (a face has one bucket: Greene's rule, which gives it several cells, is

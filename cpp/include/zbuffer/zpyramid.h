@@ -120,8 +120,8 @@ class ZPyramid {
   // The same maximum for rectangles of many cells (the tree algorithms' node
   // tests: up to 16 a side), at level 0 or a kept level, a row of cells 16
   // (AVX2: 8) at a time. (max_over_at stays inline and scalar: it tests
-  // every small triangle of AVX2 builds, and those AVX-512 builds add one
-  // by one.)
+  // the small triangles that vector builds test one by one -- with a
+  // pyramid lacking level 3 -- and those the scalar build adds.)
   float max_over_cells(int k, int x0, int y0, int x1, int y1) const;
 
  private:
