@@ -157,6 +157,57 @@ int ZPyramid::refresh_block(int bx, int by, int top, bool& changed) {
     }
     return count;
   }
+#elif defined(ZBUFFER_AVX2)
+  if (top == 3 && x0 + side <= widths_[0] && y0 + side <= heights_[0]) {
+    // As above, 8 lanes wide: level 1 row by row (l1[j]: 8 cells), level 2
+    // in the low halves (l2[m]: 4 cells), level 3 in lanes 0 and 2.
+    const size_t pitch = pitch0_;
+    const float* d = depth_ + size_t(y0) * pitch + size_t(x0);
+    __m256 l1[8];
+    for (int j = 0; j < 8; ++j) {
+      const float* r = d + size_t(2 * j) * pitch;
+      __m256 lo = _mm256_max_ps(_mm256_loadu_ps(r), _mm256_loadu_ps(r + pitch));  // pixels 0-7
+      __m256 hi = _mm256_max_ps(_mm256_loadu_ps(r + 8), _mm256_loadu_ps(r + pitch + 8));
+      lo = _mm256_max_ps(lo, _mm256_permute_ps(lo, 0xB1));  // pairs: cells in lanes 0, 2, 4, 6
+      hi = _mm256_max_ps(hi, _mm256_permute_ps(hi, 0xB1));
+      // Cells 0 1 4 5 | 2 3 6 7, then the middle pairs swapped.
+      const __m256 cells = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(2, 0, 2, 0));
+      l1[j] = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(cells), _MM_SHUFFLE(3, 1, 2, 0)));
+    }
+    int count = 4;
+    if (first_ <= 1) {
+      float* c = cells_.data() + offset_[1] + size_t(y0 >> 1) * widths_[1] + size_t(x0 >> 1);
+      for (int j = 0; j < 8; ++j) _mm256_storeu_ps(c + size_t(j) * widths_[1], l1[j]);
+      count += 64;
+    }
+    __m128 l2[4];
+    for (int m = 0; m < 4; ++m) {
+      __m256 t = _mm256_max_ps(l1[2 * m], l1[2 * m + 1]);
+      t = _mm256_max_ps(t, _mm256_permute_ps(t, 0xB1));  // cells in lanes 0, 2, 4, 6
+      const __m256 cells = _mm256_shuffle_ps(t, t, _MM_SHUFFLE(2, 0, 2, 0));
+      l2[m] = _mm256_castps256_ps128(
+          _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(cells), _MM_SHUFFLE(3, 1, 2, 0))));
+    }
+    if (first_ <= 2) {
+      float* c = cells_.data() + offset_[2] + size_t(y0 >> 2) * widths_[2] + size_t(x0 >> 2);
+      for (int m = 0; m < 4; ++m) _mm_storeu_ps(c + size_t(m) * widths_[2], l2[m]);
+      count += 16;
+    }
+    float* c = cells_.data() + offset_[3] + size_t(y0 >> 3) * widths_[3] + size_t(x0 >> 3);
+    const size_t w = size_t(widths_[3]);
+    for (int r = 0; r < 2; ++r) {
+      __m128 u = _mm_max_ps(l2[2 * r], l2[2 * r + 1]);
+      u = _mm_max_ps(u, _mm_permute_ps(u, 0xB1));  // cells in lanes 0 and 2
+      alignas(16) float l3[4];
+      _mm_store_ps(l3, u);
+      for (int k = 0; k < 2; ++k) {
+        float& cell = c[size_t(r) * w + size_t(k)];
+        changed |= cell != l3[2 * k];
+        cell = l3[2 * k];
+      }
+    }
+    return count;
+  }
 #endif
   // Level by level, the cells under the block that lie inside the image.
   int count = 0;
