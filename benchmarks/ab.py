@@ -101,14 +101,32 @@ def build_side(src: Path, side: str, march: str) -> list[Path]:
     if out.exists():
         shutil.rmtree(out)
     run(["cmake", "-S", str(src / "cpp"), "-B", str(out), "-DCMAKE_BUILD_TYPE=Release",
-         "-DZBUFFER_BUILD_TESTS=OFF", f"-DCMAKE_CXX_FLAGS=-Dzbuffer=zb_{side}", *cmake_opts],
+         "-DZBUFFER_BUILD_TESTS=OFF", "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
+         f"-DCMAKE_CXX_FLAGS=-Dzbuffer=zb_{side}", *cmake_opts],
         stdout=subprocess.DEVNULL)
     run(["cmake", "--build", str(out), "-j", str(os.cpu_count() or 2)], stdout=subprocess.DEVNULL)
+    check_march(out, side, march)
     obj = out / "side.o"
     run([os.environ.get("CXX", "c++"), "-O2", "-std=c++17", *flags, f"-Dzbuffer=zb_{side}",
          f"-DAB_SIDE=ab_render_{side}", "-I", str(src / "cpp" / "include"), "-c",
          str(HERE / "ab" / "side.cpp"), "-o", str(obj)])
     return [obj, out / "libzbuffer_core.a"]
+
+
+def check_march(out: Path, side: str, march: str) -> None:
+    """Exit unless every source of the core in build folder `out` was
+    compiled for `march`: an older revision's CMakeLists.txt may not know an
+    option (ZBUFFER_MARCH came later), and CMake then builds it for the
+    build machine without a word."""
+    want = {"native": "-march=native", "haswell": "-march=haswell", "portable": None}[march]
+    commands = json.loads((out / "compile_commands.json").read_text())
+    flags = [c.get("command") or " ".join(c.get("arguments", [])) for c in commands
+             if "/cpp/src/" in c["file"].replace("\\", "/")]
+    marches = {f for cmd in flags for f in cmd.split() if f.startswith("-march=")}
+    if not flags or marches != ({want} if want else set()):
+        raise SystemExit(f"ab.py: side {side.upper()}'s core was compiled with "
+                         f"{sorted(marches) or 'no -march'}, not for --march {march} "
+                         f"(its cpp/CMakeLists.txt does not take {' '.join(MARCH[march][0])}?)")
 
 
 def model_file(model: str):
