@@ -139,13 +139,15 @@ struct Buckets {
         run_hi_[a] = 0;
       }
     }
+    const __m256i out_of_run = _mm256_xor_si256(in_run, _mm256_set1_epi32(-1));
     for (int a = 0; a < 3; ++a) {
       __m256i* run_lo = reinterpret_cast<__m256i*>(lane_lo_[a]);
       __m256i* run_hi = reinterpret_cast<__m256i*>(lane_hi_[a]);
       // Lanes out of the run: lo all ones, hi zero, which change nothing.
-      _mm256_storeu_si256(run_lo, _mm256_min_epu32(_mm256_loadu_si256(run_lo),
-                                                   _mm256_or_si256(lo[a], _mm256_xor_si256(in_run, _mm256_set1_epi32(-1)))));
-      _mm256_storeu_si256(run_hi, _mm256_max_epu32(_mm256_loadu_si256(run_hi), _mm256_and_si256(hi[a], in_run)));
+      const __m256i face_lo = _mm256_or_si256(lo[a], out_of_run);
+      const __m256i face_hi = _mm256_and_si256(hi[a], in_run);
+      _mm256_storeu_si256(run_lo, _mm256_min_epu32(_mm256_loadu_si256(run_lo), face_lo));
+      _mm256_storeu_si256(run_hi, _mm256_max_epu32(_mm256_loadu_si256(run_hi), face_hi));
     }
     const unsigned run_bits = simd::bits8(in_run);
     run_count_ += __builtin_popcount(run_bits);

@@ -623,8 +623,10 @@ class OctreeCells {
     for (int l = 1; l <= depth_; ++l) {
       const int bit = depth_ - l;
       __m256i digit = _mm256_setzero_si256();
-      for (int a = 0; a < 3; ++a)
-        digit = _mm256_or_si256(digit, _mm256_slli_epi32(_mm256_and_si256(_mm256_srli_epi32(cell[a], bit), one), a));
+      for (int a = 0; a < 3; ++a) {
+        const __m256i bit_a = _mm256_and_si256(_mm256_srli_epi32(cell[a], bit), one);
+        digit = _mm256_or_si256(digit, _mm256_slli_epi32(bit_a, a));
+      }
       const __m256i above = _mm256_cmpgt_epi32(_mm256_set1_epi32(l), level);  // digit l not the face's
       const __m256i step = _mm256_permutevar8x32_epi32(
           _mm256_load_si256(reinterpret_cast<const __m256i*>(digit_steps_[l])), digit);
