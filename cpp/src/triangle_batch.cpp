@@ -403,7 +403,8 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
   const __m512i first = _mm512_add_epi32(_mm512_permutexvar_epi32(level, _mm512_load_si512(level_offset_)),
                                          _mm512_add_epi32(_mm512_mullo_epi32(cj0, cells_wide), ci0));
   const float* cells = pyramid_->cells();
-  __m512 bound = _mm512_set1_ps(-std::numeric_limits<float>::infinity());
+  const __m512 none = _mm512_set1_ps(-std::numeric_limits<float>::infinity());
+  __m512 bound = none;
   __m512i row = first;
   for (int dy = 0; dy < 3; ++dy) {
     const __mmask16 in_rows =
@@ -411,8 +412,11 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
     for (int dx = 0; dx < 3; ++dx) {
       const __m512i dxv = _mm512_set1_epi32(dx);
       const __mmask16 in = in_rows & _mm512_cmple_epi32_mask(_mm512_add_epi32(ci0, dxv), ci1);
-      if (in)  // boxes rarely span three cells: most of these masks are empty
-        bound = _mm512_max_ps(bound, _mm512_mask_i32gather_ps(bound, in, _mm512_add_epi32(row, dxv),
+      // (Boxes rarely span three cells: most of these masks are empty.
+      // Lanes not gathered are -inf, not `bound`, so that each gather
+      // waits on no other: merged into `bound`, they ran one after another.)
+      if (in)
+        bound = _mm512_max_ps(bound, _mm512_mask_i32gather_ps(none, in, _mm512_add_epi32(row, dxv),
                                                               cells, 4));
     }
     row = _mm512_add_epi32(row, cells_wide);
@@ -517,7 +521,8 @@ ZBUFFER_INLINE unsigned TriangleBatch::cull_small8(const Box& box, Vec z_lo, uns
       _mm256_add_epi32(_mm256_mullo_epi32(cj0, cells_wide), ci0));
   const float* cells = pyramid_->cells();
   const __m256i wanted = simd::mask8(candidates);
-  __m256 bound = _mm256_set1_ps(-std::numeric_limits<float>::infinity());
+  const __m256 none = _mm256_set1_ps(-std::numeric_limits<float>::infinity());
+  __m256 bound = none;
   __m256i row = first;
   for (int dy = 0; dy < 3; ++dy) {
     const __m256i in_rows = _mm256_andnot_si256(
@@ -526,8 +531,8 @@ ZBUFFER_INLINE unsigned TriangleBatch::cull_small8(const Box& box, Vec z_lo, uns
       const __m256i dxv = _mm256_set1_epi32(dx);
       const __m256i in =
           _mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_add_epi32(ci0, dxv), ci1), in_rows);
-      if (!_mm256_testz_si256(in, in))  // boxes rarely span three cells
-        bound = _mm256_max_ps(bound, _mm256_mask_i32gather_ps(bound, cells, _mm256_add_epi32(row, dxv),
+      if (!_mm256_testz_si256(in, in))  // (as in cull_small16: independent gathers)
+        bound = _mm256_max_ps(bound, _mm256_mask_i32gather_ps(none, cells, _mm256_add_epi32(row, dxv),
                                                               _mm256_castsi256_ps(in), 4));
     }
     row = _mm256_add_epi32(row, cells_wide);
