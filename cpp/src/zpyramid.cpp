@@ -275,13 +275,15 @@ float ZPyramid::max_over_cells(int k, int x0, int y0, int x1, int y1) const {
   const int i0 = x0 >> k, i1 = x1 >> k, j0 = y0 >> k, j1 = y1 >> k;
   float m = -std::numeric_limits<float>::infinity();
 #ifdef ZBUFFER_AVX512
-  // (The lanes past the rectangle masked off.)
-  __m512 v = _mm512_set1_ps(m);
+  // (The lanes past the rectangle masked off, -inf there: a load that
+  // kept `v`'s lanes would wait on the maximum before it.)
+  const __m512 none = _mm512_set1_ps(m);
+  __m512 v = none;
   for (int j = j0; j <= j1; ++j) {
     const float* row = cells + size_t(j) * w;
     for (int i = i0; i <= i1; i += 16) {
       const int n = std::min(16, i1 - i + 1);
-      v = _mm512_max_ps(v, _mm512_mask_loadu_ps(v, __mmask16((1u << n) - 1u), row + i));
+      v = _mm512_max_ps(v, _mm512_mask_loadu_ps(none, __mmask16((1u << n) - 1u), row + i));
     }
   }
   m = _mm512_reduce_max_ps(v);
