@@ -665,7 +665,7 @@ def show_tree(scene, algo: str = "hiz_octree", result: Optional[RenderResult] = 
     else:
         options.update(scalars="depth", cmap="viridis", clim=(0, max(depth_max, 1)),
                        show_scalar_bar=True,
-                       scalar_bar_args={"title": "depth in the tree", "fmt": "%.0f", **_SIDE_BAR})
+                       scalar_bar_args={"title": "depth in the tree\n", "fmt": "%.0f", **_SIDE_BAR})
 
     def draw(depth):
         grid = tree_grid(scene, algo, depth)
