@@ -50,7 +50,6 @@ struct Doubles8 {
   static ZBUFFER_INLINE Mask gt(D a, D b) { return _mm512_cmp_pd_mask(a.v, b.v, _CMP_GT_OQ); }
   static ZBUFFER_INLINE Mask ge(D a, D b) { return _mm512_cmp_pd_mask(a.v, b.v, _CMP_GE_OQ); }
   static ZBUFFER_INLINE Mask andnot(Mask a, Mask b) { return Mask(~a & b); }  // b and not a
-  static ZBUFFER_INLINE Mask none() { return 0; }
   static ZBUFFER_INLINE unsigned bits(Mask m) { return m; }
   // m ? b : a, lane by lane
   static ZBUFFER_INLINE D blend(Mask m, D a, D b) { return {_mm512_mask_blend_pd(m, a.v, b.v)}; }
@@ -151,7 +150,6 @@ struct Doubles4 {
   static ZBUFFER_INLINE Mask gt(D a, D b) { return {_mm256_cmp_pd(a.v, b.v, _CMP_GT_OQ)}; }
   static ZBUFFER_INLINE Mask ge(D a, D b) { return {_mm256_cmp_pd(a.v, b.v, _CMP_GE_OQ)}; }
   static ZBUFFER_INLINE Mask andnot(Mask a, Mask b) { return {_mm256_andnot_pd(a.v, b.v)}; }
-  static ZBUFFER_INLINE Mask none() { return {_mm256_setzero_pd()}; }
   static ZBUFFER_INLINE unsigned bits(Mask m) { return unsigned(_mm256_movemask_pd(m.v)); }
   static ZBUFFER_INLINE D blend(Mask m, D a, D b) { return {_mm256_blendv_pd(a.v, b.v, m.v)}; }
 

@@ -312,10 +312,14 @@ inline void TriangleBatch::mark_blocks(int x0, int y0, int x1, int y1) {
       block_dirty_[size_t(ty) * blocks_wide_ + tx] = 1;
 }
 
+inline void TriangleBatch::drop_hidden(int n) {
+  batch_culled_ += n;
+  stats_.culled_hidden += n;
+  stats_.rasterized -= n;  // counted when assembled: they are not drawn after all
+}
+
 inline void TriangleBatch::count_hidden(int level, int x0, int y0, int x1, int y1) {
-  ++batch_culled_;
-  ++stats_.culled_hidden;
-  --stats_.rasterized;  // counted when assembled: it is not drawn after all
+  drop_hidden(1);
   pyramid_->count_culled(level, x0, y0, x1, y1, 1);
 }
 
@@ -433,10 +437,7 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
         count_hidden(lv[k], lanes.x0[k], lanes.y0[k], lanes.x1[k], lanes.y1[k]);
       }
     } else {
-      const int n = __builtin_popcount(hidden);
-      batch_culled_ += n;
-      stats_.culled_hidden += n;
-      stats_.rasterized -= n;  // counted when assembled: they are not drawn after all
+      drop_hidden(__builtin_popcount(hidden));
     }
   }
   // Mark the 16 x 16 blocks under the survivors' boxes: faces arrive in
@@ -551,10 +552,7 @@ ZBUFFER_INLINE unsigned TriangleBatch::cull_small8(const Box& box, Vec z_lo, uns
         count_hidden(lv[k], x0[k], y0[k], x1[k], y1[k]);
       }
     } else {
-      const int n = __builtin_popcount(hidden);
-      batch_culled_ += n;
-      stats_.culled_hidden += n;
-      stats_.rasterized -= n;  // counted when assembled: they are not drawn after all
+      drop_hidden(__builtin_popcount(hidden));
     }
   }
   // The blocks under the survivors' boxes, as in cull_small16: their

@@ -148,6 +148,9 @@ class TriangleBatch {
   template <class Box, class Vec>
   unsigned cull_small8(const Box& box, Vec z_lo, unsigned candidates);
   void cull_large();
+  // `n` triangles of this batch found hidden (drop_hidden), one of
+  // them with its box and level for a cull map (count_hidden).
+  void drop_hidden(int n);
   void count_hidden(int level, int x0, int y0, int x1, int y1);
   void draw_large_by_tiles(const TriangleSetup& s);
   void mark_blocks(int x0, int y0, int x1, int y1);
