@@ -89,6 +89,43 @@ ZBUFFER_INLINE __m512 join(__m256 lo, __m256 hi) {
   return _mm512_insertf32x8(_mm512_castps256_ps512(lo), hi, 1);
 }
 
+// The elements of a vertex table at one corner of 8 (16) consecutive faces:
+// lane j is table[p[3 j]], p pointing at the corner's index in the first
+// face -- by scalar loads, put together two (four) lanes at a time.
+// Design decision: loads, not gathers, for a whole step's vertex data.
+// Good: a gather costs about as much per lane as a load and an insert
+// (on the benchmark machine, AMD EPYC with 48K L1d: 5 ns for 16 floats,
+// 4.5 ns for 8 doubles), and these tables are read 64 bits per load; the
+// indices come straight from the faces, with no deinterleaving. Measured
+// (benchmarks/results/ab-corner-loads*.md): every algorithm 0.95-0.99x
+// the time, AVX2 builds 0.92-0.99x. Bad: some 90 instructions a corner
+// where gathers took 5, and a tail of fewer than 16 faces keeps the
+// gathers (its lanes past the faces must not be read).
+ZBUFFER_INLINE __m512i corner_pairs8(const int32_t* pairs, const int32_t* p) {
+  auto pair = [&](int j) {  // (movq: no aliasing of the int32 pairs as int64)
+    return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(pairs + 2 * size_t(p[3 * j])));
+  };
+  auto two = [&](int j) { return _mm_unpacklo_epi64(pair(j), pair(j + 1)); };
+  const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(two(0)), two(2), 1);
+  const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(two(4)), two(6), 1);
+  return _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1);
+}
+ZBUFFER_INLINE __m512d corner_doubles8(const double* table, const int32_t* p) {
+  auto two = [&](int j) { return _mm_loadh_pd(_mm_load_sd(table + p[3 * j]), table + p[3 * j + 3]); };
+  const __m256d lo = _mm256_insertf128_pd(_mm256_castpd128_pd256(two(0)), two(2), 1);
+  const __m256d hi = _mm256_insertf128_pd(_mm256_castpd128_pd256(two(4)), two(6), 1);
+  return _mm512_insertf64x4(_mm512_castpd256_pd512(lo), hi, 1);
+}
+ZBUFFER_INLINE __m512i corner_words16(const uint32_t* table, const int32_t* p) {
+  auto four = [&](int j) {
+    return _mm_setr_epi32(int(table[p[3 * j]]), int(table[p[3 * j + 3]]), int(table[p[3 * j + 6]]),
+                          int(table[p[3 * j + 9]]));
+  };
+  const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1);
+  const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(four(8)), four(12), 1);
+  return _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1);
+}
+
 // Sixteen faces after assembly: the lanes of `draw` are triangles with
 // area > 0 (vertices 1 and 2 of front faces swapped), those of `clip` need
 // the scalar assembly (clipping).
@@ -105,31 +142,46 @@ struct Faces16 {
 ZBUFFER_INLINE void assemble16(const MeshView& mesh, const ScreenVertices& sv, int64_t first,
                                int count, bool cull_backfaces, RenderStats& stats, Faces16& f,
                                unsigned keep = 0xFFFFu) {
-  // Gather the three vertices of `count` faces; lanes past them load index 0
-  // (a valid vertex) and are masked off below, as are those not kept.
+  // The three vertices of `count` faces; lanes past them load index 0 (a
+  // valid vertex) and are masked off below, as are those not kept.
   f.live = __mmask16(((1u << count) - 1) & keep);
   const __mmask16 live = f.live;
-  __m512i corner[3];
-  deinterleave16(mesh.faces + 3 * first, count, corner);
   __m512i* x = f.x;
   __m512i* y = f.y;
   __m512d* z_lo = f.z_lo;
   __m512d* z_hi = f.z_hi;
   __m512i oc[3];
   const bool all_inside = sv.any_outcode == 0;  // then every outcode is 0: not read
-  // A corner's (x, y) pair is one 64-bit element: two gathers of 8 pairs
-  // instead of four of 16 coordinates, then split into x and y.
+  // A corner's (x, y) pair is one 64-bit element, split into x and y.
   const __m512i even = _mm512_set_epi32(30, 28, 26, 24, 22, 20, 18, 16, 14, 12, 10, 8, 6, 4, 2, 0);
   const __m512i odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
-  for (int k = 0; k < 3; ++k) {
-    const __m512i idx = corner[k];
-    const __m512i lo = _mm512_i32gather_epi64(_mm512_castsi512_si256(idx), sv.xy.data(), 8);
-    const __m512i hi = _mm512_i32gather_epi64(_mm512_extracti64x4_epi64(idx, 1), sv.xy.data(), 8);
-    x[k] = _mm512_permutex2var_epi32(lo, even, hi);
-    y[k] = _mm512_permutex2var_epi32(lo, odd, hi);
-    oc[k] = all_inside ? _mm512_setzero_si512() : _mm512_i32gather_epi32(idx, sv.outcode.data(), 4);
-    z_lo[k] = _mm512_i32gather_pd(_mm512_castsi512_si256(idx), sv.z.data(), 8);
-    z_hi[k] = _mm512_i32gather_pd(_mm512_extracti64x4_epi64(idx, 1), sv.z.data(), 8);
+  const int32_t* faces = mesh.faces + 3 * first;
+  if (count == 16) {
+    // A whole step: each corner's elements by scalar loads, indices read
+    // where the faces lie (see corner_pairs8).
+    const int32_t* xy = sv.xy.data();
+    for (int k = 0; k < 3; ++k) {
+      const __m512i lo = corner_pairs8(xy, faces + k), hi = corner_pairs8(xy, faces + 24 + k);
+      x[k] = _mm512_permutex2var_epi32(lo, even, hi);
+      y[k] = _mm512_permutex2var_epi32(lo, odd, hi);
+      oc[k] = all_inside ? _mm512_setzero_si512() : corner_words16(sv.outcode.data(), faces + k);
+      z_lo[k] = corner_doubles8(sv.z.data(), faces + k);
+      z_hi[k] = corner_doubles8(sv.z.data(), faces + 24 + k);
+    }
+  } else {
+    // The last faces of a run: gathers (lanes past `count` read vertex 0).
+    __m512i corner[3];
+    deinterleave16(faces, count, corner);
+    for (int k = 0; k < 3; ++k) {
+      const __m512i idx = corner[k];
+      const __m512i lo = _mm512_i32gather_epi64(_mm512_castsi512_si256(idx), sv.xy.data(), 8);
+      const __m512i hi = _mm512_i32gather_epi64(_mm512_extracti64x4_epi64(idx, 1), sv.xy.data(), 8);
+      x[k] = _mm512_permutex2var_epi32(lo, even, hi);
+      y[k] = _mm512_permutex2var_epi32(lo, odd, hi);
+      oc[k] = all_inside ? _mm512_setzero_si512() : _mm512_i32gather_epi32(idx, sv.outcode.data(), 4);
+      z_lo[k] = _mm512_i32gather_pd(_mm512_castsi512_si256(idx), sv.z.data(), 8);
+      z_hi[k] = _mm512_i32gather_pd(_mm512_extracti64x4_epi64(idx, 1), sv.z.data(), 8);
+    }
   }
 
   // Culling and clipping decisions, as assemble_triangle makes them.

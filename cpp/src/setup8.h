@@ -101,36 +101,72 @@ ZBUFFER_INLINE __m256i abs64(__m256i v) {
   return _mm256_blendv_epi8(v, _mm256_sub_epi64(_mm256_setzero_si256(), v), negative);
 }
 
+// setup16.h's corner_pairs8, corner_doubles8 and corner_words16 for 4 (8)
+// faces: lane j is table[p[3 j]].
+ZBUFFER_INLINE __m256i corner_pairs4(const int32_t* pairs, const int32_t* p) {
+  auto pair = [&](int j) {  // (movq: no aliasing of the int32 pairs as int64)
+    return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(pairs + 2 * size_t(p[3 * j])));
+  };
+  return _mm256_inserti128_si256(_mm256_castsi128_si256(_mm_unpacklo_epi64(pair(0), pair(1))),
+                                 _mm_unpacklo_epi64(pair(2), pair(3)), 1);
+}
+ZBUFFER_INLINE __m256d corner_doubles4(const double* table, const int32_t* p) {
+  auto two = [&](int j) { return _mm_loadh_pd(_mm_load_sd(table + p[3 * j]), table + p[3 * j + 3]); };
+  return _mm256_insertf128_pd(_mm256_castpd128_pd256(two(0)), two(2), 1);
+}
+ZBUFFER_INLINE __m256i corner_words8(const uint32_t* table, const int32_t* p) {
+  auto four = [&](int j) {
+    return _mm_setr_epi32(int(table[p[3 * j]]), int(table[p[3 * j + 3]]), int(table[p[3 * j + 6]]),
+                          int(table[p[3 * j + 9]]));
+  };
+  return _mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1);
+}
+
 // Assemble faces first .. first + count - 1 (count <= 8) of `keep` (bit k:
 // face first + k), counting the culled ones and the rasterized ones in
 // stats as assemble_triangle does (clipped faces are left to the caller).
-// The mesh has at least one vertex: lanes past `count` and those not kept
-// use vertex 0 and are masked off.
+// The mesh has at least one vertex: lanes past `count` use vertex 0, and
+// they and the lanes not kept are masked off.
 ZBUFFER_INLINE void assemble8(const MeshView& mesh, const ScreenVertices& sv, int64_t first,
                               int count, bool cull_backfaces, RenderStats& stats, Faces8& f,
                               unsigned keep = 0xFFu) {
   f.live = ((1u << count) - 1) & keep;
   const __m256i live = mask8(f.live);
-  __m256i corner[3];
-  deinterleave8(mesh.faces + 3 * first, count, corner);
   __m256i oc[3];
   const bool all_inside = sv.any_outcode == 0;  // then every outcode is 0: not read
-  // A corner's (x, y) pair is one 64-bit element (as in setup16.h): two
-  // gathers of 4 pairs, each split into its x and y halves.
+  // A corner's (x, y) pair is one 64-bit element (as in setup16.h): 4 pairs
+  // at a time, each split into its x and y halves.
   const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
-  const long long* xy = reinterpret_cast<const long long*>(sv.xy.data());
-  for (int k = 0; k < 3; ++k) {
-    const __m256i idx = _mm256_and_si256(corner[k], live);  // (lanes not live: vertex 0)
-    const __m256i lo = _mm256_permutevar8x32_epi32(
-        _mm256_i32gather_epi64(xy, _mm256_castsi256_si128(idx), 8), split);  // x0-3, y0-3
-    const __m256i hi = _mm256_permutevar8x32_epi32(
-        _mm256_i32gather_epi64(xy, _mm256_extracti128_si256(idx, 1), 8), split);  // x4-7, y4-7
-    f.x[k] = _mm256_permute2x128_si256(lo, hi, 0x20);
-    f.y[k] = _mm256_permute2x128_si256(lo, hi, 0x31);
-    oc[k] = all_inside ? _mm256_setzero_si256()
-                       : _mm256_i32gather_epi32(reinterpret_cast<const int*>(sv.outcode.data()), idx, 4);
-    f.z_lo[k] = _mm256_i32gather_pd(sv.z.data(), _mm256_castsi256_si128(idx), 8);
-    f.z_hi[k] = _mm256_i32gather_pd(sv.z.data(), _mm256_extracti128_si256(idx, 1), 8);
+  const int32_t* faces = mesh.faces + 3 * first;
+  if (count == 8) {
+    // A whole step: by scalar loads, as setup16.h's assemble16.
+    for (int k = 0; k < 3; ++k) {
+      const __m256i lo = _mm256_permutevar8x32_epi32(corner_pairs4(sv.xy.data(), faces + k), split);
+      const __m256i hi = _mm256_permutevar8x32_epi32(corner_pairs4(sv.xy.data(), faces + 12 + k), split);
+      f.x[k] = _mm256_permute2x128_si256(lo, hi, 0x20);
+      f.y[k] = _mm256_permute2x128_si256(lo, hi, 0x31);
+      oc[k] = all_inside ? _mm256_setzero_si256() : corner_words8(sv.outcode.data(), faces + k);
+      f.z_lo[k] = corner_doubles4(sv.z.data(), faces + k);
+      f.z_hi[k] = corner_doubles4(sv.z.data(), faces + 12 + k);
+    }
+  } else {
+    // The last faces of a run: gathers.
+    __m256i corner[3];
+    deinterleave8(faces, count, corner);
+    const long long* xy = reinterpret_cast<const long long*>(sv.xy.data());
+    for (int k = 0; k < 3; ++k) {
+      const __m256i idx = _mm256_and_si256(corner[k], live);  // (lanes not live: vertex 0)
+      const __m256i lo = _mm256_permutevar8x32_epi32(
+          _mm256_i32gather_epi64(xy, _mm256_castsi256_si128(idx), 8), split);  // x0-3, y0-3
+      const __m256i hi = _mm256_permutevar8x32_epi32(
+          _mm256_i32gather_epi64(xy, _mm256_extracti128_si256(idx, 1), 8), split);  // x4-7, y4-7
+      f.x[k] = _mm256_permute2x128_si256(lo, hi, 0x20);
+      f.y[k] = _mm256_permute2x128_si256(lo, hi, 0x31);
+      oc[k] = all_inside ? _mm256_setzero_si256()
+                         : _mm256_i32gather_epi32(reinterpret_cast<const int*>(sv.outcode.data()), idx, 4);
+      f.z_lo[k] = _mm256_i32gather_pd(sv.z.data(), _mm256_castsi256_si128(idx), 8);
+      f.z_hi[k] = _mm256_i32gather_pd(sv.z.data(), _mm256_extracti128_si256(idx, 1), 8);
+    }
   }
 
   // Culling and clipping decisions, as assemble_triangle makes them.
