@@ -72,6 +72,27 @@ struct Doubles8 {
   }
 
   static ZBUFFER_INLINE void store(double* p, D a) { _mm512_storeu_pd(p, a.v); }
+  // The x, y, z of vertices v[0 .. 7] of a table of xyz triples, lane j
+  // vertex v[j]: a load of each triple (masked: nothing past it is read)
+  // and a transposition (prepare_faces in shading.cpp: why not gathers).
+  static ZBUFFER_INLINE void load_xyz(const double* table, const int32_t* v, D out[3]) {
+    auto vertex = [&](int j) { return _mm256_maskz_loadu_pd(0x7, table + 3 * size_t(v[j])); };
+    auto two = [&](int j) {  // x_j y_j z_j 0 x_j+1 y_j+1 z_j+1 0
+      return _mm512_insertf64x4(_mm512_castpd256_pd512(vertex(j)), vertex(j + 1), 1);
+    };
+    const __m512d q01 = two(0), q23 = two(2), q45 = two(4), q67 = two(6);
+    const __m512i xy = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13);
+    const __m512i zz = _mm512_setr_epi64(2, 6, 10, 14, 2, 6, 10, 14);
+    const __m512d a = _mm512_permutex2var_pd(q01, xy, q23);  // x0-3 y0-3
+    const __m512d b = _mm512_permutex2var_pd(q45, xy, q67);  // x4-7 y4-7
+    const __m512d c = _mm512_permutex2var_pd(q01, zz, q23);  // z0-3
+    const __m512d d = _mm512_permutex2var_pd(q45, zz, q67);  // z4-7
+    const __m512i lo = _mm512_setr_epi64(0, 1, 2, 3, 8, 9, 10, 11);
+    const __m512i hi = _mm512_setr_epi64(4, 5, 6, 7, 12, 13, 14, 15);
+    out[0] = {_mm512_permutex2var_pd(a, lo, b)};
+    out[1] = {_mm512_permutex2var_pd(a, hi, b)};
+    out[2] = {_mm512_permutex2var_pd(c, lo, d)};
+  }
   static ZBUFFER_INLINE F to_float(D a) { return _mm512_cvtpd_ps(a.v); }
   static ZBUFFER_INLINE F zero_float() { return _mm256_setzero_ps(); }
   // The whole numbers r, g, b (0 .. 255) as 0x00BBGGRR at out[j] for the
@@ -171,6 +192,19 @@ struct Doubles4 {
   }
 
   static ZBUFFER_INLINE void store(double* p, D a) { _mm256_storeu_pd(p, a.v); }
+  // Doubles8's load_xyz for vertices v[0 .. 3].
+  static ZBUFFER_INLINE void load_xyz(const double* table, const int32_t* v, D out[3]) {
+    const __m256i first3 = _mm256_setr_epi64x(-1, -1, -1, 0);
+    auto vertex = [&](int j) { return _mm256_maskload_pd(table + 3 * size_t(v[j]), first3); };
+    const __m256d r0 = vertex(0), r1 = vertex(1), r2 = vertex(2), r3 = vertex(3);
+    const __m256d t0 = _mm256_unpacklo_pd(r0, r1);  // x0 x1 z0 z1
+    const __m256d t1 = _mm256_unpackhi_pd(r0, r1);  // y0 y1 0 0
+    const __m256d t2 = _mm256_unpacklo_pd(r2, r3);  // x2 x3 z2 z3
+    const __m256d t3 = _mm256_unpackhi_pd(r2, r3);  // y2 y3 0 0
+    out[0] = {_mm256_permute2f128_pd(t0, t2, 0x20)};
+    out[1] = {_mm256_permute2f128_pd(t1, t3, 0x20)};
+    out[2] = {_mm256_permute2f128_pd(t0, t2, 0x31)};
+  }
   static ZBUFFER_INLINE F to_float(D a) { return _mm256_cvtpd_ps(a.v); }
   static ZBUFFER_INLINE F zero_float() { return _mm_setzero_ps(); }
   static ZBUFFER_INLINE void store_rgb(int32_t* out, IndexMask m, D r, D g, D b) {

@@ -577,6 +577,11 @@ __attribute__((noinline)) void finish_exact(const ShadingInput& in, const FaceTa
 // prepare_face for V::kWidth faces f at once (lanes `live`; double_lanes.h:
 // 8 in AVX-512 builds, 4 in AVX2 builds), in double: the same operations in
 // the same order, so the same bits; into rows first .. first + kWidth - 1.
+// corners[k][j] is the vertex at corner k of lane j's face, read by the
+// caller: positions and vertex normals are loaded a vertex at a time and
+// transposed (V::load_xyz), not gathered by coordinate: shading 0.86-0.91x
+// the time flat, 0.95-1.01x smooth (benchmarks/results/ab-shading-loads*.md;
+// setup16.h's corner_pairs8 on the cost of gathers).
 // Returns the lanes whose normal lies outside [kNormalLow, kNormalHigh]
 // (face_normal_direction), left for prepare_face to prepare again (their
 // rows are written, with normals of no use). One function per kind of
@@ -584,7 +589,8 @@ __attribute__((noinline)) void finish_exact(const ShadingInput& in, const FaceTa
 // neither: a flat colour), so that each keeps in registers what it needs.
 template <class V, bool bary, bool map>
 unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Index f,
-                       typename V::IndexMask live_index, size_t first) {
+                       typename V::IndexMask live_index, const int32_t (*corners)[V::kWidth],
+                       size_t first) {
   using D = typename V::D;
   using Mask = typename V::Mask;
   const D zero = V::set(0.0), one = V::set(1.0);
@@ -593,13 +599,8 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
     return V::gt(v, V::set(0.0)) & V::lt(v, V::set(std::numeric_limits<double>::infinity()));
   };
   const typename V::Index f3 = V::times3(f);
-  D p[3][3];                  // corner k, coordinate c
-  typename V::Index v3[3];    // 3 x corner k's vertex
-  for (int k = 0; k < 3; ++k) {
-    v3[k] = V::times3(V::gather(in.mesh.faces, V::add(f3, V::index(k)), live_index));
-    for (int c = 0; c < 3; ++c)
-      p[k][c] = V::gather(in.mesh.positions, V::add(v3[k], V::index(c)), live);
-  }
+  D p[3][3];  // corner k, coordinate c
+  for (int k = 0; k < 3; ++k) V::load_xyz(in.mesh.positions, corners[k], p[k]);
   auto dot = [](const D* a, const D* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
   D e1[3], e2[3], ng[3], to_viewer[3];
   for (int c = 0; c < 3; ++c) {
@@ -671,9 +672,7 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
                          live);
   if constexpr (map) {
     D vn[3][3];  // corner k, component c
-    for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c)
-        vn[k][c] = V::gather(in.vertex_normals, V::add(v3[k], V::index(c)), live);
+    for (int k = 0; k < 3; ++k) V::load_xyz(in.vertex_normals, corners[k], vn[k]);
     const Mask usable = scalable & positive_finite(V::abs(det));  // det finite and not 0
     const Mask opposite = V::lt(det, zero) ^ back;             // det and side of two signs
     const D sign = V::blend(opposite, one, V::set(-1.0));     // +1 where of one sign
@@ -752,12 +751,13 @@ unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Ind
 // prepare_faces for the kind of rows a pass reads.
 template <class V>
 unsigned prepare_faces(const ShadingInput& in, FaceTable& table, typename V::Index f,
-                       typename V::IndexMask live, bool bary, bool map, size_t first) {
+                       typename V::IndexMask live, const int32_t (*corners)[V::kWidth], bool bary,
+                       bool map, size_t first) {
   if (map)
-    return bary ? prepare_faces<V, true, true>(in, table, f, live, first)
-                : prepare_faces<V, false, true>(in, table, f, live, first);
-  return bary ? prepare_faces<V, true, false>(in, table, f, live, first)
-              : prepare_faces<V, false, false>(in, table, f, live, first);
+    return bary ? prepare_faces<V, true, true>(in, table, f, live, corners, first)
+                : prepare_faces<V, false, true>(in, table, f, live, corners, first);
+  return bary ? prepare_faces<V, true, false>(in, table, f, live, corners, first)
+              : prepare_faces<V, false, false>(in, table, f, live, corners, first);
 }
 
 // Calls sight(face) for the id of every run of one id among the `count`
@@ -791,10 +791,19 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
       store_row(table, r, prepare_face(in, face_at(r), bary || map, map), bary, map);
     }
   };
+  // The vertices of rows row0 .. row0 + width - 1 by corner (vertex 0 past
+  // the last row).
+  auto corner_vertices = [&](size_t row0, int width, auto& corners) {
+    for (int j = 0; j < width; ++j) {
+      const bool row = row0 + size_t(j) < count;
+      const int32_t* idx = in.mesh.faces + 3 * size_t(row ? face_at(row0 + size_t(j)) : 0);
+      for (int k = 0; k < 3; ++k) corners[k][j] = row ? idx[k] : 0;
+    }
+  };
   size_t i = first;
-  // (int32 gather indices: 3 n_vertices and 3 n_faces must fit)
+  // (int32 gather indices of per-face colours: 3 n_faces must fit)
   constexpr int64_t kMaxIndexed = int64_t(std::numeric_limits<int32_t>::max()) / 3;
-  const bool indexed = in.mesh.n_vertices <= kMaxIndexed && in.mesh.n_faces <= kMaxIndexed;
+  const bool indexed = in.mesh.n_faces <= kMaxIndexed;
 #ifdef ZBUFFER_AVX512
   if (indexed) {
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -802,7 +811,7 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
       const __mmask8 live = __mmask8(_bzhi_u32(0xFF, uint32_t(std::min<size_t>(count - i, 8))));
       const __m256i f = table.by_slot ? _mm256_maskz_loadu_epi32(live, list.data() + i)
                                       : _mm256_add_epi32(_mm256_set1_epi32(int32_t(i)), lane);
-      // The gathers wait on memory (found faces come in image order, their
+      // The loads wait on memory (found faces come in image order, their
       // corners from anywhere): the corners of the faces two steps on are
       // fetched now, and the found faces' indices four steps on. (Written
       // out per instruction set: a shared lambda taking the step's width
@@ -817,7 +826,9 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      prepare_again(i, prepare_faces<lanes::Doubles8>(in, table, f, live, bary, map, i));
+      alignas(32) int32_t corners[3][8];
+      corner_vertices(i, 8, corners);
+      prepare_again(i, prepare_faces<lanes::Doubles8>(in, table, f, live, corners, bary, map, i));
     }
   }
 #elif defined(ZBUFFER_AVX2)
@@ -840,7 +851,9 @@ void prepare_rows(const ShadingInput& in, FaceTable& table, size_t first, size_t
             prefetch(in.mesh.positions + 3 * v);
             if (map) prefetch(in.vertex_normals + 3 * v);
           }
-      prepare_again(i, prepare_faces<lanes::Doubles4>(in, table, f, live, bary, map, i));
+      alignas(16) int32_t corners[3][4];
+      corner_vertices(i, 4, corners);
+      prepare_again(i, prepare_faces<lanes::Doubles4>(in, table, f, live, corners, bary, map, i));
     }
   }
 #endif
