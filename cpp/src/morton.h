@@ -14,9 +14,9 @@
 #include "zbuffer/types.h"
 
 #ifdef ZBUFFER_AVX512
-#include "setup16.h"  // deinterleave16 (simd.h has included immintrin.h)
+#include "setup16.h"  // corner_words16 (simd.h has included immintrin.h)
 #elif defined(ZBUFFER_AVX2)
-#include "setup8.h"  // deinterleave8
+#include "setup8.h"  // corner_words8
 #endif
 
 namespace zbuffer {
@@ -378,9 +378,8 @@ inline void face_cells(const VertexGrid& grid, const int32_t* idx, uint32_t* lo,
 // lo .. hi per axis, as face_cells computes it.
 inline void face_cells16(const VertexGrid& grid, const int32_t* faces, __m512i* c, __m512i* lo,
                          __m512i* hi) {
-  __m512i idx[3];
-  simd::deinterleave16(faces, 16, idx);
-  for (int j = 0; j < 3; ++j) c[j] = _mm512_i32gather_epi32(idx[j], grid.cell.data(), 4);
+  // (By loads, as assembly reads the screen vertices: setup16.h.)
+  for (int j = 0; j < 3; ++j) c[j] = simd::corner_words16(grid.cell.data(), faces + j);
   const __m512i mask = _mm512_set1_epi32(int(VertexGrid::kMask));
   for (int a = 0; a < 3; ++a) {
     const int shift = VertexGrid::kBits * a;
@@ -438,10 +437,7 @@ inline void store_words16(uint64_t* out, __m512i key, __m512i face) {
 // The functions above for 8 faces (AVX2 builds), with the same bits.
 inline void face_cells8(const VertexGrid& grid, const int32_t* faces, __m256i* c, __m256i* lo,
                         __m256i* hi) {
-  __m256i idx[3];
-  simd::deinterleave8(faces, 8, idx);
-  const int* cells = reinterpret_cast<const int*>(grid.cell.data());
-  for (int j = 0; j < 3; ++j) c[j] = _mm256_i32gather_epi32(cells, idx[j], 4);
+  for (int j = 0; j < 3; ++j) c[j] = simd::corner_words8(grid.cell.data(), faces + j);  // (as above)
   const __m256i mask = _mm256_set1_epi32(int(VertexGrid::kMask));
   for (int a = 0; a < 3; ++a) {
     const int shift = VertexGrid::kBits * a;
