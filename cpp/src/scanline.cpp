@@ -728,11 +728,18 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
     // Spans: the bounds the edges wrote. A polygon's two bounds are
     // adjacent: gathered as one 64-bit pair (first pixel, minus the last),
     // half the elements.
-    const __m256i index_lo = _mm512_castsi512_si256(f[kIndex]);
-    const __m256i index_hi = _mm512_extracti64x4_epi64(f[kIndex], 1);
-    const __mmask8 live_lo = __mmask8(live), live_hi = __mmask8(live >> 8);
-    const __m512i pairs_lo = _mm512_mask_i32gather_epi64(zero, live_lo, index_lo, bounds, 8);
-    const __m512i pairs_hi = _mm512_mask_i32gather_epi64(zero, live_hi, index_hi, bounds, 8);
+    __m512i pairs_lo, pairs_hi;
+    if (live == 0xFFFF) {  // by loads, as assembly reads vertices (setup16.h)
+      const int32_t* index = active_[kIndex].data() + i;
+      pairs_lo = simd::pairs8(bounds, index);
+      pairs_hi = simd::pairs8(bounds, index + 8);
+    } else {
+      const __m256i index_lo = _mm512_castsi512_si256(f[kIndex]);
+      const __m256i index_hi = _mm512_extracti64x4_epi64(f[kIndex], 1);
+      const __mmask8 live_lo = __mmask8(live), live_hi = __mmask8(live >> 8);
+      pairs_lo = _mm512_mask_i32gather_epi64(zero, live_lo, index_lo, bounds, 8);
+      pairs_hi = _mm512_mask_i32gather_epi64(zero, live_hi, index_hi, bounds, 8);
+    }
     // (Within the image's columns: an edge's bound may lie outside them.)
     const __m512i lo = _mm512_max_epi32(
         _mm512_permutex2var_epi32(pairs_lo, _mm512_load_si512(simd::kEven), pairs_hi), zero);

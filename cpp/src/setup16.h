@@ -101,14 +101,19 @@ ZBUFFER_INLINE __m512 join(__m256 lo, __m256 hi) {
 // the time, AVX2 builds 0.92-0.99x. Bad: some 90 instructions a corner
 // where gathers took 5, and a tail of fewer than 16 faces keeps the
 // gathers (its lanes past the faces must not be read).
+// (Indices `stride` apart: pairs8 takes them consecutive.)
+template <int stride = 3>
 ZBUFFER_INLINE __m512i corner_pairs8(const int32_t* pairs, const int32_t* p) {
   auto pair = [&](int j) {  // (movq: no aliasing of the int32 pairs as int64)
-    return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(pairs + 2 * size_t(p[3 * j])));
+    return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(pairs + 2 * size_t(p[stride * j])));
   };
   auto two = [&](int j) { return _mm_unpacklo_epi64(pair(j), pair(j + 1)); };
   const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(two(0)), two(2), 1);
   const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(two(4)), two(6), 1);
   return _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1);
+}
+ZBUFFER_INLINE __m512i pairs8(const int32_t* pairs, const int32_t* index) {
+  return corner_pairs8<1>(pairs, index);
 }
 ZBUFFER_INLINE __m512d corner_doubles8(const double* table, const int32_t* p) {
   auto two = [&](int j) { return _mm_loadh_pd(_mm_load_sd(table + p[3 * j]), table + p[3 * j + 3]); };
