@@ -1055,7 +1055,18 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
       const __mmask16 drawn = _mm512_mask_cmpge_epi32_mask(valid, f, zero);
       __m512i rgba = background;
       if constexpr (!interpolated) {
-        if (drawn) {
+        if (drawn == 0xFFFF) {
+          // A step of faces only: each lane's colour by loads (setup16.h's
+          // corner_pairs8 on why not gathers).
+          const int32_t* id = ids + i;
+          auto colour = [&](int k) { return table.rgb[size_t(table.row(id[k]))]; };
+          auto four = [&](int k) {
+            return _mm_setr_epi32(colour(k), colour(k + 1), colour(k + 2), colour(k + 3));
+          };
+          rgba = _mm512_inserti64x4(
+              _mm512_castsi256_si512(_mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1)),
+              _mm256_inserti128_si256(_mm256_castsi128_si256(four(8)), four(12), 1), 1);
+        } else if (drawn) {
           const __m512i row =
               table.by_slot ? _mm512_mask_i32gather_epi32(zero, drawn, f, table.slot.data(), 4) : f;
           rgba = _mm512_mask_i32gather_epi32(background, drawn, row, table.rgb.data(), 4);
@@ -1253,7 +1264,14 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
       const unsigned drawn_bits = unsigned(_mm256_movemask_ps(drawn_f));
       __m256i rgba = background;
       if constexpr (!interpolated) {
-        if (drawn_bits) {
+        if (drawn_bits == 0xFF) {  // faces only: by loads, as in shade_pass_avx512
+          const int32_t* id = ids + i;
+          auto colour = [&](int k) { return table.rgb[size_t(table.row(id[k]))]; };
+          auto four = [&](int k) {
+            return _mm_setr_epi32(colour(k), colour(k + 1), colour(k + 2), colour(k + 3));
+          };
+          rgba = _mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1);
+        } else if (drawn_bits) {
           // Each lane's row of the table, and its colour.
           const __m256i r = table.by_slot
                                 ? _mm256_mask_i32gather_epi32(zero, table.slot.data(), f, drawn, 4)
