@@ -408,21 +408,33 @@ ZBUFFER_INLINE Mask TriangleBatch::cull_small16(const Box& box, Vec z_lo, Mask c
                                          _mm512_add_epi32(_mm512_mullo_epi32(cj0, cells_wide), ci0));
   const float* cells = pyramid_->cells();
   const __m512 none = _mm512_set1_ps(-std::numeric_limits<float>::infinity());
+  // A row's first two cells as one 64-bit element (8 lanes a gather: half
+  // the elements of two gathers of 16), its third by a gather of its own
+  // where a box spans three. The second cell counts only where the box
+  // spans it (a pair at a level's last cell reads one cell past it:
+  // ZPyramid keeps one more). Lanes not read are -inf, so that no gather
+  // waits on another.
+  const __mmask16 two_cols = _mm512_cmpgt_epi32_mask(ci1, ci0);
+  const __mmask16 three_cols = _mm512_cmpgt_epi32_mask(ci1, _mm512_add_epi32(ci0, one));
+  const __m512i even = _mm512_set_epi32(30, 28, 26, 24, 22, 20, 18, 16, 14, 12, 10, 8, 6, 4, 2, 0);
+  const __m512i odd = _mm512_add_epi32(even, one);
+  const __m512i none_pair = _mm512_castps_si512(none);
   __m512 bound = none;
   __m512i row = first;
   for (int dy = 0; dy < 3; ++dy) {
     const __mmask16 in_rows =
         candidates & _mm512_cmple_epi32_mask(_mm512_add_epi32(cj0, _mm512_set1_epi32(dy)), cj1);
-    for (int dx = 0; dx < 3; ++dx) {
-      const __m512i dxv = _mm512_set1_epi32(dx);
-      const __mmask16 in = in_rows & _mm512_cmple_epi32_mask(_mm512_add_epi32(ci0, dxv), ci1);
-      // (Boxes rarely span three cells: most of these masks are empty.
-      // Lanes not gathered are -inf, not `bound`, so that each gather
-      // waits on no other: merged into `bound`, they ran one after another.)
-      if (in)
-        bound = _mm512_max_ps(bound, _mm512_mask_i32gather_ps(none, in, _mm512_add_epi32(row, dxv),
-                                                              cells, 4));
-    }
+    if (!in_rows) break;
+    const __m512i lo = _mm512_mask_i32gather_epi64(none_pair, __mmask8(in_rows),
+                                                   _mm512_castsi512_si256(row), cells, 4);
+    const __m512i hi = _mm512_mask_i32gather_epi64(none_pair, __mmask8(in_rows >> 8),
+                                                   _mm512_extracti64x4_epi64(row, 1), cells, 4);
+    bound = _mm512_max_ps(bound, _mm512_castsi512_ps(_mm512_permutex2var_epi32(lo, even, hi)));
+    bound = _mm512_mask_max_ps(bound, two_cols, bound,
+                               _mm512_castsi512_ps(_mm512_permutex2var_epi32(lo, odd, hi)));
+    if (const __mmask16 third = in_rows & three_cols)
+      bound = _mm512_max_ps(bound, _mm512_mask_i32gather_ps(none, third, _mm512_add_epi32(row, two),
+                                                            cells, 4));
     row = _mm512_add_epi32(row, cells_wide);
   }
   const __mmask16 hidden = candidates & _mm512_cmp_ps_mask(z_lo, bound, _CMP_GT_OQ);
@@ -500,7 +512,7 @@ ZBUFFER_INLINE unsigned TriangleBatch::cull_small8(const Box& box, Vec z_lo, uns
     const BoxLanes8 lanes(box, z_lo);
     return cull_lanes(lanes.x0, lanes.y0, lanes.x1, lanes.y1, lanes.z_lo, candidates);
   }
-  const __m256i two = _mm256_set1_epi32(2);
+  const __m256i one = _mm256_set1_epi32(1), two = _mm256_set1_epi32(2);
   // Each box's level, as test_level finds it (too_wide lanes are -1).
   __m256i level = _mm256_set1_epi32(fine_);
   for (int l = fine_; l < kTileShift; ++l) {
@@ -523,19 +535,36 @@ ZBUFFER_INLINE unsigned TriangleBatch::cull_small8(const Box& box, Vec z_lo, uns
   const float* cells = pyramid_->cells();
   const __m256i wanted = simd::mask8(candidates);
   const __m256 none = _mm256_set1_ps(-std::numeric_limits<float>::infinity());
+  // As in cull_small16: a row's first two cells as one 64-bit element, the
+  // second counting only where the box spans it, the third by a gather of
+  // its own; lanes not read -inf.
+  const __m256i two_cols = _mm256_cmpgt_epi32(ci1, ci0);
+  const __m256i three_cols = _mm256_cmpgt_epi32(ci1, _mm256_add_epi32(ci0, one));
+  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
   __m256 bound = none;
   __m256i row = first;
   for (int dy = 0; dy < 3; ++dy) {
     const __m256i in_rows = _mm256_andnot_si256(
         _mm256_cmpgt_epi32(_mm256_add_epi32(cj0, _mm256_set1_epi32(dy)), cj1), wanted);
-    for (int dx = 0; dx < 3; ++dx) {
-      const __m256i dxv = _mm256_set1_epi32(dx);
-      const __m256i in =
-          _mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_add_epi32(ci0, dxv), ci1), in_rows);
-      if (!_mm256_testz_si256(in, in))  // (as in cull_small16: independent gathers)
-        bound = _mm256_max_ps(bound, _mm256_mask_i32gather_ps(none, cells, _mm256_add_epi32(row, dxv),
-                                                              _mm256_castsi256_ps(in), 4));
-    }
+    if (_mm256_testz_si256(in_rows, in_rows)) break;
+    // Each half's pairs, split into first cells (low 128 bits) and second.
+    auto pairs = [&](__m128i index, __m128i in) {
+      const __m256i mask = _mm256_cvtepi32_epi64(in);
+      return _mm256_permutevar8x32_epi32(
+          _mm256_mask_i32gather_epi64(_mm256_castps_si256(none),
+                                      reinterpret_cast<const long long*>(cells), index, mask, 4),
+          split);
+    };
+    const __m256i lo = pairs(_mm256_castsi256_si128(row), _mm256_castsi256_si128(in_rows));
+    const __m256i hi = pairs(_mm256_extracti128_si256(row, 1), _mm256_extracti128_si256(in_rows, 1));
+    const __m256 first_cells = _mm256_castsi256_ps(_mm256_permute2x128_si256(lo, hi, 0x20));
+    const __m256 second_cells = _mm256_castsi256_ps(_mm256_permute2x128_si256(lo, hi, 0x31));
+    bound = _mm256_max_ps(bound, first_cells);
+    bound = _mm256_max_ps(bound, _mm256_blendv_ps(none, second_cells, _mm256_castsi256_ps(two_cols)));
+    const __m256i third = _mm256_and_si256(in_rows, three_cols);
+    if (!_mm256_testz_si256(third, third))
+      bound = _mm256_max_ps(bound, _mm256_mask_i32gather_ps(none, cells, _mm256_add_epi32(row, two),
+                                                            _mm256_castsi256_ps(third), 4));
     row = _mm256_add_epi32(row, cells_wide);
   }
   const unsigned hidden =

@@ -21,7 +21,9 @@ ZPyramid::ZPyramid(const float* depth, int width, int height, int first_level, b
     offset_[size_t(k)] = total;
     total += size_t(widths_[k]) * size_t(heights_[k]);
   }
-  cells_.assign(total, std::numeric_limits<float>::infinity());
+  // (One cell more, never a level's: the small-triangle test reads cells
+  // in pairs, and a pair at a level's last cell reaches one past it.)
+  cells_.assign(total + 1, std::numeric_limits<float>::infinity());
   if (!cleared) rebuild();
 }
 
