@@ -389,11 +389,12 @@ namespace {
 // 16 (AVX-512) or 8 (AVX2) pixels of a row per step, in float32 (shading
 // need not be bit-exact; it agrees with the scalar pass and the numpy twin
 // within one level). Per-face data sits in a table of rows (a colour each,
-// and 16 or 32 floats for interpolation). Flat shading gathers each
-// pixel's colour; interpolated shading broadcasts a row's fields into the
-// lanes of each run of one id among the step's pixels (16 neighbouring
-// pixels show a few faces, and a gather per field costs about an element a
-// cycle on Zen, as on Intel cores with the gather data sampling fix).
+// and 16 or 32 floats for interpolation). Flat shading loads each pixel's
+// colour (gathers, where a step shows background too); interpolated
+// shading broadcasts a row's fields into the lanes of each run of one id
+// among the step's pixels (16 neighbouring pixels show a few faces, and a
+// gather per field costs about an element a cycle on Zen, as on Intel
+// cores with the gather data sampling fix).
 
 // Design decision: the per-face table is prepared before the pixel pass,
 // for the faces that show up -- not lazily, face by face as the pixels

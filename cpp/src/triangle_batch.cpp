@@ -129,8 +129,8 @@ void TriangleBatch::add_small(int group, const TriangleSetup& s) {
 
 #if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
 namespace {
-// Assembly gathers each face's corners from the screen vertices; on meshes
-// of millions of them the gathers wait on memory. Two steps ahead, the first
+// Assembly reads each face's corners from the screen vertices; on meshes
+// of millions of them the reads wait on memory. Two steps ahead, the first
 // corner of every other face of a step is fetched (neighbouring faces share
 // vertices, numbered by first use): 2-4% off the 5 x 5 x 20 spot grid with
 // every algorithm (benchmarks/ab.py), single meshes within noise.
