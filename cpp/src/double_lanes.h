@@ -61,12 +61,6 @@ struct Doubles8 {
     return _mm256_mullo_epi32(a, _mm256_set1_epi32(3));
   }
   // base[i] of the lanes of m, 0 in the others
-  static ZBUFFER_INLINE Index gather(const int32_t* base, Index i, IndexMask m) {
-    return _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), m, i, base, 4);
-  }
-  static ZBUFFER_INLINE D gather(const double* base, Index i, Mask m) {
-    return {_mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, i, base, 8)};
-  }
   static ZBUFFER_INLINE D gather(const float* base, Index i, IndexMask m) {
     return {_mm512_cvtps_pd(_mm256_mmask_i32gather_ps(_mm256_setzero_ps(), m, i, base, 4))};
   }
@@ -180,12 +174,6 @@ struct Doubles4 {
   static ZBUFFER_INLINE Index index(int32_t k) { return _mm_set1_epi32(k); }
   static ZBUFFER_INLINE Index add(Index a, Index b) { return _mm_add_epi32(a, b); }
   static ZBUFFER_INLINE Index times3(Index a) { return _mm_mullo_epi32(a, _mm_set1_epi32(3)); }
-  static ZBUFFER_INLINE Index gather(const int32_t* base, Index i, IndexMask m) {
-    return _mm_mask_i32gather_epi32(_mm_setzero_si128(), base, i, m, 4);
-  }
-  static ZBUFFER_INLINE D gather(const double* base, Index i, Mask m) {
-    return {_mm256_mask_i32gather_pd(_mm256_setzero_pd(), base, i, m.v, 8)};
-  }
   static ZBUFFER_INLINE D gather(const float* base, Index i, IndexMask m) {
     return {_mm256_cvtps_pd(
         _mm_mask_i32gather_ps(_mm_setzero_ps(), base, i, _mm_castsi128_ps(m), 4))};

@@ -726,8 +726,7 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
       f[k] = _mm512_maskz_loadu_epi32(live, active_[k].data() + i);
 
     // Spans: the bounds the edges wrote. A polygon's two bounds are
-    // adjacent: gathered as one 64-bit pair (first pixel, minus the last),
-    // half the elements.
+    // adjacent: read as one 64-bit pair (first pixel, minus the last).
     __m512i pairs_lo, pairs_hi;
     if (live == 0xFFFF) {  // by loads, as assembly reads vertices (setup16.h)
       const int32_t* index = active_[kIndex].data() + i;

@@ -969,7 +969,7 @@ inline void store_rgb16(uint8_t* out, __m512i rgba, __mmask16 lanes) {
   const __m512i line = _mm512_permutexvar_epi32(dwords, packed);
   // 16 lanes: the 48 bytes as 32 + 16, unmasked. (A byte-masked store of
   // them, as below, made smooth shading 1.04-1.05x and flat shading
-  // 1.08x as slow on Zen 4; one unmasked 64-byte store, its last 16
+  // 1.08x as slow on the benchmark machine; one unmasked 64-byte store, its last 16
   // bytes overwritten by the next step, 1.01-1.05x as slow as these two:
   // benchmarks/README.md.)
   if (lanes == 0xFFFF) {
@@ -1076,7 +1076,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
         // Each lane's face data, run by run: 16 neighbouring pixels show
         // few faces (a triangle covers runs of pixels), and a masked
         // broadcast per run and field costs far less than a gather per
-        // field (about one element a cycle on Zen 4).
+        // field (about one element a cycle on the benchmark machine, an AMD EPYC).
         __m512 coef[9], normal_map[9], n[3], corner_c[3][3], albedo[3];
         auto zeros = [](auto& regs) {
           for (__m512& v : regs) v = _mm512_setzero_ps();

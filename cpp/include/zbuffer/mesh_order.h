@@ -37,7 +37,7 @@ void spatial_order(const MeshView& mesh, int32_t* order, std::vector<int32_t>& c
 // permutation: new vertex v is old vertex old_of_new[v].
 // Design decision: faces in spatial order and vertices in the order of
 // their first use, so that consecutive faces read neighbouring vertices
-// (the vertex stage's outputs, gathered by assembly, stay in the nearest
+// (the vertex stage's outputs, read by assembly, stay in the nearest
 // caches). Good: 3-6% off single meshes, 10-20% off the 5 x 5 x N spot
 // grid at N = 20-40 (one process, medians of 7-9), for the same bits.
 // Bad: a prepared mesh holds a second copy of its positions (24 bytes a

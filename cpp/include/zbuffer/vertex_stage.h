@@ -31,9 +31,9 @@ struct ScreenVertex {
 // The transformed vertices of a mesh.
 // Design decision: structure of arrays, except that x and y share one array
 // as pairs. Good: the vector vertex stage stores one field for 8 vertices
-// at a time (4 with AVX2), the vector triangle setup gathers one for 16
-// faces' corners (8 with AVX2), and a corner's x and y
-// arrive in one 64-bit element (gathers cost by the element). Bad: scalar
+// at a time (4 with AVX2), the vector triangle setup reads a field for 16
+// faces' corners (8 with AVX2) by loads put together into vectors
+// (setup16.h), and a corner's x and y come in one 64-bit load. Bad: scalar
 // code touches three arrays per vertex.
 struct ScreenVertices {
   std::vector<int32_t> xy;  // x_fx of vertex i at 2 i, y_fx at 2 i + 1

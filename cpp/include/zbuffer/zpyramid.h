@@ -58,7 +58,9 @@ class ZPyramid {
   // Cells of a kept level (0, or first_level() and up).
   const float* level(int k) const { return k == 0 ? depth_ : cells_.data() + offset_[size_t(k)]; }
   // All kept levels above 0 lie in one array: level k (>= first_level)
-  // starts at cells() + offset(k) (for lookups at several levels at once).
+  // starts at cells() + offset(k) (for lookups at several levels at once),
+  // followed by one spare cell, so that two neighbouring cells can be read
+  // at once anywhere (the second ignored past a row's end).
   const float* cells() const { return cells_.data(); }
   int64_t offset(int k) const { return int64_t(offset_[size_t(k)]); }
 
@@ -143,7 +145,7 @@ class ZPyramid {
   uint32_t round_ = 0;
   std::vector<int32_t> next_;
   std::vector<int> widths_, heights_;
-  std::vector<float> cells_;     // the kept levels above 0, one after the other
+  std::vector<float> cells_;     // the kept levels above 0, one after the other, and a spare
   std::vector<size_t> offset_;   // by level: where it starts in cells_ (0 for unkept levels)
   CullMap* culls_ = nullptr;
 };
