@@ -97,9 +97,9 @@ ZBUFFER_INLINE __m512 join(__m256 lo, __m256 hi) {
 // (on the benchmark machine, AMD EPYC with 48K L1d: 5 ns for 16 floats,
 // 4.5 ns for 8 doubles), and these tables are read 64 bits per load; the
 // indices come straight from the faces, with no deinterleaving. Measured
-// (benchmarks/results/ab-corner-loads*.md): every algorithm 0.95-0.99x
-// the time, AVX2 builds 0.92-0.99x. Bad: some 90 instructions a corner
-// where gathers took 5, and a tail of fewer than 16 faces keeps the
+// (benchmarks/results/ab-corner-loads*.md): every algorithm 0.93-1.01x
+// the time, AVX2 builds 0.95-1.01x. Bad: dozens of instructions a corner
+// where gathers took five, and a tail of fewer than 16 faces keeps the
 // gathers (its lanes past the faces must not be read).
 // (Indices `stride` apart: pairs8 takes them consecutive.)
 template <int stride = 3>

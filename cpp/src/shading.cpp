@@ -580,9 +580,9 @@ __attribute__((noinline)) void finish_exact(const ShadingInput& in, const FaceTa
 // the same order, so the same bits; into rows first .. first + kWidth - 1.
 // corners[k][j] is the vertex at corner k of lane j's face, read by the
 // caller: positions and vertex normals are loaded a vertex at a time and
-// transposed (V::load_xyz), not gathered by coordinate: shading 0.86-0.91x
-// the time flat, 0.95-1.01x smooth (benchmarks/results/ab-shading-loads*.md;
-// setup16.h's corner_pairs8 on the cost of gathers).
+// transposed (V::load_xyz), not gathered by coordinate: flat shading
+// 0.87-0.92x the time, smooth 0.97-1.04x (benchmarks/results/
+// ab-shading-loads*.md; setup16.h's corner_pairs8 on the cost of gathers).
 // Returns the lanes whose normal lies outside [kNormalLow, kNormalHigh]
 // (face_normal_direction), left for prepare_face to prepare again (their
 // rows are written, with normals of no use). One function per kind of
@@ -969,9 +969,9 @@ inline void store_rgb16(uint8_t* out, __m512i rgba, __mmask16 lanes) {
   const __m512i line = _mm512_permutexvar_epi32(dwords, packed);
   // 16 lanes: the 48 bytes as 32 + 16, unmasked. (A byte-masked store of
   // them, as below, made smooth shading 1.04-1.05x and flat shading
-  // 1.08x as slow on the benchmark machine; one unmasked 64-byte store, its last 16
-  // bytes overwritten by the next step, 1.01-1.05x as slow as these two:
-  // benchmarks/README.md.)
+  // 1.08x as slow on the benchmark machine; one unmasked 64-byte store,
+  // its last 16 bytes overwritten by the next step, 1.01-1.05x as slow as
+  // these two: benchmarks/README.md.)
   if (lanes == 0xFFFF) {
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), _mm512_castsi512_si256(line));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 32), _mm512_extracti32x4_epi32(line, 2));
@@ -1064,9 +1064,9 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
           auto four = [&](int k) {
             return _mm_setr_epi32(colour(k), colour(k + 1), colour(k + 2), colour(k + 3));
           };
-          rgba = _mm512_inserti64x4(
-              _mm512_castsi256_si512(_mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1)),
-              _mm256_inserti128_si256(_mm256_castsi128_si256(four(8)), four(12), 1), 1);
+          const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1);
+          const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(four(8)), four(12), 1);
+          rgba = _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1);
         } else if (drawn) {
           const __m512i row =
               table.by_slot ? _mm512_mask_i32gather_epi32(zero, drawn, f, table.slot.data(), 4) : f;
@@ -1076,7 +1076,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
         // Each lane's face data, run by run: 16 neighbouring pixels show
         // few faces (a triangle covers runs of pixels), and a masked
         // broadcast per run and field costs far less than a gather per
-        // field (about one element a cycle on the benchmark machine, an AMD EPYC).
+        // field (about one element a cycle on the benchmark machine).
         __m512 coef[9], normal_map[9], n[3], corner_c[3][3], albedo[3];
         auto zeros = [](auto& regs) {
           for (__m512& v : regs) v = _mm512_setzero_ps();
