@@ -1091,9 +1091,23 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
         // Run by run (a run: neighbouring lanes of one id), its lanes
         // known from the bits alone -- no compare waits on the last face.
         unsigned exact_lanes = 0;  // faces left to the scalar way (FaceShade::exact)
+        // Smooth shading of a step of faces only (uniform colour): each
+        // lane's row in one load, the 16 rows transposed into fields.
+        const bool whole_rows = smooth && !per_vertex && drawn == 0xFFFF &&
+                                in.color_source != ColorSource::kPerFace;
+        if constexpr (smooth && !per_vertex) {
+          static_assert(kRowFloats == 16, "a row is one vector");
+          if (whole_rows) {
+            __m512 field[16];
+            for (int k = 0; k < 16; ++k) field[k] = _mm512_loadu_ps(fields_of(ids[i + k]));
+            simd::transpose16(field);
+            for (int c = 0; c < 9; ++c) normal_map[c] = field[kMapAt + c];
+            exact_lanes = _mm512_cmpneq_epi32_mask(_mm512_castps_si512(field[FaceTable::kExact]), zero);
+          }
+        }
         const unsigned change =
             unsigned(_mm512_cmpneq_epi32_mask(f, _mm512_alignr_epi32(f, f, 15))) | 0x10001u;
-        for (unsigned starts = change & drawn; starts; starts &= starts - 1) {
+        for (unsigned starts = whole_rows ? 0u : change & drawn; starts; starts &= starts - 1) {
           const unsigned s = unsigned(__builtin_ctz(starts));
           const unsigned after = change & ~((2u << s) - 1);  // the next run's start, or bit 16
           const __mmask16 same = __mmask16(((after & (0u - after)) - (1u << s)) & drawn);
@@ -1297,7 +1311,28 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
           for (auto& v : normal_map) v = zero_f;
         else
           for (auto& v : flat) v = zero_f;
-        {
+        // Smooth shading of a step of faces only (uniform colour): each
+        // lane's row in two loads, transposed into fields (as in the
+        // AVX-512 pass).
+        const bool whole_rows = smooth && !per_vertex && drawn_bits == 0xFFu &&
+                                in.color_source != ColorSource::kPerFace;
+        if constexpr (smooth && !per_vertex) {
+          static_assert(kRowFloats == 16 && kMapAt == 0, "a row is two vectors, the map first");
+          if (whole_rows) {
+            __m256 low[8], high[8];  // fields 0-7 and 8-15
+            for (int k = 0; k < 8; ++k) {
+              const float* fields = fields_of(ids[i + k]);
+              low[k] = _mm256_loadu_ps(fields);
+              high[k] = _mm256_loadu_ps(fields + 8);
+            }
+            simd::transpose8(low);
+            simd::transpose8(high);
+            for (int c = 0; c < 9; ++c) normal_map[c] = c < 8 ? low[c] : high[c - 8];
+            exact_lanes = 0xFFu & ~unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(
+                                   _mm256_castps_si256(high[FaceTable::kExact - 8]), _mm256_setzero_si256()))));
+          }
+        }
+        if (!whole_rows) {
           const __m256i before =
               _mm256_permutevar8x32_epi32(f, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
           const unsigned same_as_before =

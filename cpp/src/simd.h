@@ -97,7 +97,56 @@ ZBUFFER_INLINE __mmask8 nonfinite8(const __m512d* clip) {
 }
 #endif
 
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+// 8 x 8 floats held as 8 rows: afterwards r[j] holds what was column j.
+ZBUFFER_INLINE void transpose8(__m256* r) {
+  const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+  const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+  const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+  const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+  const __m256 s0 = _mm256_shuffle_ps(t0, t2, 0x44), s1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+  const __m256 s2 = _mm256_shuffle_ps(t1, t3, 0x44), s3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+  const __m256 s4 = _mm256_shuffle_ps(t4, t6, 0x44), s5 = _mm256_shuffle_ps(t4, t6, 0xEE);
+  const __m256 s6 = _mm256_shuffle_ps(t5, t7, 0x44), s7 = _mm256_shuffle_ps(t5, t7, 0xEE);
+  r[0] = _mm256_permute2f128_ps(s0, s4, 0x20);
+  r[1] = _mm256_permute2f128_ps(s1, s5, 0x20);
+  r[2] = _mm256_permute2f128_ps(s2, s6, 0x20);
+  r[3] = _mm256_permute2f128_ps(s3, s7, 0x20);
+  r[4] = _mm256_permute2f128_ps(s0, s4, 0x31);
+  r[5] = _mm256_permute2f128_ps(s1, s5, 0x31);
+  r[6] = _mm256_permute2f128_ps(s2, s6, 0x31);
+  r[7] = _mm256_permute2f128_ps(s3, s7, 0x31);
+}
+#endif
+
 #ifdef ZBUFFER_AVX512
+// r[c] lane k becomes r[k] lane c: a 16 x 16 transposition, in four rounds
+// of shuffles (32-bit, 64-bit, then 128-bit lanes twice).
+ZBUFFER_INLINE void transpose16(__m512 r[16]) {
+  __m512 t[16], u[16];
+  for (int k = 0; k < 16; k += 2) {
+    t[k] = _mm512_unpacklo_ps(r[k], r[k + 1]);      // a0 b0 a1 b1 per 128-bit lane
+    t[k + 1] = _mm512_unpackhi_ps(r[k], r[k + 1]);  // a2 b2 a3 b3
+  }
+  for (int k = 0; k < 16; k += 4)
+    for (int h = 0; h < 2; ++h) {
+      const __m512d x = _mm512_castps_pd(t[k + h]), y = _mm512_castps_pd(t[k + 2 + h]);
+      u[k + 2 * h] = _mm512_castpd_ps(_mm512_unpacklo_pd(x, y));      // a0 b0 c0 d0
+      u[k + 2 * h + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(x, y));  // a1 b1 c1 d1
+    }
+  // u[4 g + m], 128-bit lane L: element 4 L + m of rows 4 g .. 4 g + 3.
+  for (int m = 0; m < 4; ++m) {
+    const __m512 ab_lo = _mm512_shuffle_f32x4(u[m], u[4 + m], 0x88);  // lanes 0, 2 of each
+    const __m512 ab_hi = _mm512_shuffle_f32x4(u[m], u[4 + m], 0xDD);  // lanes 1, 3
+    const __m512 cd_lo = _mm512_shuffle_f32x4(u[8 + m], u[12 + m], 0x88);
+    const __m512 cd_hi = _mm512_shuffle_f32x4(u[8 + m], u[12 + m], 0xDD);
+    r[m] = _mm512_shuffle_f32x4(ab_lo, cd_lo, 0x88);
+    r[4 + m] = _mm512_shuffle_f32x4(ab_hi, cd_hi, 0x88);
+    r[8 + m] = _mm512_shuffle_f32x4(ab_lo, cd_lo, 0xDD);
+    r[12 + m] = _mm512_shuffle_f32x4(ab_hi, cd_hi, 0xDD);
+  }
+}
+
 // The raster core (raster.h) in vector form: coverage, the depth formula and
 // the depth write, for 16 pixels at a time. Every vector loop goes through
 // these, so that the rules live in one place per instruction set.
