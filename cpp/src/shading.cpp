@@ -1090,7 +1090,10 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
         for (int c = 0; c < 3; ++c) albedo[c] = _mm512_set1_ps(in.uniform_color[c]);
         // Run by run (a run: neighbouring lanes of one id), its lanes
         // known from the bits alone -- no compare waits on the last face.
-        unsigned exact_lanes = 0;  // faces left to the scalar way (FaceShade::exact)
+        // Faces left to the scalar way (FaceShade::exact). (16 bits: as an
+        // unsigned, GCC 12 under the sanitizers stored the mask assigned
+        // to it below as 16 of its 32 bits, the rest stale.)
+        __mmask16 exact_lanes = 0;
         // Smooth shading of a step of faces only (uniform colour): each
         // lane's row in one load, the 16 rows transposed into fields.
         const bool whole_rows = smooth && !per_vertex && drawn == 0xFFFF &&
@@ -1120,7 +1123,7 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
             for (int c = 0; c < 9; ++c) put(normal_map[c], fields[kMapAt + c]);
           else
             for (int c = 0; c < 3; ++c) put(n[c], fields[FaceTable::kNormal + c]);
-          exact_lanes |= same & (0u - unsigned(table.exact_face(fields) != nullptr));
+          exact_lanes |= __mmask16(same & (0u - unsigned(table.exact_face(fields) != nullptr)));
           if constexpr (per_vertex) {
             for (int c = 0; c < 9; ++c) put(coef[c], fields[FaceTable::kBary + c]);
             const int32_t* idx = in.mesh.faces + 3 * int64_t(face);
