@@ -10,14 +10,8 @@
 #include <limits>
 #include <vector>
 
-#include "simd.h"
+#include "simd.h"  // (corner_words16, corner_words8)
 #include "zbuffer/types.h"
-
-#ifdef ZBUFFER_AVX512
-#include "setup16.h"  // corner_words16 (simd.h has included immintrin.h)
-#elif defined(ZBUFFER_AVX2)
-#include "setup8.h"  // corner_words8
-#endif
 
 namespace zbuffer {
 
@@ -378,7 +372,7 @@ inline void face_cells(const VertexGrid& grid, const int32_t* idx, uint32_t* lo,
 // lo .. hi per axis, as face_cells computes it.
 inline void face_cells16(const VertexGrid& grid, const int32_t* faces, __m512i* c, __m512i* lo,
                          __m512i* hi) {
-  // (By loads, as assembly reads the screen vertices: setup16.h.)
+  // (By loads, as assembly reads the screen vertices: simd.h.)
   for (int j = 0; j < 3; ++j) c[j] = simd::corner_words16(grid.cell.data(), faces + j);
   const __m512i mask = _mm512_set1_epi32(int(VertexGrid::kMask));
   for (int a = 0; a < 3; ++a) {

@@ -728,7 +728,7 @@ void ScanlineTables::draw_active(int y, Counts& counts, int64_t& spans, int& tou
     // Spans: the bounds the edges wrote. A polygon's two bounds are
     // adjacent: read as one 64-bit pair (first pixel, minus the last).
     __m512i pairs_lo, pairs_hi;
-    if (live == 0xFFFF) {  // by loads, as assembly reads vertices (setup16.h)
+    if (live == 0xFFFF) {  // by loads, as assembly reads vertices (simd.h)
       const int32_t* index = active_[kIndex].data() + i;
       pairs_lo = simd::pairs8(bounds, index);
       pairs_hi = simd::pairs8(bounds, index + 8);

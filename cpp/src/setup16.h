@@ -89,48 +89,6 @@ ZBUFFER_INLINE __m512 join(__m256 lo, __m256 hi) {
   return _mm512_insertf32x8(_mm512_castps256_ps512(lo), hi, 1);
 }
 
-// The elements of a vertex table at one corner of 8 (16) consecutive faces:
-// lane j is table[p[3 j]], p pointing at the corner's index in the first
-// face -- by scalar loads, put together two (four) lanes at a time.
-// Design decision: loads, not gathers, for a whole step's vertex data.
-// Good: a gather costs about as much per lane as a load and an insert
-// (on the benchmark machine, AMD EPYC with 48K L1d: 5 ns for 16 floats,
-// 4.5 ns for 8 doubles), and these tables are read 64 bits per load; the
-// indices come straight from the faces, with no deinterleaving. Measured
-// (benchmarks/results/ab-corner-loads*.md): every algorithm 0.93-1.01x
-// the time, AVX2 builds 0.95-1.01x. Bad: dozens of instructions a corner
-// where gathers took five, and a tail of fewer than 16 faces keeps the
-// gathers (its lanes past the faces must not be read).
-// (Indices `stride` apart: pairs8 takes them consecutive.)
-template <int stride = 3>
-ZBUFFER_INLINE __m512i corner_pairs8(const int32_t* pairs, const int32_t* p) {
-  auto pair = [&](int j) {  // (movq: no aliasing of the int32 pairs as int64)
-    return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(pairs + 2 * size_t(p[stride * j])));
-  };
-  auto two = [&](int j) { return _mm_unpacklo_epi64(pair(j), pair(j + 1)); };
-  const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(two(0)), two(2), 1);
-  const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(two(4)), two(6), 1);
-  return _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1);
-}
-ZBUFFER_INLINE __m512i pairs8(const int32_t* pairs, const int32_t* index) {
-  return corner_pairs8<1>(pairs, index);
-}
-ZBUFFER_INLINE __m512d corner_doubles8(const double* table, const int32_t* p) {
-  auto two = [&](int j) { return _mm_loadh_pd(_mm_load_sd(table + p[3 * j]), table + p[3 * j + 3]); };
-  const __m256d lo = _mm256_insertf128_pd(_mm256_castpd128_pd256(two(0)), two(2), 1);
-  const __m256d hi = _mm256_insertf128_pd(_mm256_castpd128_pd256(two(4)), two(6), 1);
-  return _mm512_insertf64x4(_mm512_castpd256_pd512(lo), hi, 1);
-}
-ZBUFFER_INLINE __m512i corner_words16(const uint32_t* table, const int32_t* p) {
-  auto four = [&](int j) {
-    return _mm_setr_epi32(int(table[p[3 * j]]), int(table[p[3 * j + 3]]), int(table[p[3 * j + 6]]),
-                          int(table[p[3 * j + 9]]));
-  };
-  const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1);
-  const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(four(8)), four(12), 1);
-  return _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1);
-}
-
 // Sixteen faces after assembly: the lanes of `draw` are triangles with
 // area > 0 (vertices 1 and 2 of front faces swapped), those of `clip` need
 // the scalar assembly (clipping).
@@ -163,7 +121,7 @@ ZBUFFER_INLINE void assemble16(const MeshView& mesh, const ScreenVertices& sv, i
   const int32_t* faces = mesh.faces + 3 * first;
   if (count == 16) {
     // A whole step: each corner's elements by scalar loads, indices read
-    // where the faces lie (see corner_pairs8).
+    // where the faces lie (simd.h's corner_pairs4).
     const int32_t* xy = sv.xy.data();
     for (int k = 0; k < 3; ++k) {
       const __m512i lo = corner_pairs8(xy, faces + k), hi = corner_pairs8(xy, faces + 24 + k);

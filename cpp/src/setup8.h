@@ -101,27 +101,6 @@ ZBUFFER_INLINE __m256i abs64(__m256i v) {
   return _mm256_blendv_epi8(v, _mm256_sub_epi64(_mm256_setzero_si256(), v), negative);
 }
 
-// setup16.h's corner_pairs8, corner_doubles8 and corner_words16 for 4 (8)
-// faces: lane j is table[p[3 j]].
-ZBUFFER_INLINE __m256i corner_pairs4(const int32_t* pairs, const int32_t* p) {
-  auto pair = [&](int j) {  // (movq: no aliasing of the int32 pairs as int64)
-    return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(pairs + 2 * size_t(p[3 * j])));
-  };
-  return _mm256_inserti128_si256(_mm256_castsi128_si256(_mm_unpacklo_epi64(pair(0), pair(1))),
-                                 _mm_unpacklo_epi64(pair(2), pair(3)), 1);
-}
-ZBUFFER_INLINE __m256d corner_doubles4(const double* table, const int32_t* p) {
-  auto two = [&](int j) { return _mm_loadh_pd(_mm_load_sd(table + p[3 * j]), table + p[3 * j + 3]); };
-  return _mm256_insertf128_pd(_mm256_castpd128_pd256(two(0)), two(2), 1);
-}
-ZBUFFER_INLINE __m256i corner_words8(const uint32_t* table, const int32_t* p) {
-  auto four = [&](int j) {
-    return _mm_setr_epi32(int(table[p[3 * j]]), int(table[p[3 * j + 3]]), int(table[p[3 * j + 6]]),
-                          int(table[p[3 * j + 9]]));
-  };
-  return _mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1);
-}
-
 // Assemble faces first .. first + count - 1 (count <= 8) of `keep` (bit k:
 // face first + k), counting the culled ones and the rasterized ones in
 // stats as assemble_triangle does (clipped faces are left to the caller).
@@ -139,7 +118,7 @@ ZBUFFER_INLINE void assemble8(const MeshView& mesh, const ScreenVertices& sv, in
   const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
   const int32_t* faces = mesh.faces + 3 * first;
   if (count == 8) {
-    // A whole step: by scalar loads, as setup16.h's assemble16.
+    // A whole step: by scalar loads (simd.h's corner_pairs4).
     for (int k = 0; k < 3; ++k) {
       const __m256i lo = _mm256_permutevar8x32_epi32(corner_pairs4(sv.xy.data(), faces + k), split);
       const __m256i hi = _mm256_permutevar8x32_epi32(corner_pairs4(sv.xy.data(), faces + 12 + k), split);

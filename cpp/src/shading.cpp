@@ -582,7 +582,7 @@ __attribute__((noinline)) void finish_exact(const ShadingInput& in, const FaceTa
 // caller: positions and vertex normals are loaded a vertex at a time and
 // transposed (V::load_xyz), not gathered by coordinate: flat shading
 // 0.87-0.92x the time, smooth 0.97-1.04x (benchmarks/results/
-// ab-shading-loads*.md; setup16.h's corner_pairs8 on the cost of gathers).
+// ab-shading-loads*.md; simd.h's corner_pairs4 on the cost of gathers).
 // Returns the lanes whose normal lies outside [kNormalLow, kNormalHigh]
 // (face_normal_direction), left for prepare_face to prepare again (their
 // rows are written, with normals of no use). One function per kind of
@@ -1057,16 +1057,9 @@ void shade_pass_avx512(const ShadingInput& in, const int32_t* triangle_id, uint8
       __m512i rgba = background;
       if constexpr (!interpolated) {
         if (drawn == 0xFFFF) {
-          // A step of faces only: each lane's colour by loads (setup16.h's
-          // corner_pairs8 on why not gathers).
-          const int32_t* id = ids + i;
-          auto colour = [&](int k) { return table.rgb[size_t(table.row(id[k]))]; };
-          auto four = [&](int k) {
-            return _mm_setr_epi32(colour(k), colour(k + 1), colour(k + 2), colour(k + 3));
-          };
-          const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1);
-          const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(four(8)), four(12), 1);
-          rgba = _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1);
+          // A step of faces only: each lane's colour by loads (simd.h's
+          // corner_pairs4 on why not gathers).
+          rgba = simd::ints16([&](int k) { return table.rgb[size_t(table.row(ids[i + k]))]; });
         } else if (drawn) {
           const __m512i row =
               table.by_slot ? _mm512_mask_i32gather_epi32(zero, drawn, f, table.slot.data(), 4) : f;
@@ -1283,12 +1276,7 @@ void shade_pass_avx2(const ShadingInput& in, const int32_t* triangle_id, uint8_t
       __m256i rgba = background;
       if constexpr (!interpolated) {
         if (drawn_bits == 0xFF) {  // faces only: by loads, as in shade_pass_avx512
-          const int32_t* id = ids + i;
-          auto colour = [&](int k) { return table.rgb[size_t(table.row(id[k]))]; };
-          auto four = [&](int k) {
-            return _mm_setr_epi32(colour(k), colour(k + 1), colour(k + 2), colour(k + 3));
-          };
-          rgba = _mm256_inserti128_si256(_mm256_castsi128_si256(four(0)), four(4), 1);
+          rgba = simd::ints8([&](int k) { return table.rgb[size_t(table.row(ids[i + k]))]; });
         } else if (drawn_bits) {
           // Each lane's row of the table, and its colour.
           const __m256i r = table.by_slot

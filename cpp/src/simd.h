@@ -98,6 +98,72 @@ ZBUFFER_INLINE __mmask8 nonfinite8(const __m512d* clip) {
 #endif
 
 #if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
+// Vectors put together from scalar loads: the elements of a vertex table
+// at one corner of consecutive faces (lane j is table[p[3 j]], p pointing
+// at the corner's index in the first face), and int lanes from a function
+// of the lane. 8-lane forms for AVX2 builds, 16-lane ones (two halves) for
+// AVX-512 builds.
+// Design decision: loads, not gathers, for a whole step's vertex data and
+// per-face fields. Good: on the benchmark machine (AMD EPYC, 48K L1d) a
+// gather costs about as much per lane as a load and an insert (5 ns for 16
+// floats, 4.5 ns for 8 doubles), 64-bit elements come two values a load,
+// and the indices are read straight from the faces, with no
+// deinterleaving (benchmarks/README.md, "Loads instead of gathers":
+// assembly 0.93-1.01x the time, the trees' face pass 0.84-1.00x). Bad:
+// dozens of instructions where a gather was one, and only whole steps may
+// use them (lanes past the last face must not be read: tails keep gathers).
+
+// Lane k of f(0 .. 7) / f(0 .. 15), ints.
+template <class F>
+ZBUFFER_INLINE __m256i ints8(F f) {
+  return _mm256_inserti128_si256(_mm256_castsi128_si256(_mm_setr_epi32(f(0), f(1), f(2), f(3))),
+                                 _mm_setr_epi32(f(4), f(5), f(6), f(7)), 1);
+}
+// table[p[3 j]] for faces j = 0 .. 7 (4 byte elements).
+ZBUFFER_INLINE __m256i corner_words8(const uint32_t* table, const int32_t* p) {
+  return ints8([&](int j) { return int(table[p[3 * j]]); });
+}
+// The same for 8-byte elements (a vertex's x, y pair of int32: movq, no
+// aliasing as int64), 4 faces; `stride`: ints between the indices.
+template <int stride = 3>
+ZBUFFER_INLINE __m256i corner_pairs4(const int32_t* pairs, const int32_t* p) {
+  auto pair = [&](int j) {
+    return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(pairs + 2 * size_t(p[stride * j])));
+  };
+  return _mm256_inserti128_si256(_mm256_castsi128_si256(_mm_unpacklo_epi64(pair(0), pair(1))),
+                                 _mm_unpacklo_epi64(pair(2), pair(3)), 1);
+}
+ZBUFFER_INLINE __m256d corner_doubles4(const double* table, const int32_t* p) {
+  auto two = [&](int j) { return _mm_loadh_pd(_mm_load_sd(table + p[3 * j]), table + p[3 * j + 3]); };
+  return _mm256_insertf128_pd(_mm256_castpd128_pd256(two(0)), two(2), 1);
+}
+#endif
+
+#ifdef ZBUFFER_AVX512
+template <class F>
+ZBUFFER_INLINE __m512i ints16(F f) {
+  return _mm512_inserti64x4(_mm512_castsi256_si512(ints8(f)), ints8([&](int k) { return f(8 + k); }), 1);
+}
+ZBUFFER_INLINE __m512i corner_words16(const uint32_t* table, const int32_t* p) {
+  return _mm512_inserti64x4(_mm512_castsi256_si512(corner_words8(table, p)),
+                            corner_words8(table, p + 24), 1);
+}
+template <int stride = 3>
+ZBUFFER_INLINE __m512i corner_pairs8(const int32_t* pairs, const int32_t* p) {
+  return _mm512_inserti64x4(_mm512_castsi256_si512(corner_pairs4<stride>(pairs, p)),
+                            corner_pairs4<stride>(pairs, p + 4 * stride), 1);
+}
+// pairs[2 index[k]] and the next int, k = 0 .. 7 (consecutive indices).
+ZBUFFER_INLINE __m512i pairs8(const int32_t* pairs, const int32_t* index) {
+  return corner_pairs8<1>(pairs, index);
+}
+ZBUFFER_INLINE __m512d corner_doubles8(const double* table, const int32_t* p) {
+  return _mm512_insertf64x4(_mm512_castpd256_pd512(corner_doubles4(table, p)),
+                            corner_doubles4(table, p + 12), 1);
+}
+#endif
+
+#if defined(ZBUFFER_AVX512) || defined(ZBUFFER_AVX2)
 // 8 x 8 floats held as 8 rows: afterwards r[j] holds what was column j.
 ZBUFFER_INLINE void transpose8(__m256* r) {
   const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
